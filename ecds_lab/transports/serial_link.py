@@ -1,0 +1,90 @@
+"""pyserial link, opened with ``serial_for_url``.
+
+Real ports (``/dev/ttyUSB0``, ``COM3``), ``socket://host:port``, ``loop://`` and
+the simulators' ``ecdssim://`` scheme all go through this one code path.
+"""
+
+from __future__ import annotations
+
+import serial
+
+from ecds_lab.errors import TransportError
+from ecds_lab.transports.base import Transport
+
+_PARITY = {"N": serial.PARITY_NONE, "E": serial.PARITY_EVEN, "O": serial.PARITY_ODD}
+
+
+def register_simulator_scheme() -> None:
+    """Make ``ecdssim://LAB/INSTRUMENT`` URLs resolve to the in-process simulators."""
+    package = "ecds_lab.simulators.urlhandler"
+    if package not in serial.protocol_handler_packages:
+        serial.protocol_handler_packages.append(package)
+
+
+class SerialTransport(Transport):
+    """A line link over a pyserial port; buffers whole chunks instead of reading byte by byte."""
+
+    def __init__(
+        self,
+        name: str,
+        url: str,
+        *,
+        baudrate: int = 9600,
+        bytesize: int = 8,
+        parity: str = "N",
+        stopbits: float = 1,
+        rtscts: bool = False,
+        **options: object,
+    ) -> None:
+        super().__init__(name, **options)  # type: ignore[arg-type]
+        register_simulator_scheme()
+        try:
+            self._port = serial.serial_for_url(
+                url,
+                baudrate=baudrate,
+                bytesize=bytesize,
+                parity=_PARITY[parity],
+                stopbits=stopbits,
+                rtscts=rtscts,
+                timeout=self.timeout_s,
+                write_timeout=self.timeout_s,
+            )
+        except (serial.SerialException, ValueError) as exc:
+            raise TransportError(f"{name}: cannot open serial port {url!r}: {exc}") from exc
+        self.url = url
+        self._buffer = b""
+        self._terminator = self.read_termination.encode("ascii")
+
+    @property
+    def port(self) -> serial.SerialBase:
+        """The underlying pyserial object (simulator tests reach the emulator through it)."""
+        return self._port
+
+    def _send(self, data: bytes) -> None:
+        self._port.write(data)
+
+    def _receive_line(self) -> str | None:
+        # The deadline runs on the transport's clock: wall time for hardware, simulated time
+        # for the in-process simulators (whose port lets that time pass while it waits).
+        self._port.timeout = self.timeout_s
+        deadline = self.clock.now() + self.timeout_s
+        while True:
+            line = self._pop_line()
+            if line is not None:
+                return line
+            chunk = self._port.read(max(1, self._port.in_waiting))
+            if chunk:
+                self._buffer += chunk
+            elif self.clock.now() >= deadline:
+                return None
+
+    def _pop_line(self) -> str | None:
+        index = self._buffer.find(self._terminator)
+        if index < 0:
+            return None
+        line = self._buffer[:index]
+        self._buffer = self._buffer[index + len(self._terminator):]
+        return line.decode("ascii", errors="replace").strip("\r\n")
+
+    def _close(self) -> None:
+        self._port.close()

@@ -1,0 +1,58 @@
+"""pyvisa link (pyvisa-py backend by default).
+
+Any VISA resource works: ``TCPIP0::192.168.0.5::5025::SOCKET``, ``USB0::...::INSTR``,
+``ASRL/dev/ttyUSB0::INSTR``. pyvisa-py opens ``ASRL<url>::INSTR`` through
+pyserial's ``serial_for_url``, so ``ASRLecdssim://lab/daq970a::INSTR`` reaches a
+simulator through the full VISA stack.
+"""
+
+from __future__ import annotations
+
+import pyvisa
+
+from ecds_lab.errors import TransportError
+from ecds_lab.transports.base import Transport
+from ecds_lab.transports.serial_link import register_simulator_scheme
+
+_MANAGERS: dict[str, pyvisa.ResourceManager] = {}
+
+
+def _resource_manager(backend: str) -> pyvisa.ResourceManager:
+    if backend not in _MANAGERS:
+        _MANAGERS[backend] = pyvisa.ResourceManager(backend)
+    return _MANAGERS[backend]
+
+
+class VisaTransport(Transport):
+    """A line link over a pyvisa message-based resource."""
+
+    def __init__(self, name: str, resource: str, *, backend: str = "@py", baudrate: int | None = None,
+                 **options: object) -> None:
+        super().__init__(name, **options)  # type: ignore[arg-type]
+        register_simulator_scheme()
+        try:
+            self._resource = _resource_manager(backend).open_resource(
+                resource,
+                read_termination=self.read_termination,
+                write_termination="",
+                timeout=int(self.timeout_s * 1000),
+            )
+            if baudrate is not None and hasattr(self._resource, "baud_rate"):
+                self._resource.baud_rate = baudrate
+        except (pyvisa.Error, ValueError, OSError) as exc:
+            raise TransportError(f"{name}: cannot open VISA resource {resource!r}: {exc}") from exc
+        self.resource_name = resource
+
+    def _send(self, data: bytes) -> None:
+        self._resource.write_raw(data)
+
+    def _receive_line(self) -> str | None:
+        try:
+            return self._resource.read().strip("\r\n")
+        except pyvisa.errors.VisaIOError as exc:
+            if exc.error_code == pyvisa.constants.StatusCode.error_timeout:
+                return None
+            raise TransportError(f"{self.name}: VISA read failed: {exc}") from exc
+
+    def _close(self) -> None:
+        self._resource.close()

@@ -1,0 +1,132 @@
+"""Settings of the simulated lab: sensor, thermal constants, noise and switchable effects.
+
+Every effect beyond the baseline ECM (DESIGN.md's effect names) can be switched on
+and sized here, so campaigns with a hidden effect can be generated on demand.
+"""
+
+from __future__ import annotations
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from ecds_lab.model.sensor import SensorConfig
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class TargetTauTemperature(_Strict):
+    """tau_T follows the target's conductivity: tau = tau0 (1 + tempco (T_target - T_ref))."""
+
+    enabled: bool = False
+    tempco_per_k: float | None = Field(None, description="default: the material's (copper -0.0039/K)")
+
+
+class TauDisplacement(_Strict):
+    """tau_T depends on distance: tau = tau0 (1 + slope (x - x_ref))."""
+
+    enabled: bool = False
+    slope_per_mm: float = -0.004
+    reference_mm: float = 60.0
+
+
+class TargetBending(_Strict):
+    """The hot plate bends toward the coil: effective x = x - shift (T_target - T_ref)."""
+
+    enabled: bool = False
+    shift_um_per_k: float = 2.0
+
+
+class ParasiticCapacitance(_Strict):
+    """The former's moisture m (0 dry .. 1 saturated) adds capacitance and loss; heat drives it out.
+
+    dm/dt = -m r_dry(T) + (1 - m) r_absorb, with r_dry(T) = rate_at_100c * 2^((T - 100 C)/doubling_k).
+    """
+
+    enabled: bool = False
+    initial_moisture: float = Field(1.0, ge=0, le=1)
+    moist_extra_capacitance_f: float = Field(15e-12, ge=0, description="Table 2: 62.5 pF moist vs 47.5 pF dry")
+    moist_extra_conductance_s: float = Field(9.85e-6, ge=0, description="Table 2: 92 kOhm moist vs 984 kOhm dry")
+    drying_rate_at_100c_per_s: float = Field(1.0 / 600.0, gt=0)
+    drying_doubling_k: float = Field(12.0, gt=0)
+    absorption_rate_per_s: float = Field(1.0 / (3 * 24 * 3600.0), ge=0)
+
+
+class ThermalLag(_Strict):
+    """The winding lags the former's thermocouple with a first-order time constant."""
+
+    enabled: bool = False
+    tau_s: float = Field(300.0, gt=0)
+
+
+class SlideBacklash(_Strict):
+    """The carriage trails the motor by half the backlash in the direction of the last move."""
+
+    enabled: bool = False
+    backlash_um: float = Field(40.0, ge=0)
+
+
+class BridgeDrift(_Strict):
+    """Not in the model library: the bridge's L reading drifts linearly in time (a test of the diagnosis)."""
+
+    enabled: bool = False
+    ppm_per_hour: float = 200.0
+
+
+class Effects(_Strict):
+    """Switches and sizes of every effect the simulated lab can add to the baseline ECM."""
+
+    target_tau_temperature: TargetTauTemperature = TargetTauTemperature()
+    tau_displacement: TauDisplacement = TauDisplacement()
+    target_bending: TargetBending = TargetBending()
+    parasitic_capacitance: ParasiticCapacitance = ParasiticCapacitance()
+    thermal_lag: ThermalLag = ThermalLag()
+    slide_backlash: SlideBacklash = SlideBacklash()
+    bridge_drift: BridgeDrift = BridgeDrift()
+
+    def enabled(self) -> list[str]:
+        return [name for name in type(self).model_fields if getattr(self, name).enabled]
+
+
+class Thermal(_Strict):
+    """First-order thermal model of the set-up (time constants in s, resistances in K/W)."""
+
+    ambient_c: float = 22.0
+    target_heater_ohm: float = Field(8.0, gt=0)
+    target_k_per_w: float = Field(1.0, gt=0, description="steady target rise per heater watt")
+    target_tau_s: float = Field(600.0, gt=0)
+    box_heater_ohm: float = Field(8.0, gt=0)
+    box_k_per_w: float = Field(1.2, gt=0, description="steady thermal-box rise per heater watt")
+    box_tau_s: float = Field(120.0, gt=0)
+    former_tau_s: float = Field(900.0, gt=0)
+
+
+class Noise(_Strict):
+    """Measurement noise: bridge (relative, per speed, at 1.5 V and no averaging), thermocouples, slide."""
+
+    bridge_relative: dict[str, float] = {"fast": 200e-6, "medium": 60e-6, "slow": 20e-6}
+    thermocouple_k: float = Field(0.02, ge=0)
+    slide_repeatability_um: float = Field(0.0, ge=0)
+
+
+class LabConfig(_Strict):
+    """One simulated lab: the sensor on the slide, the target, the climate, noise and effects."""
+
+    sensor: SensorConfig = SensorConfig()
+    alpha_per_k: float | None = Field(None, description="Eq. (4) alpha; default 2x the former's expansion")
+    beta_per_k2: float = 2e-8
+    tau_t_s: float | None = Field(None, gt=0, description="default: the target material's tau_T")
+    slide_origin_mm: float = Field(0.0, description="coil-target distance when the slide is at MPos 0")
+    target_present: bool = True
+    thermal: Thermal = Thermal()
+    noise: Noise = Noise()
+    effects: Effects = Effects()
+    seed: int | None = 1
+
+    @property
+    def alpha(self) -> float:
+        return self.alpha_per_k if self.alpha_per_k is not None else 2 * self.sensor.former_expansion_per_k
+
+    @property
+    def tau_t(self) -> float:
+        return self.tau_t_s if self.tau_t_s is not None else self.sensor.target_tau_s

@@ -1,0 +1,96 @@
+"""Base of the protocol emulators: bytes in, command lines parsed, reply bytes out.
+
+An emulator is the instrument's firmware as seen from its port. It is reached only
+through transports (the ``ecdssim://`` pyserial scheme or a loopback TCP server),
+never called by drivers directly. Replies can be scheduled for a later simulated
+time (a measurement in progress), and the port hands them out when the host has
+waited long enough on the shared clock.
+"""
+
+from __future__ import annotations
+
+import heapq
+import itertools
+import threading
+from abc import ABC, abstractmethod
+
+from ecds_lab.simulators.lab import SimulatedLab
+
+
+class LineEmulator(ABC):
+    """An instrument that reads terminated command lines and answers with terminated lines."""
+
+    #: Short instrument name used in URLs (``ecdssim://LAB/<name>``) and fault injection.
+    name: str = ""
+    #: Bytes that end a command line coming from the host (any of them).
+    line_endings: bytes = b"\n"
+    #: Termination appended to every reply line.
+    reply_termination: bytes = b"\n"
+    #: Single bytes acted on immediately, outside the line buffer (GRBL's real-time commands).
+    realtime_bytes: bytes = b""
+
+    def __init__(self, lab: SimulatedLab) -> None:
+        self.lab = lab
+        self.lock = threading.RLock()
+        self._line = bytearray()
+        self._scheduled: list[tuple[float, int, bytes]] = []
+        self._order = itertools.count()
+        #: Set to a bytearray to capture every byte the host sends (protocol tests assert on it).
+        self.wire: bytearray | None = None
+
+    # -- the port side ------------------------------------------------------------------------
+    def receive(self, data: bytes) -> None:
+        """Bytes from the host: real-time bytes act at once, complete lines are handled in order."""
+        with self.lock:
+            if self.name in self.lab.faults.silent_instruments:
+                return
+            if self.wire is not None:
+                self.wire += data
+            if self.realtime_bytes:
+                for byte in data:
+                    if byte in self.realtime_bytes:
+                        self.handle_realtime(bytes((byte,)))
+                data = data.translate(None, self.realtime_bytes)
+            for byte in data:
+                if byte in self.line_endings:
+                    line = self._line.decode("ascii", errors="replace")
+                    self._line.clear()
+                    self.handle_line(line)
+                else:
+                    self._line.append(byte)
+
+    def next_reply_time(self) -> float | None:
+        """Simulated time at which the earliest pending reply is ready, or None."""
+        with self.lock:
+            return self._scheduled[0][0] if self._scheduled else None
+
+    def take_ready(self) -> bytes:
+        """All reply bytes whose time has come."""
+        now = self.lab.clock.now()
+        out = bytearray()
+        with self.lock:
+            while self._scheduled and self._scheduled[0][0] <= now:
+                out += heapq.heappop(self._scheduled)[2]
+        return bytes(out)
+
+    def on_open(self) -> None:
+        """The host opened the port (GRBL on an Arduino resets here)."""
+
+    # -- the firmware side --------------------------------------------------------------------
+    @abstractmethod
+    def handle_line(self, line: str) -> None:
+        """Act on one command line (without its termination)."""
+
+    def handle_realtime(self, char: bytes) -> None:
+        """Act on a real-time byte."""
+
+    def reply(self, text: str, delay_s: float = 0.0) -> None:
+        """Queue one reply line, ready ``delay_s`` simulated seconds from now."""
+        ready = self.lab.clock.now() + max(0.0, delay_s)
+        heapq.heappush(self._scheduled, (ready, next(self._order), text.encode("ascii") + self.reply_termination))
+
+    def drop_pending(self) -> None:
+        """Forget queued replies (a reset empties the output buffer)."""
+        with self.lock:
+            self._scheduled.clear()
+            self._line.clear()

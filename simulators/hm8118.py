@@ -1,0 +1,168 @@
+"""HM8118 LCR bridge emulator: the bridge's serial protocol over the simulated lab's coil.
+
+Speaks what drivers/hm8118.py documents: CR-terminated commands, silent set
+commands, ``ERROR`` for anything refused, ``XALL?`` -> ``main,secondary,bin``.
+Measurement times and noise per speed are assumptions (the vendor's figures were
+not found): fast 70 ms, medium 190 ms, slow 600 ms per reading.
+"""
+
+from __future__ import annotations
+
+import cmath
+import math
+
+from ecds_lab.drivers.hm8118 import CIRCUITS, FREQUENCIES_HZ, FUNCTIONS, SPEEDS, TRIGGER_MODES
+from ecds_lab.simulators.emulator import LineEmulator
+from ecds_lab.simulators.lab import SimulatedLab
+
+IDENTITY = "HAMEG Instruments, HM8118,013206727,1.57"
+MEASUREMENT_TIME_S = {0: 0.07, 1: 0.19, 2: 0.6}
+COMPENSATION_TIME_S = 1.5  # per frequency
+_SPEED_NAMES = {code: name for name, code in SPEEDS.items()}
+
+
+class HM8118Emulator(LineEmulator):
+    name = "hm8118"
+    line_endings = b"\r\n"
+    reply_termination = b"\r"
+
+    def __init__(self, lab: SimulatedLab) -> None:
+        super().__init__(lab)
+        self.reset()
+
+    def reset(self) -> None:
+        self.settings = {"FREQ": 1000, "VOLT": 1.0, "PMOD": 0, "CIRC": 2, "RATE": 1, "AVGM": 0, "NAVG": 2,
+                         "MMOD": 0, "CALL": 0}
+        self.busy_until = self.lab.clock.now()
+        self.last_values: tuple[float, float] | None = None
+
+    # -- protocol --------------------------------------------------------------------------
+    def handle_line(self, line: str) -> None:
+        for command in line.split(";"):
+            command = command.strip()
+            if command:
+                self._handle(command)
+
+    def _answer(self, text: str) -> None:
+        """Replies wait until the measurement in progress is done (one command at a time)."""
+        self.reply(text, max(0.0, self.busy_until - self.lab.clock.now()))
+
+    def _handle(self, command: str) -> None:
+        mnemonic, _, argument = command.partition(" ")
+        mnemonic = mnemonic.upper()
+        argument = argument.strip()
+        if mnemonic.rstrip("?") in self.lab.faults.bridge_error_commands and mnemonic not in ("CROP", "CRSH"):
+            self._answer("ERROR")
+            return
+        handler = {
+            "*IDN?": lambda: self._answer(IDENTITY),
+            "*RST": self.reset,
+            "*OPC?": lambda: self._answer("1"),
+            "*WAI": lambda: None,
+            "*TRG": self._trigger,
+            "XALL?": self._read_all,
+            "XMAJ?": lambda: self._read_one(0),
+            "XMIN?": lambda: self._read_one(1),
+            "CROP": lambda: self._compensate("CROP"),
+            "CRSH": lambda: self._compensate("CRSH"),
+        }.get(mnemonic)
+        if handler is not None and not argument:
+            handler()
+        elif mnemonic.endswith("?") and mnemonic[:-1] in self.settings and not argument:
+            self._answer(self._format_setting(mnemonic[:-1]))
+        elif mnemonic in self.settings and argument:
+            self._set(mnemonic, argument)
+        else:
+            self._answer("ERROR")
+
+    def _set(self, mnemonic: str, argument: str) -> None:
+        try:
+            value = float(argument)
+        except ValueError:
+            self._answer("ERROR")
+            return
+        valid = {
+            "FREQ": value in FREQUENCIES_HZ,
+            "VOLT": 0.05 <= value <= 1.5,
+            "PMOD": value in FUNCTIONS.values(),
+            "CIRC": value in CIRCUITS.values(),
+            "RATE": value in SPEEDS.values(),
+            "AVGM": value in (0, 1),
+            "NAVG": value.is_integer() and 2 <= value <= 99,
+            "MMOD": value in TRIGGER_MODES.values(),
+            "CALL": value in (0, 1),
+        }[mnemonic]
+        if not valid:
+            self._answer("ERROR")
+            return
+        self.settings[mnemonic] = round(value, 3) if mnemonic == "VOLT" else int(value)
+
+    def _format_setting(self, mnemonic: str) -> str:
+        value = self.settings[mnemonic]
+        return f"{value:.3f}" if mnemonic == "VOLT" else str(int(value))
+
+    # -- measuring -------------------------------------------------------------------------
+    def _duration(self) -> float:
+        count = self.settings["NAVG"] if self.settings["AVGM"] else 1
+        return MEASUREMENT_TIME_S[self.settings["RATE"]] * count
+
+    def _trigger(self) -> None:
+        """*TRG starts a measurement; the lab is sampled now, the result is ready after the measuring time."""
+        start = max(self.lab.clock.now(), self.busy_until)
+        self.last_values = self._measure()
+        self.busy_until = start + self._duration()
+
+    def _fresh_values(self) -> tuple[float, float] | None:
+        if self.settings["MMOD"] == 0:  # continuous: always a current reading
+            self._trigger()
+        return self.last_values
+
+    def _read_all(self) -> None:
+        values = self._fresh_values()
+        if values is None:
+            self._answer("ERROR")
+        else:
+            self._answer(f"{values[0]:.5E},{values[1]:.5E},0")
+
+    def _read_one(self, index: int) -> None:
+        values = self._fresh_values()
+        self._answer("ERROR" if values is None else f"{values[index]:.5E}")
+
+    def _measure(self) -> tuple[float, float] | None:
+        """Main and secondary value of the active function from the lab's coil impedance."""
+        if self.settings["PMOD"] in (0, 10, 11):  # AUTO display and transformer modes: nothing to read
+            return None
+        frequency = float(self.settings["FREQ"])
+        omega = 2 * math.pi * frequency
+        z = self.lab.coil_impedance(frequency)
+        sigma = self.lab.config.noise.bridge_relative[_SPEED_NAMES[self.settings["RATE"]]]
+        sigma *= 1.5 / self.settings["VOLT"]
+        if self.settings["AVGM"]:
+            sigma /= math.sqrt(self.settings["NAVG"])
+        z += abs(z) * complex(self.lab.rng.normal(0, sigma), self.lab.rng.normal(0, sigma))
+        y = 1 / z
+        circuit = self.settings["CIRC"]
+        parallel = circuit == 1 or (circuit == 2 and abs(z) > 1e3)
+        ls, rs = z.imag / omega, z.real
+        lp = -1 / (omega * y.imag) if y.imag else math.inf
+        rp = 1 / y.real if y.real else math.inf
+        cs = -1 / (omega * z.imag) if z.imag else math.inf
+        cp = y.imag / omega
+        q = abs(z.imag) / z.real if z.real else math.inf
+        theta = math.degrees(cmath.phase(z))
+        return {
+            1: ((lp if parallel else ls), q),
+            2: ((lp, rp) if parallel else (ls, rs)),
+            3: ((cp if parallel else cs), 1 / q if q else math.inf),
+            4: ((cp, rp) if parallel else (cs, rs)),
+            5: ((rp if parallel else rs), q),
+            6: (abs(z), theta),
+            7: (abs(y), -theta),
+            8: (z.real, z.imag),
+            9: (y.real, y.imag),
+        }[self.settings["PMOD"]]
+
+    def _compensate(self, command: str) -> None:
+        frequencies = len(FREQUENCIES_HZ) if self.settings["CALL"] == 1 else 1
+        self.busy_until = max(self.lab.clock.now(), self.busy_until) + COMPENSATION_TIME_S * frequencies
+        self._answer("-1" if command in self.lab.faults.bridge_error_commands else "0")

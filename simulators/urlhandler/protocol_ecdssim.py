@@ -1,0 +1,87 @@
+"""pyserial URL handler ``ecdssim://LAB/INSTRUMENT``: a serial port wired to an emulator.
+
+pyserial finds this module through ``serial.protocol_handler_packages`` (registered
+by ``ecds_lab.transports.serial_link``). Reads hand out the emulator's replies; when
+none is ready, the host's wait passes on the lab's simulated clock, up to the port
+timeout, so instrument-internal delays cost no wall time.
+"""
+
+from __future__ import annotations
+
+from urllib.parse import urlparse
+
+from serial.serialutil import PortNotOpenError, SerialBase, SerialException
+
+from ecds_lab.simulators.registry import emulator
+
+
+class Serial(SerialBase):
+    """A serial port whose far end is a protocol emulator in this process."""
+
+    def open(self) -> None:
+        if self._port is None:
+            raise SerialException("Port must be configured before it can be used.")
+        if self.is_open:
+            raise SerialException("Port is already open.")
+        parts = urlparse(self._port)
+        if parts.scheme != "ecdssim" or not parts.netloc or not parts.path.strip("/"):
+            raise SerialException(f"expected ecdssim://LAB/INSTRUMENT, got {self._port!r}")
+        try:
+            self._emulator = emulator(parts.netloc, parts.path.strip("/"))
+        except KeyError as exc:
+            raise SerialException(str(exc.args[0])) from exc
+        self._rx = bytearray()
+        self.is_open = True
+        self._emulator.on_open()
+
+    def from_url(self, url: str) -> str:
+        return url
+
+    def _reconfigure_port(self) -> None:
+        """Baud rate and framing mean nothing in process."""
+
+    def close(self) -> None:
+        self.is_open = False
+
+    @property
+    def emulator(self):  # noqa: ANN201 - the emulator type lives in the simulators package
+        return self._emulator
+
+    @property
+    def in_waiting(self) -> int:
+        self._collect()
+        return len(self._rx)
+
+    def read(self, size: int = 1) -> bytes:
+        if not self.is_open:
+            raise PortNotOpenError()
+        self._collect()
+        if not self._rx:
+            self._wait_for_reply()
+        data = bytes(self._rx[:size])
+        del self._rx[:size]
+        return data
+
+    def write(self, data: bytes) -> int:
+        if not self.is_open:
+            raise PortNotOpenError()
+        self._emulator.receive(bytes(data))
+        return len(data)
+
+    def reset_input_buffer(self) -> None:
+        self._collect()
+        self._rx.clear()
+
+    def reset_output_buffer(self) -> None:
+        """Nothing is buffered on the way out."""
+
+    def _collect(self) -> None:
+        self._rx += self._emulator.take_ready()
+
+    def _wait_for_reply(self) -> None:
+        """Let simulated time pass until a reply is ready, at most the port timeout."""
+        clock = self._emulator.lab.clock
+        ready = self._emulator.next_reply_time()
+        limit = clock.now() + (self._timeout if self._timeout is not None else 1.0)
+        clock.advance(max(0.0, min(ready, limit) - clock.now()) if ready is not None else limit - clock.now())
+        self._collect()

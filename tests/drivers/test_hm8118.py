@@ -1,0 +1,123 @@
+"""HM8118 driver against its emulator through the real pyserial path: exact bytes, errors, validation."""
+
+from __future__ import annotations
+
+import pytest
+
+from ecds_lab.drivers.hm8118 import FREQUENCIES_HZ, HM8118, SERIAL_SETTINGS
+from ecds_lab.errors import InstrumentError, InvalidSettingError
+from ecds_lab.instruments import BridgeSettings
+
+
+@pytest.fixture
+def bridge(sim):
+    return HM8118(sim.serial("hm8118", SERIAL_SETTINGS))
+
+
+def test_link_settings_follow_the_manual():
+    assert SERIAL_SETTINGS["baudrate"] == 9600
+    assert SERIAL_SETTINGS["write_termination"] == "\r"
+    assert 0.15 <= SERIAL_SETTINGS["min_interval_s"] <= 0.2
+    assert len(FREQUENCIES_HZ) == 69 and FREQUENCIES_HZ[0] == 20 and FREQUENCIES_HZ[-1] == 200_000
+
+
+def test_identity(bridge):
+    assert "HM8118" in bridge.identity()
+
+
+def test_configure_as_the_paper_sends_exact_bytes(sim, bridge):
+    wire = sim.capture("hm8118")
+    bridge.configure(BridgeSettings(function="L-R", circuit="series", voltage_v=1.5, speed="slow"))
+    bridge.set_frequency(15000)
+    bridge.set_frequency(500)
+    assert bytes(wire) == (
+        b"PMOD 2\rPMOD?\rCIRC 0\rCIRC?\rVOLT 1.500\rVOLT?\rRATE 2\rRATE?\rAVGM 0\rAVGM?\r"
+        b"MMOD 1\rMMOD?\rFREQ 15000\rFREQ?\rFREQ 500\rFREQ?\r"
+    )
+    assert bridge.speed == "slow" and bridge.circuit == "series" and bridge.voltage_v == 1.5
+
+
+def test_averaging_sends_count(sim, bridge):
+    wire = sim.capture("hm8118")
+    bridge.configure(BridgeSettings(averages=8))
+    assert b"AVGM 1\rAVGM?\rNAVG 8\rNAVG?\r" in bytes(wire)
+
+
+def test_measure_triggers_waits_and_reads(make_lab):
+    sim = make_lab(slide_origin_mm=50.0)
+    bridge = HM8118(sim.serial("hm8118", SERIAL_SETTINGS))
+    bridge.configure(BridgeSettings())
+    bridge.set_frequency(15000)
+    wire = sim.capture("hm8118")
+    start = sim.clock.now()
+    reading = bridge.measure()
+    assert bytes(wire) == b"*TRG\r*WAI\rXALL?\r"
+    assert 40e-3 < reading.main < 60e-3  # series inductance in H
+    assert 30 < reading.secondary < 1000  # series resistance in Ohm
+    assert reading.frequency_hz == 15000
+    assert sim.clock.now() - start >= 0.6  # a slow measurement takes simulated time
+
+
+def test_pacing_between_commands_uses_the_shared_clock(sim):
+    bridge = HM8118(sim.serial("hm8118", SERIAL_SETTINGS))
+    start = sim.clock.now()
+    bridge.identity()
+    bridge.identity()
+    assert sim.clock.now() - start >= SERIAL_SETTINGS["min_interval_s"]
+
+
+@pytest.mark.parametrize("setting, value, message", [
+    ("frequency_hz", 15001, "nearest allowed is 15000"),
+    ("voltage_v", 2.0, "outside the allowed 0.05..1.5"),
+    ("voltage_v", 0.01, "outside the allowed 0.05..1.5"),
+    ("speed", "slowest", "'slowest' is not one of"),
+    ("averages", 100, "outside the allowed 2..99"),
+])
+def test_bad_input_raises_before_anything_is_sent(sim, bridge, setting, value, message):
+    wire = sim.capture("hm8118")
+    with pytest.raises(InvalidSettingError, match=message):
+        setattr(bridge, setting, value)
+    assert bytes(wire) == b""
+
+
+def test_invalid_configuration_sends_nothing(sim, bridge):
+    wire = sim.capture("hm8118")
+    with pytest.raises(InvalidSettingError):
+        bridge.configure(BridgeSettings(voltage_v=3.0))
+    assert bytes(wire) == b""
+
+
+def test_error_reply_names_the_command(sim, bridge):
+    sim.lab.faults.bridge_error_commands.add("FREQ")
+    with pytest.raises(InstrumentError, match="'FREQ 1000'.*ERROR"):
+        bridge.frequency_hz = 1000
+
+
+def test_reading_in_auto_function_is_an_error(bridge):
+    bridge.function = "auto"
+    bridge.trigger_mode = "manual"
+    with pytest.raises(InstrumentError, match="XALL"):
+        bridge.measure()
+
+
+def test_open_and_short_compensation(sim, bridge):
+    wire = sim.capture("hm8118")
+    start = sim.clock.now()
+    bridge.open_compensation(all_frequencies=True)
+    bridge.short_compensation()
+    assert bytes(wire) == b"CALL 1\rCROP\rCALL 0\rCRSH\r"
+    assert sim.clock.now() - start > 60  # 69 frequencies take minutes
+
+
+def test_failed_compensation_is_reported(sim, bridge):
+    sim.lab.faults.bridge_error_commands.add("CROP")
+    with pytest.raises(InstrumentError, match="compensation failed"):
+        bridge.open_compensation()
+
+
+def test_silent_bridge_times_out(sim, bridge):
+    from ecds_lab.errors import TransportTimeout
+
+    sim.lab.faults.silent_instruments.add("hm8118")
+    with pytest.raises(TransportTimeout, match="no reply"):
+        bridge.identity()
