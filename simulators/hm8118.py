@@ -134,12 +134,8 @@ class HM8118Emulator(LineEmulator):
             return None
         frequency = float(self.settings["FREQ"])
         omega = 2 * math.pi * frequency
-        z = self.lab.coil_impedance(frequency)
-        sigma = self.lab.config.noise.bridge_relative[_SPEED_NAMES[self.settings["RATE"]]]
-        sigma *= 1.5 / self.settings["VOLT"]
-        if self.settings["AVGM"]:
-            sigma /= math.sqrt(self.settings["NAVG"])
-        z += abs(z) * complex(self.lab.rng.normal(0, sigma), self.lab.rng.normal(0, sigma))
+        averages = self.settings["NAVG"] if self.settings["AVGM"] else 1
+        z = self.lab.measured_impedance(frequency, _SPEED_NAMES[self.settings["RATE"]], self.settings["VOLT"], averages)
         y = 1 / z
         circuit = self.settings["CIRC"]
         parallel = circuit == 1 or (circuit == 2 and abs(z) > 1e3)

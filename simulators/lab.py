@@ -224,6 +224,19 @@ class SimulatedLab:
             self._last_x_m, self._last_k2 = x_m, float(self.coupling(x_m)) ** 2
         return self._last_k2
 
+    def measured_impedance(self, frequency_hz: float, speed: str = "slow", voltage_v: float = 1.5,
+                           averages: int = 1) -> complex:
+        """What the bridge reads: the impedance now plus HM8118-like noise.
+
+        Noise is relative to |Z|, set per speed for 1.5 V (``config.noise.bridge_relative``),
+        growing as the test level falls and shrinking with the square root of the averages.
+        """
+        z = self.coil_impedance(frequency_hz)
+        sigma = self.config.noise.bridge_relative[speed] * 1.5 / voltage_v / math.sqrt(max(1, averages))
+        if sigma <= 0:
+            return z
+        return z + abs(z) * complex(self.rng.normal(0, sigma), self.rng.normal(0, sigma))
+
     # -- thermocouples ------------------------------------------------------------------------
     def temperature_c(self, quantity: str) -> float:
         """True temperature of 'coil' (the former, where the thermocouple sits), 'target' or 'ambient'."""

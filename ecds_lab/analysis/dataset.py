@@ -1,0 +1,206 @@
+"""Measurements as the analysis sees them: columns of numbers in SI, from CSV or run files.
+
+The CSV import format is fixed by DESIGN.md:
+``time_s,x_mm,freq_hz,t_coil_c,t_target_c,ls_h,rs_ohm`` (``x_mm = inf``: coil in air).
+Derived inputs the model parts need (direction of approach, coil temperature rate)
+are computed here from the columns, so CSV imports work as well as run files.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from dataclasses import dataclass, field, fields, replace
+from pathlib import Path
+
+import numpy as np
+
+from ecds_lab.errors import EcdsLabError
+
+CSV_COLUMNS = ("time_s", "x_mm", "freq_hz", "t_coil_c", "t_target_c", "ls_h", "rs_ohm")
+
+
+class DataError(EcdsLabError, ValueError):
+    """Input data are malformed; the message names the file, row and column."""
+
+
+@dataclass
+class Measurements:
+    """One row per bridge reading, SI units; rows in time order within each segment.
+
+    ``segment`` numbers independent recordings (runs or files): time may restart
+    between segments, and history-dependent effects restart with them.
+    """
+
+    time_s: np.ndarray
+    x_m: np.ndarray
+    freq_hz: np.ndarray
+    t_coil_c: np.ndarray
+    t_target_c: np.ndarray
+    ls_h: np.ndarray
+    rs_ohm: np.ndarray
+    segment: np.ndarray = field(default=None)  # type: ignore[assignment]
+    x_commanded_m: np.ndarray = field(default=None)  # type: ignore[assignment]
+    direction: np.ndarray = field(default=None)  # type: ignore[assignment]
+    source: str = ""
+
+    def __post_init__(self) -> None:
+        n = len(self.time_s)
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if f.name != "source" and value is not None:
+                setattr(self, f.name, np.asarray(value, dtype=float if f.name not in ("segment", "direction") else int))
+        if self.segment is None:
+            self.segment = _segments_from_time(self.time_s)
+        if self.x_commanded_m is None:
+            self.x_commanded_m = self.x_m.copy()
+        if self.direction is None:
+            self.direction = approach_direction(self.x_commanded_m, self.segment)
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if isinstance(value, np.ndarray) and len(value) != n:
+                raise DataError(f"{self.source or 'data'}: column {f.name} has {len(value)} rows, expected {n}")
+
+    def __len__(self) -> int:
+        return len(self.time_s)
+
+    @property
+    def x_mm(self) -> np.ndarray:
+        return self.x_m * 1e3
+
+    @property
+    def in_air(self) -> np.ndarray:
+        return ~np.isfinite(self.x_m)
+
+    @property
+    def frequencies_hz(self) -> np.ndarray:
+        return np.unique(self.freq_hz)
+
+    def select(self, mask: np.ndarray) -> "Measurements":
+        """The rows where ``mask`` is true (or the given indices)."""
+        return replace(self, **{f.name: getattr(self, f.name)[mask] for f in fields(self)
+                                if isinstance(getattr(self, f.name), np.ndarray)})
+
+    def coil_temperature_rate_k_per_s(self) -> np.ndarray:
+        """d(t_coil)/dt per segment, from a centred difference over roughly a minute of data."""
+        return _rate(self.time_s, self.t_coil_c, self.segment)
+
+    @classmethod
+    def concatenate(cls, parts: list["Measurements"]) -> "Measurements":
+        """Join recordings; each keeps its own segment numbers, offset to stay distinct."""
+        if not parts:
+            raise DataError("no measurements to join")
+        offset, columns = 0, {}
+        for part in parts:
+            for f in fields(cls):
+                value = getattr(part, f.name)
+                if isinstance(value, np.ndarray):
+                    columns.setdefault(f.name, []).append(value + offset if f.name == "segment" else value)
+            offset += int(part.segment.max()) + 1 if len(part) else 0
+        merged = {name: np.concatenate(values) for name, values in columns.items()}
+        return cls(**merged, source=", ".join(p.source for p in parts))
+
+    # -- CSV ---------------------------------------------------------------------------------
+    @classmethod
+    def from_csv(cls, path: str | Path) -> "Measurements":
+        """Read the CSV import format; a malformed file fails naming row and column."""
+        path = Path(path)
+        try:
+            handle = path.open(newline="")
+        except OSError as exc:
+            raise DataError(f"{path}: cannot read: {exc.strerror}") from exc
+        with handle:
+            reader = csv.reader(handle)
+            header = [h.strip() for h in next(reader, [])]
+            missing = [c for c in CSV_COLUMNS if c not in header]
+            if missing:
+                raise DataError(f"{path}: header must contain {','.join(CSV_COLUMNS)}; missing {', '.join(missing)}")
+            index = [header.index(c) for c in CSV_COLUMNS]
+            rows = []
+            for line_number, row in enumerate(reader, start=2):
+                if not row or all(not cell.strip() for cell in row):
+                    continue
+                values = []
+                for column, i in zip(CSV_COLUMNS, index):
+                    try:
+                        values.append(float(row[i]))
+                    except (IndexError, ValueError):
+                        cell = row[i] if i < len(row) else "<missing>"
+                        raise DataError(f"{path}: row {line_number}, column {column}: {cell!r} is not a number") from None
+                    if math.isnan(values[-1]) or (math.isinf(values[-1]) and column != "x_mm"):
+                        raise DataError(f"{path}: row {line_number}, column {column}: {row[i]!r} is not allowed")
+                rows.append(values)
+        if not rows:
+            raise DataError(f"{path}: no data rows")
+        data = np.array(rows)
+        return cls(time_s=data[:, 0], x_m=data[:, 1] * 1e-3, freq_hz=data[:, 2], t_coil_c=data[:, 3],
+                   t_target_c=data[:, 4], ls_h=data[:, 5], rs_ohm=data[:, 6], source=str(path))
+
+    def to_csv(self, path: str | Path) -> None:
+        """Write the CSV import format (full precision)."""
+        columns = [self.time_s, self.x_mm, self.freq_hz, self.t_coil_c, self.t_target_c, self.ls_h, self.rs_ohm]
+        with Path(path).open("w", newline="") as handle:
+            writer = csv.writer(handle)
+            writer.writerow(CSV_COLUMNS)
+            for row in zip(*columns):
+                writer.writerow([repr(float(v)) if math.isfinite(v) else "inf" for v in row])
+
+
+def load_measurements(path: str | Path) -> Measurements:
+    """DATA as the command line takes it: a run file (.h5) or a CSV in the import format."""
+    path = Path(path)
+    if path.suffix.lower() in (".h5", ".hdf5", ".nxs"):
+        from ecds_lab.storage.reader import read_measurements
+
+        return read_measurements(path)
+    return Measurements.from_csv(path)
+
+
+def approach_direction(x_m: np.ndarray, segment: np.ndarray) -> np.ndarray:
+    """+1 / -1: the sign of the last change of commanded x before each row (0 before any move or in air)."""
+    direction = np.zeros(len(x_m), dtype=int)
+    for seg in np.unique(segment):
+        rows = np.flatnonzero(segment == seg)
+        last_x, last_dir = math.nan, 0
+        for i in rows:
+            x = x_m[i]
+            if not math.isfinite(x):
+                direction[i] = 0
+                continue
+            if math.isfinite(last_x) and x != last_x:
+                last_dir = 1 if x > last_x else -1
+            last_x = x
+            direction[i] = last_dir
+    return _fill_first_direction(direction, x_m, segment)
+
+
+def _fill_first_direction(direction: np.ndarray, x_m: np.ndarray, segment: np.ndarray) -> np.ndarray:
+    """Rows before the first move of a segment take the direction of that segment's first move."""
+    for seg in np.unique(segment):
+        rows = np.flatnonzero((segment == seg) & np.isfinite(x_m))
+        moved = rows[direction[rows] != 0]
+        if len(moved):
+            first = moved[0]
+            direction[rows[(rows < first) & (direction[rows] == 0)]] = direction[first]
+    return direction
+
+
+def _segments_from_time(time_s: np.ndarray) -> np.ndarray:
+    """A new segment wherever time runs backwards (files or runs joined one after another)."""
+    steps = np.diff(np.asarray(time_s, float), prepend=-np.inf)
+    return np.cumsum(steps < 0).astype(int)
+
+
+def _rate(time_s: np.ndarray, values: np.ndarray, segment: np.ndarray, window_s: float = 60.0) -> np.ndarray:
+    rate = np.zeros(len(time_s))
+    for seg in np.unique(segment):
+        rows = np.flatnonzero(segment == seg)
+        t, v = time_s[rows], values[rows]
+        if len(rows) < 2:
+            continue
+        lo = np.searchsorted(t, t - window_s / 2)
+        hi = np.clip(np.searchsorted(t, t + window_s / 2, side="right") - 1, 0, len(t) - 1)
+        span = t[hi] - t[lo]
+        ok = span > 0
+        rate[rows[ok]] = (v[hi] - v[lo])[ok] / span[ok]
+    return rate
