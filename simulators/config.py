@@ -6,6 +6,8 @@ and sized here, so campaigns with a hidden effect can be generated on demand.
 
 from __future__ import annotations
 
+from typing import Literal
+
 from pydantic import BaseModel, ConfigDict, Field
 
 from ecds_lab.model.sensor import SensorConfig
@@ -118,6 +120,10 @@ class LabConfig(_Strict):
     tau_t_s: float | None = Field(None, gt=0, description="default: the target material's tau_T")
     slide_origin_mm: float = Field(0.0, description="coil-target distance when the slide is at MPos 0")
     target_present: bool = True
+    thermocouple_channels: dict[int, Literal["coil", "target", "ambient"]] = Field(
+        {101: "coil", 102: "target", 103: "ambient"},
+        description="scanner channel -> the lab temperature its thermocouple measures; other channels are open",
+    )
     thermal: Thermal = Thermal()
     noise: Noise = Noise()
     effects: Effects = Effects()

@@ -72,7 +72,10 @@ class SerialTransport(Transport):
             line = self._pop_line()
             if line is not None:
                 return line
-            chunk = self._port.read(max(1, self._port.in_waiting))
+            try:
+                chunk = self._port.read(max(1, self._port.in_waiting))
+            except serial.SerialTimeoutException:
+                chunk = b""
             if chunk:
                 self._buffer += chunk
             elif self.clock.now() >= deadline:

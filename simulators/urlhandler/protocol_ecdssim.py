@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from urllib.parse import urlparse
 
-from serial.serialutil import PortNotOpenError, SerialBase, SerialException
+from serial.serialutil import PortNotOpenError, SerialBase, SerialException, SerialTimeoutException
 
 from ecds_lab.simulators.registry import emulator
 
@@ -53,11 +53,19 @@ class Serial(SerialBase):
         return len(self._rx)
 
     def read(self, size: int = 1) -> bytes:
+        """Ready bytes; if none, wait on the simulated clock up to the timeout, then raise.
+
+        Raising SerialTimeoutException (instead of returning b"") tells pyvisa-py at once
+        that the read timed out; otherwise it would keep polling for its wall-clock timeout
+        while every empty read let more simulated time pass.
+        """
         if not self.is_open:
             raise PortNotOpenError()
         self._collect()
         if not self._rx:
             self._wait_for_reply()
+            if not self._rx:
+                raise SerialTimeoutException(f"{self._port}: no reply within {self._timeout} s (simulated)")
         data = bytes(self._rx[:size])
         del self._rx[:size]
         return data

@@ -1,0 +1,409 @@
+"""GRBL 1.1 stepper controller driving the coil-target slide, as a ``Positioner``.
+
+Sources (keys as in the project's protocol notes, Part B):
+  [G-IF]   gnea/grbl doc/markdown/interface.md
+  [G-IF2]  grbl/grbl doc/markdown/interface.md ("Streaming a G-Code Program to Grbl")
+  [G-RT]   gnea/grbl doc/markdown/realtime_cmds.md
+  [G-ERR]  gnea/grbl doc/csv/error_codes_en_US.csv
+  [G-ALM]  gnea/grbl doc/csv/alarm_codes_en_US.csv
+  [G-REP]  gnea/grbl grbl/report.c
+  [G-PROT] gnea/grbl grbl/protocol.c
+  [G-SYS]  gnea/grbl grbl/system.c
+  [G-LIM]  gnea/grbl grbl/limits.c, limits_go_home()
+One line at a time: send it, wait for ``ok`` or ``error:N`` [G-IF2 "simple send-response"].
+``ok`` means the move is queued, not done, so the end of a move is seen by polling the
+real-time ``?`` until the state is ``Idle`` [G-IF2]. After homing, machine space is
+negative (MPos = -$27) [G-LIM]; the coil-target distance is x = origin_mm + MPos.
+Every decision here rests on replies only, so a recorded session replays identically.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Callable, Literal, Mapping
+
+from ecds_lab.drivers.instrument import Instrument
+from ecds_lab.errors import InstrumentError, InvalidSettingError, TransportTimeout
+from ecds_lab.transports.base import Transport
+
+#: 115200 8N1 [G-IF]. Send "\n" only: GRBL ends a line at "\r" or "\n" and answers an empty
+#: line with ``ok``, so CRLF yields two ``ok`` per command [G-PROT]. Replies end in "\r\n" [G-REP].
+SERIAL_SETTINGS: dict[str, Any] = {
+    "baudrate": 115200, "bytesize": 8, "parity": "N", "stopbits": 1,
+    "write_termination": "\n", "read_termination": "\n", "timeout_s": 2.0, "min_interval_s": 0.0,
+}
+#: ``$H`` answers ``ok`` only after the cycle [G-SYS]; the search covers 1.5x max travel [G-IF].
+HOMING_TIMEOUT_S = 120.0
+#: The start-up banner "Grbl 1.1h ['$' for help]"; the letter after 1.1 varies by build [G-REP].
+BANNER_PREFIX = "Grbl 1.1"
+#: Positions travel with 3 decimals in mm [G-REP]; closer than this is "already there".
+_RESOLUTION_MM = 0.0005
+#: The final position may differ from the target by at most this (one report digit plus rounding).
+_ARRIVAL_TOLERANCE_MM = 0.002
+#: Lines read while waiting for one reply before giving up (pushed messages are skipped).
+_MAX_LINES = 64
+_AXES = "XYZABC"
+
+#: error:N meanings [G-ERR, G-IF].
+ERRORS: dict[int, str] = {
+    1: "expected command letter", 2: "bad number format or missing value",
+    3: "invalid statement ($ command not recognised)", 4: "negative value where a positive one is expected",
+    5: "setting disabled: homing is not enabled ($22=0)", 6: "step pulse shorter than 3 us",
+    7: "EEPROM read failed, defaults restored", 8: "not idle: this $ command needs the Idle state",
+    9: "G-code lock: G-code is refused in Alarm or Jog state",
+    10: "soft limits need homing enabled ($20=1 requires $22=1)", 11: "line overflow (too many characters)",
+    12: "step rate above 30 kHz", 13: "safety door open", 14: "line length exceeded",
+    15: "jog target beyond machine travel (jog ignored)", 16: "invalid jog command",
+    17: "laser mode requires PWM output", 20: "unsupported or invalid G-code command",
+    21: "modal group violation", 22: "undefined feed rate", 23: "command needs an integer value",
+    24: "two G-code commands both need axis words", 25: "repeated G-code word",
+    26: "no axis words where required", 27: "invalid line number", 28: "missing P or L value word",
+    29: "G59.x work coordinate systems not supported", 30: "G53 only with G0/G1",
+    31: "unused axis words", 32: "arc without in-plane axis words", 33: "invalid motion target",
+    34: "arc radius error", 35: "arc missing in-plane offset word", 36: "unused value words",
+    37: "G43.1 on the wrong axis", 38: "tool number above maximum",
+}
+#: ALARM:N meanings [G-ALM, G-IF].
+ALARMS: dict[int, str] = {
+    1: "hard limit triggered; position likely lost, re-home",
+    2: "soft limit: G-code target exceeds machine travel; position retained, reset then unlock",
+    3: "abort during cycle (reset while in motion); position likely lost, re-home",
+    4: "probe fail: probe not in expected initial state",
+    5: "probe fail: no contact within travel",
+    6: "homing fail: reset during homing", 7: "homing fail: safety door opened during homing",
+    8: "homing fail: pull-off did not clear the limit switch",
+    9: "homing fail: limit switch not found within search distance",
+}
+#: Alarms that lock GRBL until a soft reset; it ignores ``?`` meanwhile [G-PROT, G-RT].
+CRITICAL_ALARMS = (1, 2)
+_HINTS = {
+    5: "; enable homing with $22=1, or unlock() and work without a reference",
+    9: "; home() or unlock() first",
+}
+
+
+@dataclass(frozen=True)
+class Status:
+    """One real-time status report ``<State|MPos:x,y,z|FS:f,s|...>`` [G-REP]."""
+
+    raw: str
+    state: str
+    mpos_mm: tuple[float, ...]
+    feed_mm_per_min: float | None
+    fields: Mapping[str, str] = field(default_factory=dict)
+
+    @property
+    def base_state(self) -> str:
+        """The state without its sub-state ("Hold:0" -> "Hold")."""
+        return self.state.split(":", 1)[0]
+
+
+def parse_status(line: str) -> Status:
+    """Parse a status report; optional fields may come in any order, ``WPos`` is refused (needs $10=1)."""
+    text = line.strip()
+    if not (text.startswith("<") and text.endswith(">")):
+        raise ValueError("a status report is enclosed in <...>")
+    state, *parts = text[1:-1].split("|")
+    fields: dict[str, str] = {}
+    for part in parts:
+        key, sep, value = part.partition(":")
+        if not sep:
+            raise ValueError(f"field {part!r} has no 'name:' prefix")
+        fields[key] = value
+    if "MPos" not in fields:
+        if "WPos" in fields:
+            raise ValueError("the report gives WPos (work position); set $10=1 so GRBL reports MPos")
+        raise ValueError("the report has no MPos field")
+    try:
+        mpos = tuple(float(v) for v in fields["MPos"].split(","))
+        rate = fields.get("FS", fields.get("F"))
+        feed = float(rate.split(",")[0]) if rate is not None else None
+    except ValueError:
+        raise ValueError("a position or feed is not a number") from None
+    if not state:
+        raise ValueError("the report has no state")
+    return Status(text, state, mpos, feed, fields)
+
+
+class Grbl(Instrument):
+    """A GRBL 1.1 controller moving one axis of the slide; positions in m at the interface, mm inside."""
+
+    model = "GRBL"
+
+    def __init__(
+        self,
+        transport: Transport,
+        *,
+        origin_mm: float = 160.0,
+        min_mm: float = 15.0,
+        max_mm: float = 160.0,
+        feed_mm_per_min: float = 600.0,
+        approach: Literal["positive", "negative", "direct"] = "positive",
+        overshoot_mm: float = 0.5,
+        poll_interval_s: float = 0.05,
+        axis: str = "X",
+    ) -> None:
+        super().__init__(transport)
+        if not min_mm < max_mm:
+            raise InvalidSettingError(f"{self.name}: min_mm {min_mm:g} must be below max_mm {max_mm:g}")
+        if approach not in ("positive", "negative", "direct"):
+            raise InvalidSettingError(f"{self.name}: approach {approach!r} is not one of 'positive', 'negative', 'direct'")
+        if axis.upper() not in _AXES or len(axis) != 1:
+            raise InvalidSettingError(f"{self.name}: axis {axis!r} is not one of {', '.join(_AXES)}")
+        for label, value in (("overshoot_mm", overshoot_mm), ("poll_interval_s", poll_interval_s)):
+            if not value >= 0:
+                raise InvalidSettingError(f"{self.name}: {label} must be >= 0, got {value!r}")
+        self.origin_mm = float(origin_mm)
+        self.min_mm, self.max_mm = float(min_mm), float(max_mm)
+        self.min_position_m, self.max_position_m = self.min_mm * 1e-3, self.max_mm * 1e-3
+        self.feed_mm_per_min = self._check_feed(feed_mm_per_min)
+        self.approach = approach
+        self.overshoot_mm = float(overshoot_mm)
+        self.poll_interval_s = float(poll_interval_s)
+        self.axis = axis.upper()
+        self._axis_index = _AXES.index(self.axis)
+        self.banner = ""
+        self._connected = False
+        self._critical_alarm = False
+        self._direction = 0
+
+    # -- start-up ------------------------------------------------------------------------
+    def wake_up(self, alarms: list[str] | None = None) -> str:
+        """Read up to the start-up banner (after its empty line) and return it [G-REP]."""
+        self.banner = self._read_until("(start-up)", lambda line: line.startswith("Grbl "), alarms=alarms)
+        self._critical_alarm = False
+        return self.banner
+
+    def connect(self) -> str:
+        """Take the banner GRBL prints when the port opens (an Arduino resets), or soft-reset for one."""
+        try:
+            banner = self.wake_up()
+        except TransportTimeout:
+            self.transport.write_bytes(b"\x18")
+            banner = self.wake_up()
+        if not banner.startswith(BANNER_PREFIX):
+            raise self.fail("(start-up)", banner, f"this driver speaks {BANNER_PREFIX}")
+        self._connected = True
+        self.status()  # also consumes "[MSG:'$H'|'$X' to unlock]" when GRBL starts locked [G-PROT]
+        return banner
+
+    def _ensure_connected(self) -> None:
+        if not self._connected:
+            self.connect()
+
+    # -- commands with ok / error:N ------------------------------------------------------
+    def identity(self) -> str:
+        """``$I`` build info: "Grbl <version.build> [OPT:...]" [G-REP report_build_info]."""
+        self._ensure_connected()
+        lines: list[str] = []
+        self._command("$I", collect=lines)
+        info = {key: value for key, _, value in (line.strip("[]").partition(":") for line in lines)}
+        version = info.get("VER", "?").split(":", 1)[0]
+        return f"Grbl {version}" + (f" [OPT:{info['OPT']}]" if "OPT" in info else "")
+
+    def unlock(self) -> None:
+        """``$X``: leave the Alarm lock without homing; GRBL answers [MSG:Caution: Unlocked] then ok [G-SYS]."""
+        self._ensure_connected()
+        self._command("$X")
+
+    def home(self) -> None:
+        """``$H``: run the homing cycle; ``ok`` comes when it is over [G-SYS], MPos is then -$27 [G-LIM]."""
+        self._ensure_connected()
+        self._command("$H", timeout_s=HOMING_TIMEOUT_S)
+        self._direction = 0  # the pull-off direction depends on $23; the next approach re-establishes it
+
+    # -- real-time commands [G-RT] --------------------------------------------------------
+    def status(self) -> Status:
+        """One ``?`` status report (refused locally while a limit alarm makes GRBL ignore ``?`` [G-RT])."""
+        self._ensure_connected()
+        if self._critical_alarm:
+            raise self.fail("?", "", "GRBL is halted by a limit alarm and ignores '?'; soft_reset() or stop() first")
+        self.transport.write_bytes(b"?")
+        line = self._read_until("?", lambda text: text.startswith("<"))
+        try:
+            return parse_status(line)
+        except ValueError as exc:
+            raise self.fail("?", line, str(exc)) from None
+
+    def feed_hold(self) -> None:
+        """``!``: decelerate to a stop and hold (state Hold:0); no reply [G-RT]."""
+        self.transport.write_bytes(b"!")
+
+    def resume(self) -> None:
+        """``~``: resume after a feed hold; no reply [G-RT]."""
+        self.transport.write_bytes(b"~")
+
+    def soft_reset(self) -> str:
+        """Ctrl-X: halt and re-initialise; GRBL prints its banner again [G-RT, G-REP].
+
+        Position is kept unless it was moving, which raises ALARM:3 [G-ALM]; that alarm is
+        reported as InstrumentError after the banner has been read, so the link stays in step.
+        """
+        self._ensure_connected()
+        self.transport.write_bytes(b"\x18")
+        alarms: list[str] = []
+        banner = self.wake_up(alarms=alarms)
+        self._connected = True
+        self.status()
+        if alarms:
+            raise self._alarm("\x18", alarms[0])
+        return banner
+
+    def stop(self) -> None:
+        """Feed hold, wait until the hold is complete, then soft reset: stops without losing position."""
+        self._ensure_connected()
+        self.feed_hold()
+        if not self._critical_alarm:
+            for _ in range(_MAX_LINES):
+                if self.status().state not in ("Run", "Jog", "Hold:1"):
+                    break
+                self.transport.clock.sleep(self.poll_interval_s)
+        self.soft_reset()
+
+    # -- Positioner ----------------------------------------------------------------------
+    def position_m(self) -> float:
+        """Coil-target distance from one status report."""
+        return self._x_mm(self.status()) * 1e-3
+
+    def move_to(self, position_m: float, speed_m_per_s: float | None = None) -> int:
+        """Move to a distance, wait until Idle there; returns the direction of the final approach.
+
+        With approach "positive" the last move always runs in +x (from target - overshoot when
+        the target is below), "negative" the mirror, "direct" straight; this takes up backlash.
+        Returns the current direction when no motion was needed (0 if none is known yet).
+        """
+        target = self._check_target(position_m)
+        feed = self.feed_mm_per_min if speed_m_per_s is None else self._check_feed(speed_m_per_s, scale=60e3)
+        current = self._mpos(self.status())
+        for waypoint in self._waypoints(current + self.origin_mm, target):
+            end = float(f"{waypoint - self.origin_mm:.3f}")
+            self._move(current, end, feed)
+            self._direction = 1 if end > current else -1
+            current = end
+        return self._direction
+
+    # -- internals -----------------------------------------------------------------------
+    def _check_target(self, position_m: float) -> float:
+        try:
+            x_mm = round(float(position_m) * 1e3, 6)
+        except (TypeError, ValueError):
+            raise InvalidSettingError(f"{self.name}.move_to: {position_m!r} is not a number") from None
+        if not self.min_mm <= x_mm <= self.max_mm:
+            raise InvalidSettingError(
+                f"{self.name}.move_to: {x_mm:g} mm is outside the allowed {self.min_mm:g}..{self.max_mm:g} mm"
+            )
+        return x_mm
+
+    def _check_feed(self, value: float, scale: float = 1.0) -> float:
+        """A feed in mm/min (``value`` times ``scale``), at least 1, rounded as the F word carries it."""
+        try:
+            feed = float(value) * scale
+        except (TypeError, ValueError):
+            feed = math.nan
+        if not (math.isfinite(feed) and feed >= 1.0):
+            raise InvalidSettingError(f"{self.name}: feed {value!r} gives {feed:g} mm/min; at least 1 mm/min is needed")
+        return float(f"{feed:.0f}")
+
+    def _waypoints(self, current: float, target: float) -> list[float]:
+        """Distances to visit so the last move arrives from the wanted side (clamped to the travel)."""
+        want = {"positive": 1, "negative": -1}.get(self.approach, 0)
+        moving = abs(target - current) > _RESOLUTION_MM
+        arriving = (1 if target > current else -1) if moving else self._direction
+        if want == 0 or arriving == want:
+            return [target] if moving else []
+        before = min(max(target - want * self.overshoot_mm, self.min_mm), self.max_mm)
+        if abs(before - target) <= _RESOLUTION_MM:  # at the end of travel: cannot arrive from that side
+            return [target] if moving else []
+        return [before, target]
+
+    def _move(self, start: float, end: float, feed: float) -> None:
+        """One ``G90 G1`` move, then wait: sleep the expected time, poll ``?`` until Idle."""
+        command = f"G90 G1 {self.axis}{end + 0.0:.3f} F{feed:.0f}"
+        self._command(command)
+        expected = abs(end - start) / feed * 60.0
+        budget = 2 * expected + 10.0
+        waited = expected
+        self.transport.clock.sleep(expected)
+        while True:
+            status = self.status()
+            if status.base_state == "Idle":
+                break
+            if status.base_state not in ("Run", "Jog"):
+                hint = "; resume() or stop()" if status.base_state in ("Hold", "Door") else ""
+                raise self.fail(command, status.raw, f"motion stopped in state {status.state}{hint}")
+            if waited > budget:
+                raise self.fail(command, status.raw, f"still moving after {waited:.1f} s, expected {expected:.1f} s")
+            rate = status.feed_mm_per_min or feed
+            pause = max(self.poll_interval_s, abs(end - self._mpos(status)) / rate * 60.0)
+            self.transport.clock.sleep(pause)
+            waited += pause
+        reached = self._mpos(status)
+        if abs(reached - end) > _ARRIVAL_TOLERANCE_MM:
+            raise self.fail(command, status.raw, f"stopped at MPos {reached:.3f} mm instead of {end:.3f} mm")
+
+    def _mpos(self, status: Status) -> float:
+        if len(status.mpos_mm) <= self._axis_index:
+            raise self.fail("?", status.raw, f"no {self.axis} coordinate in MPos")
+        return status.mpos_mm[self._axis_index]
+
+    def _x_mm(self, status: Status) -> float:
+        return self.origin_mm + self._mpos(status)
+
+    def _command(self, command: str, *, collect: list[str] | None = None, timeout_s: float | None = None) -> None:
+        """Send one line and wait for its ``ok``; ``error:N`` and ``ALARM:N`` raise with their meaning."""
+        saved = self.transport.timeout_s
+        if timeout_s is not None:
+            self.transport.timeout_s = timeout_s
+        try:
+            self.transport.write(command)
+            self._read_until(command, lambda line: line == "ok", collect=collect)
+        finally:
+            self.transport.timeout_s = saved
+
+    def _read_until(
+        self,
+        command: str,
+        wanted: Callable[[str], bool],
+        *,
+        collect: list[str] | None = None,
+        alarms: list[str] | None = None,
+    ) -> str:
+        """Read lines until ``wanted``; skip pushed messages ([MSG:...], empty lines, stray reports)."""
+        line = ""
+        for _ in range(_MAX_LINES):
+            line = self.transport.read_line().strip()
+            if wanted(line):
+                return line
+            if line.startswith("ALARM:"):
+                if alarms is None:
+                    raise self._alarm(command, line)
+                alarms.append(line)
+            elif line.startswith("error:"):
+                raise self._error(command, line)
+            elif line.startswith("Grbl "):
+                self.banner, self._critical_alarm = line, False
+                raise self.fail(command, line, "the controller reset; position and modal state may be lost")
+            elif collect is not None and line.startswith("[") and not line.startswith("[MSG:"):
+                collect.append(line)
+        raise self.fail(command, line, f"no reply among {_MAX_LINES} lines")
+
+    def _error(self, command: str, line: str) -> InstrumentError:
+        code = _code(line)
+        meaning = ERRORS.get(code, "unknown error") if code is not None else "malformed error"
+        return self.fail(command, line, meaning + _HINTS.get(code or 0, ""))
+
+    def _alarm(self, command: str, line: str) -> InstrumentError:
+        code = _code(line)
+        if code in CRITICAL_ALARMS:
+            self._critical_alarm = True
+        meaning = ALARMS.get(code, "unknown alarm") if code is not None else "malformed alarm"
+        return self.fail(command, line, meaning)
+
+
+def _code(line: str) -> int | None:
+    """N of ``error:N`` / ``ALARM:N``."""
+    try:
+        return int(line.split(":", 1)[1])
+    except (IndexError, ValueError):
+        return None

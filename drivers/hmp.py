@@ -1,0 +1,142 @@
+"""Rohde & Schwarz (Hameg) HMP-series power supply driving the heaters (SCPI).
+
+Sources (facts cited where used; the HMP SCPI manual body was not available):
+  [HMP-DS]  R&S HMP datasheet table (as reproduced on ascendant.com.tw): HMP4040 4 x 0-32 V,
+            10 A, 160 W per channel; 1 mV programming resolution
+  [pym-HMP] pymeasure pymeasure/instruments/rohdeschwarz/hmp.py (class HMP4040)
+  [qc-HMP]  QCoDeS/Qcodes_contrib_drivers drivers/RohdeSchwarz/private/HMP.py
+  [sigrok]  sigrokproject/libsigrok src/hardware/scpi-pps/profiles.c (rs_hmp4040_cmd, pps_profiles[])
+  [chk]     charkster/hmp4040 hmp4040.py (power-on readbacks, OUTP:SEL / OUTP:GEN wording)
+Every per-output command acts on the output selected with ``INST OUT<n>`` [pym-HMP, sigrok].
+``OUTP:SEL`` arms the selected output, ``OUTP:GEN`` is the master switch for all armed outputs,
+``OUTP ON|OFF`` arms and switches the selected output in one step [pym-HMP, qc-HMP, chk, sigrok].
+The identity's vendor is ``HAMEG`` or ``ROHDE&SCHWARZ`` [sigrok pps_profiles].
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from ecds_lab.drivers.instrument import Control, Instrument, SCPIInstrument, in_range, integer_in_range
+from ecds_lab.errors import InvalidSettingError
+from ecds_lab.transports.base import Transport
+
+VENDORS: tuple[str, ...] = ("HAMEG", "ROHDE&SCHWARZ")
+ON_OFF = {False: "OFF", True: "ON"}
+
+#: RS-232 / USB virtual COM: 9600 8N1 with RTS/CTS, "otherwise the PSU might not process every
+#: command" (public serial script); LF out, CR/LF stripped from replies [qc-HMP, chk].
+SERIAL_SETTINGS: dict[str, Any] = {
+    "baudrate": 9600, "bytesize": 8, "parity": "N", "stopbits": 1, "rtscts": True,
+    "write_termination": "\n", "read_termination": "\n", "timeout_s": 2.0,
+}
+#: LAN (port 5025), USB-TMC or GPIB through VISA: LF terminator [qc-HMP].
+VISA_SETTINGS: dict[str, Any] = {"write_termination": "\n", "read_termination": "\n", "timeout_s": 2.0}
+
+
+def _on_off(reply: str) -> str:
+    """``OUTP?`` and ``OUTP:GEN?`` answer 0/1 [chk]; the wire value for sets is OFF/ON."""
+    return "ON" if reply.strip().upper() in ("1", "ON") else "OFF"
+
+
+class Bounded(Control[float]):
+    """A Control whose upper limit is an attribute of the driver (it differs per HMP model)."""
+
+    def __init__(self, get_command: str, set_command: str, doc: str, *, low: float, high: str,
+                 unit: str = "", whole: bool = False) -> None:
+        super().__init__(get_command, set_command, doc, parse=int if whole else float)
+        self.low, self.high, self.unit, self.whole = low, high, unit, whole
+
+    def encode(self, instrument: Instrument, value: Any) -> Any:
+        label = f"{instrument.name}.{self.name}"
+        high = getattr(instrument, self.high)
+        check = integer_in_range(int(self.low), int(high)) if self.whole else in_range(self.low, high, self.unit)
+        return check(value, label)
+
+
+class HMP4040(SCPIInstrument):
+    """An HMP supply: one Control per command of the selected output, plus the HeaterSupply interface."""
+
+    model = "HMP4040"
+
+    selected_output = Bounded("INST:NSEL?", "INST OUT{}", "Output the per-output commands act on (1..outputs).",
+                              low=1, high="outputs", whole=True)
+    voltage_v = Bounded("VOLT?", "VOLT {:.3f}", "Set voltage of the selected output; 1 mV resolution [HMP-DS].",
+                        low=0.0, high="max_voltage_v", unit=" V")
+    current_limit_a = Bounded("CURR?", "CURR {:.4f}", "Current limit of the selected output.",
+                              low=0.0, high="max_current_a", unit=" A")
+    output = Control("OUTP?", "OUTP {}", "Selected output armed and switched (ON) or disarmed (OFF).",
+                     mapping=ON_OFF, parse=_on_off)
+    armed = Control("OUTP:SEL?", "OUTP:SEL {}", "Selected output armed for the master switch.",
+                    mapping=ON_OFF, parse=_on_off)
+    master = Control("OUTP:GEN?", "OUTP:GEN {}", "Master switch of all armed outputs.",
+                     mapping=ON_OFF, parse=_on_off)
+
+    def __init__(self, transport: Transport, *, outputs: int = 4, max_voltage_v: float = 32.0,
+                 max_current_a: float = 10.0, max_power_w: float = 160.0) -> None:
+        super().__init__(transport)
+        self.outputs = integer_in_range(1, 4)(outputs, f"{self.name}.outputs")
+        self.max_voltage_v = float(max_voltage_v)
+        self.max_current_a = float(max_current_a)
+        self.max_power_w = float(max_power_w)
+        self.detected_model: str | None = None
+
+    def _command(self, control: str, value: Any) -> str:
+        """The set command of a Control for ``value``, validated but not sent."""
+        descriptor: Control[Any] = getattr(type(self), control)
+        return (descriptor.set_command or "").format(descriptor.encode(self, value))
+
+    # -- HeaterSupply interface ----------------------------------------------------------------
+    def identity(self) -> str:
+        """``*IDN?``; refuses anything but an HMP from Hameg or R&S."""
+        reply = self.ask("*IDN?")
+        fields = [field.strip().upper() for field in reply.split(",")]
+        if len(fields) < 2 or fields[0] not in VENDORS or not fields[1].startswith("HMP"):
+            raise self.fail("*IDN?", reply, "not a Hameg / Rohde & Schwarz HMP supply")
+        self.detected_model = fields[1]
+        return reply
+
+    def set_output(self, output: int, voltage_v: float, current_limit_a: float) -> None:
+        """Voltage and current limit of one output; every limit is checked before anything is sent."""
+        commands = [self._command("selected_output", output), self._command("voltage_v", voltage_v),
+                    self._command("current_limit_a", current_limit_a)]
+        power = float(voltage_v) * float(current_limit_a)
+        if power > self.max_power_w * (1 + 1e-9):
+            raise InvalidSettingError(
+                f"{self.name}: {voltage_v:g} V x {current_limit_a:g} A = {power:g} W exceeds the "
+                f"{self.max_power_w:g} W an output can deliver [HMP-DS]")
+        for command in commands:
+            self.write(command)
+        self.check_errors("; ".join(commands))
+
+    def enable(self, output: int, on: bool) -> None:
+        """Arm and switch one output on (``OUTP ON`` also turns the master switch on), or disarm it."""
+        commands = [self._command("selected_output", output), self._command("output", bool(on))]
+        for command in commands:
+            self.write(command)
+        self.check_errors("; ".join(commands))
+
+    def read_back(self, output: int) -> tuple[float, float]:
+        """Measured voltage (V) and current (A) at an output."""
+        self.write(self._command("selected_output", output))
+        values = []
+        for query in ("MEAS:VOLT?", "MEAS:CURR?"):
+            reply = self.ask(query)
+            try:
+                values.append(float(reply))
+            except ValueError:
+                raise self.fail(query, reply, "expected a number") from None
+        return values[0], values[1]
+
+    def all_off(self) -> None:
+        """Master switch off, then disarm every output, without reading anything back.
+
+        ``OUTP:GEN OFF`` comes first and does not depend on the selected output, so the heaters go
+        off even if earlier commands failed; no reply or error-queue entry left over from those
+        failures is read here. Disarming afterwards stops a later ``OUTP ON`` on one output (which
+        turns the master switch on again) from reviving the others.
+        """
+        self.write(self._command("master", False))
+        for output in range(1, self.outputs + 1):
+            self.write(self._command("selected_output", output))
+            self.write(self._command("armed", False))

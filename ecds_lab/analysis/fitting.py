@@ -1,0 +1,257 @@
+"""Least-squares fit of the sensor model to measurements: relative residuals in ppm of L.
+
+Free parameters are scaled by their prior scale; the start comes from an analytic
+guess (L0, alpha, beta by linear least squares on de-embedded readings of the coil in
+air or far away); further starts are tried only when the first fit stays well above
+the noise seen between repeated readings. Standard errors come from the Jacobian,
+scaled by the residual variance.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Mapping, Sequence
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from ecds_lab.analysis.dataset import Measurements
+from ecds_lab.model import ecm
+from ecds_lab.model.effects import Effect
+from ecds_lab.model.parameters import Parameter, Scaling, update, values_of
+from ecds_lab.model.sensor import SensorConfig
+from ecds_lab.model.sensor_model import SensorModel
+
+#: A fit whose RMS exceeds this multiple of the repeat noise (plus a floor in ppm) gets more starts.
+_RESTART_FACTOR, _RESTART_FLOOR_PPM = 3.0, 5.0
+
+
+@dataclass
+class FitResult:
+    """Fitted parameters with standard errors, residuals in ppm of L and the figures of merit."""
+
+    model: SensorModel
+    parameters: list[Parameter]
+    stderr: dict[str, float]
+    fixed: dict[str, str]
+    residuals_ppm: np.ndarray
+    covariance: np.ndarray
+    free_names: list[str]
+    success: bool
+    message: str
+    nfev: int
+    starts: int
+    time_s: float
+    noise_ppm: float | None = None
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def values(self) -> dict[str, float]:
+        return values_of(self.parameters)
+
+    @property
+    def effects(self) -> list[str]:
+        return self.model.effect_names
+
+    @property
+    def n(self) -> int:
+        return len(self.residuals_ppm)
+
+    @property
+    def dof(self) -> int:
+        return self.n - len(self.free_names)
+
+    @property
+    def rms_ppm(self) -> float:
+        return float(np.sqrt(np.mean(self.residuals_ppm**2))) if self.n else math.nan
+
+    @property
+    def bic(self) -> float:
+        """Bayesian information criterion with Gaussian residuals: n ln(RSS/n) + k ln n."""
+        rss = float(np.sum(self.residuals_ppm**2))
+        return self.n * math.log(max(rss, 1e-300) / self.n) + len(self.free_names) * math.log(self.n)
+
+    def parameter(self, name: str) -> Parameter:
+        return next(p for p in self.parameters if p.name == name)
+
+    def predict(self, data: Measurements) -> np.ndarray:
+        """Apparent Ls (H) the fitted model predicts for other data."""
+        return self.model.predict(data, self.values)
+
+    def params_table(self) -> dict[str, dict[str, float | str | None]]:
+        """name -> {value, stderr, unit, fixed}: JSON-able (stderr None for fixed parameters)."""
+        return {p.name: {"value": p.value, "stderr": None if p.fixed else _finite_or_none(self.stderr[p.name]),
+                         "unit": p.unit, "fixed": p.fixed} for p in self.parameters}
+
+
+def fit(data: Measurements, effects: Sequence[str | Effect] = (), sensor: SensorConfig | None = None,
+        **options: object) -> FitResult:
+    """Fit the baseline plus named effects to measurements (options as for ``fit_model``)."""
+    return fit_model(SensorModel(sensor, effects), data, **options)  # type: ignore[arg-type]
+
+
+def fit_model(model: SensorModel, data: Measurements, *, start: Mapping[str, float] | None = None,
+              fixed: Mapping[str, float] | None = None, multistart: bool | None = None) -> FitResult:
+    """Fit a model: parameters the data cannot determine and those in ``fixed`` are held constant.
+
+    ``start`` overrides start values; ``multistart`` None tries more starts only when needed.
+    """
+    if len(data) == 0:
+        raise ValueError("no measurements to fit")
+    began = time.perf_counter()
+    reasons = {name: "fixed by the caller" for name in fixed or {}}
+    for name, reason in model.unidentifiable(data).items():
+        reasons.setdefault(name, reason)
+    params = update(model.parameters(), fixed=fixed)
+    params = [p.fix() if p.name in reasons and not p.fixed else p for p in params]
+    params = update(params, values=initial_values(model, data, params))
+    if start:
+        params = update(params, values={k: v for k, v in start.items() if k not in reasons})
+    noise = noise_ppm(data)
+    best, starts = _solve(model, data, params), 1
+    if multistart or (multistart is None and _needs_restart(best, noise)):
+        for candidate in _alternative_starts(params):
+            result = _solve(model, data, candidate)
+            starts += 1
+            if result[0].cost < best[0].cost:
+                best = result
+    return _result(model, data, best, reasons, noise, starts, time.perf_counter() - began)
+
+
+def initial_values(model: SensorModel, data: Measurements, params: Sequence[Parameter]) -> dict[str, float]:
+    """Analytic start for L0, alpha, beta: linear least squares on de-embedded air-coil inductances.
+
+    Each reading is stripped of the parallel C and R_p, divided by (1 - k^2 f_T) at the start
+    values, and the result fitted by L0 (1 + alpha dT + beta dT^2); coil-in-air rows are used
+    when there are any (they do not depend on the calibration), else all rows.
+    """
+    p = values_of(params)
+    free = {q.name for q in params if not q.fixed}
+    if "L0" not in free:
+        return {}
+    omega = 2 * np.pi * data.freq_hz
+    z = data.rs_ohm + 1j * omega * data.ls_h
+    series = 1.0 / (1.0 / z - 1j * omega * p["C_p"] - 1.0 / p["R_p"])
+    k2 = model.coupling_hat(data.x_m, p) ** 2
+    l_coil = series.imag / omega / (1 - k2 * ecm.eddy_factor(omega, p["tau_t"]))
+    rows = data.in_air if data.in_air.any() else np.ones(len(data), bool)
+    d = data.t_coil_c[rows] - model.sensor.reference_temperature_c
+    fixed_part = 1 + (0 if "alpha" in free else p["alpha"]) * d + (0 if "beta" in free else p["beta"]) * d**2
+    names = [n for n in ("alpha", "beta") if n in free]
+    columns = [fixed_part] + [d ** (1 + i) for i, n in enumerate(("alpha", "beta")) if n in free]
+    coef, *_ = np.linalg.lstsq(np.column_stack(columns), l_coil[rows], rcond=None)
+    if not np.isfinite(coef).all() or coef[0] <= 0:
+        return {}
+    return {"L0": float(coef[0]), **{n: float(c / coef[0]) for n, c in zip(names, coef[1:])}}
+
+
+def noise_ppm(data: Measurements, max_gap_s: float = 10.0) -> float | None:
+    """Repeatability of the bridge (ppm of L): robust spread of successive readings of one state.
+
+    Pairs of readings in one segment at the same commanded distance and frequency, at most
+    ``max_gap_s`` apart; None when there are fewer than 10 such pairs.
+    """
+    order = np.lexsort((data.time_s, data.x_commanded_m, data.freq_hz, data.segment))
+    seg, freq, x, t, ls = (a[order] for a in (data.segment, data.freq_hz, data.x_commanded_m, data.time_s, data.ls_h))
+    same = ((seg[1:] == seg[:-1]) & (freq[1:] == freq[:-1]) & (x[1:] == x[:-1])
+            & (np.abs(t[1:] - t[:-1]) <= max_gap_s))
+    if same.sum() < 10:
+        return None
+    diff = (ls[1:] / ls[:-1] - 1)[same] * 1e6
+    mad = np.median(np.abs(diff - np.median(diff)))
+    return float(1.4826 * mad / math.sqrt(2))
+
+
+def _residual_function(model: SensorModel, data: Measurements, scaling: Scaling):
+    measured = data.ls_h
+
+    def residuals(theta: np.ndarray) -> np.ndarray:
+        return (measured / model.predict(data, scaling.values(theta)) - 1) * 1e6
+
+    return residuals
+
+
+def _solve(model: SensorModel, data: Measurements, params: Sequence[Parameter]):
+    scaling = Scaling(params)
+    residuals = _residual_function(model, data, scaling)
+    if not scaling.names:
+        r = residuals(np.zeros(0))
+        return _Trivial(r), scaling
+    lower, upper = scaling.bounds()
+    theta0 = np.clip(np.zeros(len(scaling.names)), lower + 1e-9, upper - 1e-9)
+    result = least_squares(residuals, theta0, bounds=(lower, upper), method="trf", x_scale=1.0,
+                           ftol=1e-12, xtol=1e-12, gtol=1e-12, max_nfev=200 * (len(theta0) + 1))
+    return result, scaling
+
+
+class _Trivial:
+    """Stand-in for a least_squares result when every parameter is fixed."""
+
+    def __init__(self, residuals: np.ndarray) -> None:
+        self.fun, self.x, self.jac = residuals, np.zeros(0), np.zeros((len(residuals), 0))
+        self.cost, self.success, self.message, self.nfev = 0.5 * float(residuals @ residuals), True, "nothing free", 1
+
+
+def _needs_restart(solved, noise: float | None) -> bool:
+    result, _ = solved
+    if not result.success:
+        return True
+    if noise is None:
+        return False
+    rms = math.sqrt(2 * result.cost / max(len(result.fun), 1))
+    return rms > _RESTART_FACTOR * noise + _RESTART_FLOOR_PPM
+
+
+def _alternative_starts(params: Sequence[Parameter]) -> list[list[Parameter]]:
+    """A small grid over the parameters the fit can get lost in: the distance offset/scale and tau_T."""
+    free = {p.name for p in params if not p.fixed}
+    p = values_of(params)
+    grid = {"p1": [p["p1"] - 5e-3, p["p1"] + 5e-3], "p2": [p["p2"] * 0.8, p["p2"] * 1.25],
+            "tau_t": [p["tau_t"] * 0.3, p["tau_t"] * 3.0]}
+    axes = [[(name, None)] + [(name, v) for v in values] for name, values in grid.items() if name in free]
+    starts = []
+    for combo in itertools.product(*axes):
+        changes = {name: v for name, v in combo if v is not None}
+        if changes:
+            starts.append(update(params, values=changes))
+    return starts
+
+
+def _result(model: SensorModel, data: Measurements, solved, reasons: dict[str, str], noise: float | None,
+            starts: int, elapsed: float) -> FitResult:
+    result, scaling = solved
+    values = scaling.values(result.x)
+    params = update(scaling.parameters, values=values)
+    residuals = np.asarray(result.fun, float)
+    k = len(scaling.names)
+    dof = len(residuals) - k
+    covariance = _covariance(np.asarray(result.jac, float), residuals, dof) * np.outer(scaling.scale, scaling.scale)
+    stderr = {p.name: math.nan for p in params}
+    stderr.update(zip(scaling.names, np.sqrt(np.clip(np.diag(covariance), 0, None)).tolist()))
+    return FitResult(model, params, stderr, {n: reasons[n] for n in reasons}, residuals, covariance,
+                     scaling.names, bool(result.success), str(result.message), int(result.nfev), starts,
+                     elapsed, noise)
+
+
+def _covariance(jac: np.ndarray, residuals: np.ndarray, dof: int) -> np.ndarray:
+    """s^2 (J^T J)^-1 by SVD (directions the data do not constrain get infinite variance)."""
+    k = jac.shape[1]
+    if k == 0:
+        return np.zeros((0, 0))
+    if dof <= 0:
+        return np.full((k, k), np.inf)
+    s2 = float(residuals @ residuals) / dof
+    _, sing, vt = np.linalg.svd(jac, full_matrices=False)
+    tiny = sing <= sing[0] * 1e-12 if sing.size and sing[0] > 0 else np.ones_like(sing, bool)
+    inv = np.where(tiny, np.inf, 1.0 / np.where(tiny, 1.0, sing) ** 2)
+    with np.errstate(invalid="ignore"):
+        cov = (vt.T * inv) @ vt
+    cov[~np.isfinite(cov)] = np.inf
+    return s2 * cov
+
+
+def _finite_or_none(value: float) -> float | None:
+    return float(value) if math.isfinite(value) else None

@@ -1,0 +1,96 @@
+"""Station configuration: which instruments, on which ports, with which driver, or the simulated lab.
+
+A station YAML names four roles (bridge, slide, scanner, heater). Each role has a
+driver and a transport (a pyserial URL or a VISA resource). With ``simulated:``
+the transports default to the in-process simulators of one shared simulated lab.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+from ecds_lab.simulators.config import LabConfig
+
+DRIVERS = ("hm8118", "grbl", "daq970a", "34970a", "hmp4040")
+ROLES = {"bridge": ("hm8118",), "slide": ("grbl",), "scanner": ("daq970a", "34970a"), "heater": ("hmp4040",)}
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class SerialLink(_Strict):
+    """A pyserial port: a device (/dev/ttyUSB0, COM3) or URL (socket://host:port, ecdssim://lab/instr)."""
+
+    kind: Literal["serial"] = "serial"
+    url: str
+    baudrate: int | None = None
+    timeout_s: float | None = Field(None, gt=0)
+
+
+class VisaLink(_Strict):
+    """A VISA resource (TCPIP0::host::5025::SOCKET, USB0::..., ASRL/dev/ttyS0::INSTR)."""
+
+    kind: Literal["visa"] = "visa"
+    resource: str
+    backend: str = "@py"
+    timeout_s: float | None = Field(None, gt=0)
+
+
+class InstrumentConfig(_Strict):
+    """One instrument of the station: driver, link, and driver options."""
+
+    driver: Literal["hm8118", "grbl", "daq970a", "34970a", "hmp4040"]
+    link: SerialLink | VisaLink | None = Field(None, discriminator="kind")
+    options: dict[str, Any] = {}
+    min_interval_s: float | None = Field(None, ge=0, description="pause between commands; default per driver")
+
+
+class SafetyConfig(_Strict):
+    """Interlocks that switch the heater off."""
+
+    max_temperature_c: dict[str, float] = {"coil": 140.0, "target": 140.0, "ambient": 45.0}
+    heater_max_voltage_v: float = Field(30.0, gt=0)
+    heater_max_current_a: float = Field(4.0, gt=0)
+
+
+class HeaterWiring(_Strict):
+    """Which supply output drives which heater."""
+
+    target_output: int = Field(1, ge=1, le=4)
+    coil_output: int = Field(2, ge=1, le=4)
+    target_heater_ohm: float = Field(8.0, gt=0, description="for converting a power setpoint to volts")
+    coil_heater_ohm: float = Field(8.0, gt=0)
+
+
+class SimulationConfig(_Strict):
+    """The simulated lab behind the simulators, and how fast its time runs."""
+
+    lab: LabConfig = LabConfig()
+    real_time_factor: float = Field(0.0, ge=0, description="0: instant; 1: real time")
+    pacing: bool = Field(True, description="keep the instruments' pauses between commands (in simulated time)")
+
+
+class StationConfig(_Strict):
+    """The lab: the four instruments, the heater wiring, safety limits; simulated or real."""
+
+    name: str = "station"
+    simulated: SimulationConfig | None = None
+    bridge: InstrumentConfig = InstrumentConfig(driver="hm8118")
+    slide: InstrumentConfig = InstrumentConfig(driver="grbl")
+    scanner: InstrumentConfig = InstrumentConfig(driver="daq970a")
+    heater: InstrumentConfig = InstrumentConfig(driver="hmp4040")
+    heaters: HeaterWiring = HeaterWiring()
+    safety: SafetyConfig = SafetyConfig()
+
+    @model_validator(mode="after")
+    def _check(self) -> "StationConfig":
+        for role, allowed in ROLES.items():
+            instrument: InstrumentConfig = getattr(self, role)
+            if instrument.driver not in allowed:
+                raise ValueError(f"{role}: driver {instrument.driver!r} cannot serve as {role}; allowed: {', '.join(allowed)}")
+            if self.simulated is None and instrument.link is None:
+                raise ValueError(f"{role}: a real station needs a 'link' (serial url or visa resource)")
+        return self

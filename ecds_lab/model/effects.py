@@ -1,0 +1,102 @@
+"""Model effects: named additions to the baseline ECM, and the one registry of them.
+
+An effect is one small class: a ``name`` (DESIGN.md's effect names), its own
+``parameters()``, optionally ``unidentifiable(data)``, and any of the stage hooks
+below. ``SensorModel`` evaluates a fixed pipeline and calls every effect's hook at
+each stage, in the order the effects were given; a hook returns the changed quantity.
+
+Stages (all arrays have one entry per data row, SI units):
+
+1. effective inputs: ``effective_distance(x_m, data, p)``,
+   ``winding_temperature(t_c, data, p)``, ``target_temperature(t_c, data, p)``
+2. target time constant: ``target_tau(tau_s, inputs, data, p)``
+3. baseline ECM, Eq. (2)-(5) (no hook)
+4. coil parasitics: ``coil_capacitance(c_f, inputs, data, p)``,
+   ``parallel_conductance(g_s, inputs, data, p)``
+5. the bridge's apparent series inductance (no hook)
+
+``inputs`` carries the stage-1 results (``x_m``, ``t_winding_c``, ``t_target_c``),
+so later hooks see e.g. the effective target temperature. ``p`` maps every parameter
+name of the model to its value. History-dependent effects (moisture, thermal lag)
+integrate along time within each ``data.segment``.
+
+To add an effect: subclass ``Effect``, then add it to ``EFFECTS`` below.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, ClassVar, Mapping
+
+import numpy as np
+
+from ecds_lab.model.parameters import Parameter
+from ecds_lab.model.sensor import SensorConfig
+
+if TYPE_CHECKING:
+    from ecds_lab.analysis.dataset import Measurements
+
+#: The effect names DESIGN.md fixes (the contract of ``--effects`` and of the diagnosis).
+EFFECT_NAMES = ("target_tau_temperature", "tau_displacement", "target_bending",
+                "parasitic_capacitance", "thermal_lag", "slide_backlash")
+
+
+@dataclass(frozen=True)
+class Inputs:
+    """Effective inputs of the ECM after stage 1: distance (m, inf in air) and temperatures (C)."""
+
+    x_m: np.ndarray
+    t_winding_c: np.ndarray
+    t_target_c: np.ndarray
+
+
+class Effect:
+    """Base of every effect: no parameters, every hook the identity."""
+
+    name: ClassVar[str] = ""
+
+    def __init__(self, sensor: SensorConfig) -> None:
+        self.sensor = sensor
+
+    def parameters(self) -> list[Parameter]:
+        """The effect's own parameters with starting values, bounds and units."""
+        return []
+
+    def unidentifiable(self, data: "Measurements") -> dict[str, str]:
+        """Parameters these data cannot determine (name -> reason); they are fixed at their start."""
+        return {}
+
+    def effective_distance(self, x_m: np.ndarray, data: "Measurements", p: Mapping[str, float]) -> np.ndarray:
+        return x_m
+
+    def winding_temperature(self, t_c: np.ndarray, data: "Measurements", p: Mapping[str, float]) -> np.ndarray:
+        return t_c
+
+    def target_temperature(self, t_c: np.ndarray, data: "Measurements", p: Mapping[str, float]) -> np.ndarray:
+        return t_c
+
+    def target_tau(self, tau_s: np.ndarray, inputs: Inputs, data: "Measurements",
+                   p: Mapping[str, float]) -> np.ndarray:
+        return tau_s
+
+    def coil_capacitance(self, c_f: np.ndarray, inputs: Inputs, data: "Measurements",
+                         p: Mapping[str, float]) -> np.ndarray:
+        return c_f
+
+    def parallel_conductance(self, g_s: np.ndarray, inputs: Inputs, data: "Measurements",
+                             p: Mapping[str, float]) -> np.ndarray:
+        return g_s
+
+
+#: The registry: effect name -> class. Every effect the fit and the diagnosis can use is listed here.
+EFFECTS: dict[str, type[Effect]] = {}
+
+
+def make_effect(name: str, sensor: SensorConfig) -> Effect:
+    """An effect by its DESIGN.md name; unknown names fail listing the known ones."""
+    if name in EFFECTS:
+        return EFFECTS[name](sensor)
+    known = ", ".join(sorted(EFFECTS)) or "none yet"
+    if name in EFFECT_NAMES:
+        raise ValueError(f"effect {name!r} is named in DESIGN.md but not implemented; implemented: {known}")
+    raise ValueError(f"unknown effect {name!r}; known effects: {known}")

@@ -1,0 +1,130 @@
+"""Re-run a recorded session: the run's own experiment, against its own transcripts.
+
+``replay_run`` proves that today's drivers and runner still turn yesterday's bytes into
+the same data; ``replay_station`` gives tests a Station whose instruments are recordings.
+"""
+
+from __future__ import annotations
+
+import math
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from ecds_lab.clock import SimulatedClock
+from ecds_lab.config.loading import validate
+from ecds_lab.config.station import InstrumentConfig, StationConfig
+from ecds_lab.errors import RunFileError
+from ecds_lab.runner.plan import build_plan
+from ecds_lab.runner.runner import Runner
+from ecds_lab.runner.session import load_experiment
+from ecds_lab.station import Station, open_station
+from ecds_lab.storage.columns import COLUMN_NAMES, INDEX
+from ecds_lab.storage.reader import RunFile, read_run
+from ecds_lab.storage.run_file import RunWriter, metadata_for
+from ecds_lab.transports.replay import ReplayTransport
+
+#: Columns not expected to reproduce: wall-clock time differs by nature.
+_NOT_COMPARED = {"wall_time_s"}
+_TIME_TOLERANCE_S = 0.5
+
+
+@dataclass
+class ReplayResult:
+    path: Path
+    original_status: str
+    replay_status: str
+    original_points: int
+    replayed_points: int
+    differences: list[str] = field(default_factory=list)
+    error: str = ""
+
+    @property
+    def reproduced(self) -> bool:
+        return not self.differences and self.original_points == self.replayed_points
+
+
+def replay_station(run: RunFile | str | Path) -> Station:
+    """A Station for a recorded run: its drivers, with replay links serving the run's transcripts."""
+    if not isinstance(run, RunFile):
+        run = read_run(run)
+    if run.metadata.get("resumed_from"):
+        raise RunFileError(f"{run.path}: a resumed run holds two sessions; replay the original run file instead")
+    if not run.transcripts:
+        raise RunFileError(f"{run.path}: holds no transcripts to replay")
+    station_yaml = run.metadata.get("station_yaml")
+    if not station_yaml:
+        raise RunFileError(f"{run.path}: no station configuration recorded")
+    config = validate(f"{run.path}:station_yaml", yaml.safe_load(station_yaml), StationConfig)
+    origin = min((events[0].clock_s for events in run.transcripts.values() if events), default=0.0)
+    clock = SimulatedClock()
+
+    def factory(role: str, instrument: InstrumentConfig, settings: dict, clock_: SimulatedClock) -> ReplayTransport:
+        if role not in run.transcripts:
+            raise RunFileError(f"{run.path}: no transcript for the {role}")
+        return ReplayTransport(role, run.transcripts[role], clock=clock_, clock_origin_s=origin,
+                               write_termination=settings.get("write_termination", "\n"),
+                               read_termination=settings.get("read_termination", "\n"),
+                               timeout_s=settings.get("timeout_s", 2.0))
+
+    return open_station(config, station_yaml, transport_factory=factory, clock=clock)
+
+
+def replay_run(path: str | Path) -> ReplayResult:
+    """Execute the recorded experiment against the recorded traffic and compare the points."""
+    original = read_run(path)
+    experiment = load_experiment(Path(str(path)), original.metadata.get("experiment_yaml", ""))
+    plan = build_plan(experiment)
+    station = replay_station(original)
+    with tempfile.TemporaryDirectory() as folder:
+        output = Path(folder) / "replay.h5"
+        try:
+            station.identify()
+            writer = RunWriter(output, metadata=metadata_for(original.metadata.get("experiment_yaml", ""),
+                                                             station.yaml_text, plan.name, plan.kind),
+                               transcripts={}, identities=station.identities)
+            status, error = Runner(station, plan, writer, progress=False).run()
+            writer.close(status, error)
+        finally:
+            station.close()
+        replayed = read_run(output, transcripts=False)
+    result = ReplayResult(Path(path), original.status, status, len(original.points), len(replayed.points),
+                          error=error)
+    result.differences = compare_points(original.points, replayed.points)
+    if original.status in ("completed", "failed") and status != original.status:
+        result.differences.insert(0, f"status: recorded {original.status}, replayed {status} ({error})")
+    return result
+
+
+def compare_points(recorded: np.ndarray, replayed: np.ndarray, limit: int = 20) -> list[str]:
+    """Where two points tables differ (row, column, both values); empty when they agree."""
+    differences: list[str] = []
+    if len(recorded) != len(replayed):
+        differences.append(f"point count: recorded {len(recorded)}, replayed {len(replayed)}")
+    for row in range(min(len(recorded), len(replayed))):
+        for name in COLUMN_NAMES:
+            if name in _NOT_COMPARED:
+                continue
+            a, b = recorded[row, INDEX[name]], replayed[row, INDEX[name]]
+            tolerance = _TIME_TOLERANCE_S if name == "time_s" else 0.0
+            same = (math.isnan(a) and math.isnan(b)) or a == b or abs(a - b) <= tolerance
+            if not same:
+                differences.append(f"row {row}, {name}: recorded {a!r}, replayed {b!r}")
+                if len(differences) >= limit:
+                    return differences
+    return differences
+
+
+def format_replay(result: ReplayResult) -> str:
+    """Human summary for ``ecds-lab replay``."""
+    head = (f"{result.path}: recorded {result.original_points} points ({result.original_status}), "
+            f"replayed {result.replayed_points} ({result.replay_status})")
+    if result.reproduced:
+        return head + "\nreproduced: every point equal"
+    lines = [head, "NOT reproduced:"] + [f"  {d}" for d in result.differences]
+    if result.error:
+        lines.append(f"  replay stopped: {result.error}")
+    return "\n".join(lines)

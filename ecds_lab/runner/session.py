@@ -1,0 +1,117 @@
+"""One run from files to run file: load and check the YAML, plan, open the station, run, close.
+
+Everything that can be checked is checked before any instrument is opened. A resumed
+run never modifies its predecessor: it writes a new file holding the old points and
+transcripts followed by the missing points.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ecds_lab.config.checks import check_experiment_fits_station
+from ecds_lab.config.experiment import EXPERIMENT_ADAPTER
+from ecds_lab.config.loading import read_yaml, validate
+from ecds_lab.config.station import StationConfig
+from ecds_lab.errors import ConfigError, RunFileError
+from ecds_lab.runner.plan import Plan, build_plan
+from ecds_lab.runner.runner import Runner, ctrl_c_deferred
+from ecds_lab.station import DEFAULT_STATION, open_station
+from ecds_lab.storage.columns import INDEX
+from ecds_lab.storage.reader import read_run
+from ecds_lab.storage.run_file import RunWriter, metadata_for
+
+log = logging.getLogger("ecds_lab.run")
+
+
+@dataclass
+class RunResult:
+    path: Path
+    status: str
+    error: str
+    points: int
+    wall_s: float
+
+
+def load_experiment(path: Path | str, text: str | None = None):  # noqa: ANN201 - one of the experiment models
+    """Validate an experiment YAML (from its file or the text recorded in a run file)."""
+    path = Path(path)
+    if text is None:
+        data = read_yaml(path)
+    else:
+        import yaml
+
+        data = yaml.safe_load(text)
+    return validate(str(path), data, EXPERIMENT_ADAPTER)
+
+
+def prepare(experiment_path: Path, station_path: Path | None) -> tuple[object, str, StationConfig, str, Plan]:
+    """Load, validate and cross-check both files; build the plan. No instrument is touched."""
+    experiment = load_experiment(experiment_path)
+    experiment_text = Path(experiment_path).read_text()
+    station_path = station_path or DEFAULT_STATION
+    station_text = Path(station_path).read_text()
+    station = validate(str(station_path), read_yaml(Path(station_path)), StationConfig)
+    check_experiment_fits_station(experiment, station, str(experiment_path))
+    return experiment, experiment_text, station, station_text, build_plan(experiment)
+
+
+def default_output(experiment_path: Path, resume: Path | None) -> Path:
+    if resume is not None:
+        return resume.with_name(resume.stem + "-resumed.h5")
+    stamp = time.strftime("%Y%m%d-%H%M%S")
+    return Path(f"{Path(experiment_path).stem}-{stamp}.h5")
+
+
+def run_experiment(experiment_path: Path, station_path: Path | None = None, output: Path | None = None, *,
+                   resume: Path | None = None, overwrite: bool = False, progress: bool = True,
+                   station_overrides: dict | None = None) -> RunResult:
+    """Run an experiment into a run file; returns how it ended (the file is closed in every case)."""
+    experiment, experiment_text, station_config, station_text, plan = prepare(experiment_path, station_path)
+    if station_overrides:
+        station_config = station_config.model_copy(update=station_overrides)
+    previous = read_run(resume) if resume is not None else None
+    if previous is not None and previous.metadata.get("experiment_yaml", "").strip() != experiment_text.strip():
+        raise ConfigError(f"{experiment_path}: differs from the experiment recorded in {resume}; "
+                          "resume with the same experiment file")
+    output = Path(output) if output is not None else default_output(experiment_path, resume)
+    if output.exists() and not overwrite:
+        raise RunFileError(f"{output} exists; choose another -o or pass --overwrite")
+    started = time.monotonic()
+    station = open_station(station_config, station_text)
+    try:
+        identities = station.identify()
+        writer = RunWriter(output, metadata=metadata_for(
+            experiment_text, station_text, plan.name, plan.kind, getattr(experiment, "operator_note", ""),
+            planned_points=str(len(plan.points)), resumed_from=str(resume or "")),
+            transcripts={role: t.transcript for role, t in station.transports.items() if t.transcript},
+            identities=identities, overwrite=overwrite)
+        done, offset = set(), 0.0
+        if previous is not None:
+            done, offset = _carry_over(previous, writer)
+        runner = Runner(station, plan, writer, done=done, time_offset_s=offset, progress=progress)
+        status, error = runner.run()
+        with ctrl_c_deferred():
+            writer.close(status, error)
+    finally:
+        station.close()
+    result = RunResult(output, status, error, writer.rows, time.monotonic() - started)
+    log.info("run %s: %d points in %s (%.1f s)", status, result.points, output, result.wall_s)
+    return result
+
+
+def _carry_over(previous, writer: RunWriter) -> tuple[set[int], float]:  # noqa: ANN001
+    """Copy the predecessor's rows and transcripts; return its measured points and where time continues."""
+    writer.append_rows(previous.points)
+    for role, events in previous.transcripts.items():
+        if role in writer._written_events:
+            writer.add_transcript_events(role, [(e.clock_s, e.wall_s, e.kind, e.text) for e in events])
+    times = previous.points[:, INDEX["time_s"]]
+    walls = previous.points[:, INDEX["wall_time_s"]]
+    offset = float(np.nanmax(times)) + max(0.0, time.time() - float(np.nanmax(walls))) if len(times) else 0.0
+    return previous.completed_points(), offset

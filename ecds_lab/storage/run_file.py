@@ -1,0 +1,184 @@
+"""Write a run file: one HDF5 file per run, every point flushed as it is measured.
+
+Layout (NeXus-flavoured, so generic viewers find their way):
+  /entry                     NXentry: status, times, software, experiment and station YAML
+  /entry/points              (N x C) float64 table, one row per reading, appended and flushed
+                             per point (SWMR: a viewer can read it live; a killed run keeps
+                             every row written)
+  /entry/data                NXdata: one 1-D dataset per column (signal ls_h, axis x_commanded_mm)
+  /entry/instrument/<role>   identity, driver, settings
+  /entry/instrument/thermocouples/<name>   NXlog (time, value)
+  /entry/transcripts/<role>  every command and reply: events (clock_s, wall_s, kind, end) + text bytes
+The table is the source of truth; NXdata, NXlogs and the status are completed at close
+(a killed run's file says status 'running' and the reader reports it as interrupted).
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Mapping, Sequence
+
+import h5py
+import numpy as np
+
+from ecds_lab import __version__
+from ecds_lab.errors import RunFileError
+from ecds_lab.storage.columns import COLUMN_NAMES, COLUMNS, INDEX
+from ecds_lab.transports.transcript import KINDS, Transcript
+
+_CHUNK_ROWS = 512
+_TRANSCRIPT_BATCH_S = 2.0
+
+
+def _now_iso() -> str:
+    return datetime.now(timezone.utc).isoformat(timespec="seconds")
+
+
+class RunWriter:
+    """Appends rows to a new run file; ``close`` records how the run ended."""
+
+    def __init__(self, path: Path, *, metadata: Mapping[str, str], transcripts: Mapping[str, Transcript],
+                 identities: Mapping[str, str] | None = None, overwrite: bool = False) -> None:
+        self.path = Path(path)
+        if self.path.exists() and not overwrite:
+            raise RunFileError(f"{self.path} exists; choose another -o or pass --overwrite")
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self._file = h5py.File(self.path, "w", libver="latest")
+        self._transcripts = dict(transcripts)
+        self._written_events = {role: 0 for role in self._transcripts}
+        self._last_transcript_write = time.monotonic()
+        self.rows = 0
+        self._create_layout(metadata, identities or {})
+        self._file.swmr_mode = True
+        self._row = np.empty((1, len(COLUMNS)))
+
+    def _create_layout(self, metadata: Mapping[str, str], identities: Mapping[str, str]) -> None:
+        entry = self._file.create_group("entry")
+        entry.attrs.update({"NX_class": "NXentry", "status": "running", "start_time": _now_iso(),
+                            "software": f"ecds-lab {__version__}", "default": "data"})
+        for key, value in metadata.items():
+            entry.attrs[key] = value
+        table = entry.create_dataset("points", shape=(0, len(COLUMNS)), maxshape=(None, len(COLUMNS)),
+                                     dtype="f8", chunks=(_CHUNK_ROWS, len(COLUMNS)))
+        table.attrs["columns"] = list(COLUMN_NAMES)
+        table.attrs["units"] = [c.unit for c in COLUMNS]
+        self._table = table
+        data = entry.create_group("data")
+        data.attrs.update({"NX_class": "NXdata", "signal": "ls_h", "axes": ["x_commanded_mm"]})
+        for column in COLUMNS:
+            ds = data.create_dataset(column.name, shape=(0,), maxshape=(None,), dtype="f8", chunks=(_CHUNK_ROWS,))
+            ds.attrs.update({"units": column.unit, "long_name": column.description})
+        instrument = entry.create_group("instrument")
+        instrument.attrs["NX_class"] = "NXinstrument"
+        for role, identity in identities.items():
+            group = instrument.create_group(role)
+            group.attrs.update({"NX_class": "NXcollection", "identity": identity})
+        thermocouples = instrument.create_group("thermocouples")
+        thermocouples.attrs["NX_class"] = "NXcollection"
+        for name in ("coil", "target", "ambient"):
+            log = thermocouples.create_group(name)
+            log.attrs["NX_class"] = "NXlog"
+            for field, unit in (("time", "s"), ("value", "degC")):
+                log.create_dataset(field, shape=(0,), maxshape=(None,), dtype="f8",
+                                   chunks=(_CHUNK_ROWS,)).attrs["units"] = unit
+        records = entry.create_group("transcripts")
+        records.attrs.update({"NX_class": "NXcollection", "kinds": list(KINDS)})
+        for role in self._transcripts:
+            group = records.create_group(role)
+            group.create_dataset("events", shape=(0, 4), maxshape=(None, 4), dtype="f8", chunks=(1024, 4))
+            group.create_dataset("text", shape=(0,), maxshape=(None,), dtype="u1", chunks=(16384,))
+            group["events"].attrs["columns"] = ["clock_s", "wall_s", "kind", "text_end"]
+
+    # -- per point ------------------------------------------------------------------------
+    def append(self, values: Mapping[str, float]) -> None:
+        """Append one reading and flush it to disk before returning."""
+        row = self._row
+        row.fill(np.nan)
+        for name, value in values.items():
+            row[0, INDEX[name]] = value
+        self._write_rows(row)
+        if time.monotonic() - self._last_transcript_write > _TRANSCRIPT_BATCH_S:
+            self.write_transcripts()
+
+    def append_rows(self, rows: np.ndarray) -> None:
+        """Append a block of finished rows (used when a resumed run copies its predecessor)."""
+        if len(rows):
+            self._write_rows(np.asarray(rows, float).reshape(-1, len(COLUMNS)))
+
+    def _write_rows(self, rows: np.ndarray) -> None:
+        n = self.rows
+        self._table.resize((n + len(rows), len(COLUMNS)))
+        self._table.write_direct(rows, dest_sel=np.s_[n:n + len(rows), :])
+        self._table.flush()
+        self.rows = n + len(rows)
+
+    def add_transcript_events(self, role: str, events: Sequence[tuple[float, float, str, str]]) -> None:
+        """Append earlier transcript events (a resumed run keeps its predecessor's traffic)."""
+        self._append_events(role, events)
+
+    def write_transcripts(self) -> None:
+        """Write transcript events recorded since the last call."""
+        for role, transcript in self._transcripts.items():
+            start = self._written_events[role]
+            new = transcript.events[start:]
+            if new:
+                self._append_events(role, [(e.clock_s, e.wall_s, e.kind, e.text) for e in new])
+                self._written_events[role] = start + len(new)
+        self._last_transcript_write = time.monotonic()
+
+    def _append_events(self, role: str, events: Sequence[tuple[float, float, str, str]]) -> None:
+        if not events:
+            return
+        group = self._file["entry/transcripts"][role]
+        text_ds, events_ds = group["text"], group["events"]
+        blob = bytearray()
+        table = np.empty((len(events), 4))
+        base = text_ds.shape[0]
+        for i, (clock_s, wall_s, kind, text) in enumerate(events):
+            blob += text.encode("utf-8", errors="replace")
+            table[i] = (clock_s, wall_s, KINDS.index(kind), base + len(blob))
+        text_ds.resize((base + len(blob),))
+        text_ds[base:] = np.frombuffer(bytes(blob), dtype="u1")
+        n = events_ds.shape[0]
+        events_ds.resize((n + len(events), 4))
+        events_ds[n:] = table
+        text_ds.flush()
+        events_ds.flush()
+
+    # -- the end ----------------------------------------------------------------------------
+    def close(self, status: str, error: str = "", extra: Mapping[str, str] | None = None) -> None:
+        """Write the remaining transcripts, leave SWMR, then complete NXdata, NXlogs and the status."""
+        if self._file is None:
+            return
+        self.write_transcripts()
+        self._file.close()
+        self._file = None
+        with h5py.File(self.path, "a", libver="latest") as f:
+            entry = f["entry"]
+            table = entry["points"][()]
+            for name in COLUMN_NAMES:
+                ds = entry["data"][name]
+                ds.resize((len(table),))
+                ds[:] = table[:, INDEX[name]]
+            for name in ("coil", "target", "ambient"):
+                log = entry["instrument/thermocouples"][name]
+                values = table[:, INDEX[f"t_{name}_c"]]
+                for field, column in (("time", table[:, INDEX["time_s"]]), ("value", values)):
+                    log[field].resize((len(table),))
+                    log[field][:] = column
+            entry.attrs.update({"status": status, "end_time": _now_iso(), "points": len(table)})
+            if error:
+                entry.attrs["error"] = error
+            for key, value in (extra or {}).items():
+                entry.attrs[key] = value
+
+
+def metadata_for(experiment_yaml: str, station_yaml: str, experiment_name: str, kind: str,
+                 operator_note: str = "", **more: str) -> dict[str, str]:
+    """The metadata every run file carries (the YAML exactly as given)."""
+    return {"experiment_yaml": experiment_yaml, "station_yaml": station_yaml, "experiment": experiment_name,
+            "kind": kind, "operator_note": operator_note, **{k: (v if isinstance(v, str) else json.dumps(v))
+                                                               for k, v in more.items()}}
