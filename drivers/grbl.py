@@ -9,6 +9,8 @@ Sources (keys as in the project's protocol notes, Part B):
   [G-REP]  gnea/grbl grbl/report.c
   [G-PROT] gnea/grbl grbl/protocol.c
   [G-SYS]  gnea/grbl grbl/system.c
+  [G-MAIN] gnea/grbl grbl/main.c (re-initialisation after reset)
+  [G-CFG]  gnea/grbl grbl/config.h
   [G-LIM]  gnea/grbl grbl/limits.c, limits_go_home()
 One line at a time: send it, wait for ``ok`` or ``error:N`` [G-IF2 "simple send-response"].
 ``ok`` means the move is queued, not done, so the end of a move is seen by polling the
@@ -148,7 +150,7 @@ class Grbl(Instrument):
         if not min_mm < max_mm:
             raise InvalidSettingError(f"{self.name}: min_mm {min_mm:g} must be below max_mm {max_mm:g}")
         if approach not in ("positive", "negative", "direct"):
-            raise InvalidSettingError(f"{self.name}: approach {approach!r} is not one of 'positive', 'negative', 'direct'")
+            raise InvalidSettingError(f"{self.name}: approach {approach!r} is not one of positive, negative, direct")
         if axis.upper() not in _AXES or len(axis) != 1:
             raise InvalidSettingError(f"{self.name}: axis {axis!r} is not one of {', '.join(_AXES)}")
         for label, value in (("overshoot_mm", overshoot_mm), ("poll_interval_s", poll_interval_s)):

@@ -118,7 +118,7 @@ class LabConfig(_Strict):
     alpha_per_k: float | None = Field(None, description="Eq. (4) alpha; default 2x the former's expansion")
     beta_per_k2: float = 2e-8
     tau_t_s: float | None = Field(None, gt=0, description="default: the target material's tau_T")
-    slide_origin_mm: float = Field(0.0, description="coil-target distance when the slide is at MPos 0")
+    slide_origin_mm: float = Field(160.0, description="coil-target distance when the slide is at MPos 0")
     target_present: bool = True
     thermocouple_channels: dict[int, Literal["coil", "target", "ambient"]] = Field(
         {101: "coil", 102: "target", 103: "ambient"},

@@ -51,13 +51,13 @@ class LineEmulator(ABC):
                     if byte in self.realtime_bytes:
                         self.handle_realtime(bytes((byte,)))
                 data = data.translate(None, self.realtime_bytes)
-            for byte in data:
+            self._line += data
+            start = 0
+            for end, byte in enumerate(self._line):
                 if byte in self.line_endings:
-                    line = self._line.decode("ascii", errors="replace")
-                    self._line.clear()
-                    self.handle_line(line)
-                else:
-                    self._line.append(byte)
+                    self.handle_line(self._line[start:end].decode("ascii", errors="replace"))
+                    start = end + 1
+            del self._line[:start]
 
     def next_reply_time(self) -> float | None:
         """Simulated time at which the earliest pending reply is ready, or None."""
@@ -66,6 +66,8 @@ class LineEmulator(ABC):
 
     def take_ready(self) -> bytes:
         """All reply bytes whose time has come."""
+        if not self._scheduled:
+            return b""
         now = self.lab.clock.now()
         out = bytearray()
         with self.lock:

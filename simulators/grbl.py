@@ -26,7 +26,7 @@ DEFAULT_SETTINGS: dict[int, float] = {10: 1, 20: 1, 22: 1, 24: 25.0, 25: 500.0, 
 _INTEGER_SETTINGS = (10, 20, 22)
 #: GRBL waits 500 ms after printing ALARM:N [G-REP report_alarm_message].
 ALARM_PAUSE_S = 0.5
-#: Status-report refresh counts for WCO and Ov (busy, idle) [G-REP, config.h defaults].
+#: Status-report refresh counts for WCO and Ov (busy, idle) [G-REP, G-CFG].
 _WCO_REFRESH = (30, 10)
 _OVR_REFRESH = (20, 10)
 _LINE_BUFFER = 80
@@ -38,6 +38,8 @@ _COMMENT = re.compile(r"\([^)]*\)|;.*$")
 
 
 class GrblEmulator(LineEmulator):
+    """GRBL 1.1h on an Arduino, wired to the lab's slide (MPos = lab motor position - offset)."""
+
     name = "grbl"
     line_endings = b"\r\n"
     reply_termination = b"\r\n"

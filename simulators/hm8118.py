@@ -28,6 +28,18 @@ class HM8118Emulator(LineEmulator):
 
     def __init__(self, lab: SimulatedLab) -> None:
         super().__init__(lab)
+        self._commands = {
+            "*IDN?": lambda: self._answer(IDENTITY),
+            "*RST": self.reset,
+            "*OPC?": lambda: self._answer("1"),
+            "*WAI": lambda: None,
+            "*TRG": self._trigger,
+            "XALL?": self._read_all,
+            "XMAJ?": lambda: self._read_one(0),
+            "XMIN?": lambda: self._read_one(1),
+            "CROP": lambda: self._compensate("CROP"),
+            "CRSH": lambda: self._compensate("CRSH"),
+        }
         self.reset()
 
     def reset(self) -> None:
@@ -54,18 +66,7 @@ class HM8118Emulator(LineEmulator):
         if mnemonic.rstrip("?") in self.lab.faults.bridge_error_commands and mnemonic not in ("CROP", "CRSH"):
             self._answer("ERROR")
             return
-        handler = {
-            "*IDN?": lambda: self._answer(IDENTITY),
-            "*RST": self.reset,
-            "*OPC?": lambda: self._answer("1"),
-            "*WAI": lambda: None,
-            "*TRG": self._trigger,
-            "XALL?": self._read_all,
-            "XMAJ?": lambda: self._read_one(0),
-            "XMIN?": lambda: self._read_one(1),
-            "CROP": lambda: self._compensate("CROP"),
-            "CRSH": lambda: self._compensate("CRSH"),
-        }.get(mnemonic)
+        handler = self._commands.get(mnemonic)
         if handler is not None and not argument:
             handler()
         elif mnemonic.endswith("?") and mnemonic[:-1] in self.settings and not argument:

@@ -141,6 +141,8 @@ class SimulatedLab:
         return out.voltage_v, current
 
     def heater_power_w(self, output: int) -> float:
+        if not self.supply[output].on:
+            return 0.0
         volts, amps = self.supply_readback(output)
         return volts * amps
 
@@ -206,13 +208,13 @@ class SimulatedLab:
                 tau *= 1 + tempco * d_target
             if effects.tau_displacement.enabled:
                 tau *= 1 + effects.tau_displacement.slope_per_mm * (x * 1e3 - effects.tau_displacement.reference_mm)
-        l_true = float(ecm.ecds_inductance(l_coil, k2, omega, tau))
-        r_true = float(ecm.ecds_resistance(r_coil, l_coil, k2, omega, tau))
+        l_true = ecm.ecds_inductance(l_coil, k2, omega, tau)
+        r_true = ecm.ecds_resistance(r_coil, l_coil, k2, omega, tau)
         wet = effects.parasitic_capacitance
         moisture = self.moisture if wet.enabled else 0.0
         capacitance = sensor.capacitance_f + wet.moist_extra_capacitance_f * moisture
         conductance = 1 / sensor.parallel_resistance_ohm + wet.moist_extra_conductance_s * moisture
-        z = complex(ecm.with_parallel_elements(complex(r_true, omega * l_true), omega, capacitance, 1 / conductance))
+        z = ecm.with_parallel_elements(complex(r_true, omega * l_true), omega, capacitance, 1 / conductance)
         if effects.bridge_drift.enabled:
             drift = effects.bridge_drift.ppm_per_hour * 1e-6 * self.clock.now() / 3600.0
             z = complex(z.real, z.imag * (1 + drift))
@@ -235,7 +237,8 @@ class SimulatedLab:
         sigma = self.config.noise.bridge_relative[speed] * 1.5 / voltage_v / math.sqrt(max(1, averages))
         if sigma <= 0:
             return z
-        return z + abs(z) * complex(self.rng.normal(0, sigma), self.rng.normal(0, sigma))
+        real, imag = self.rng.standard_normal(2).tolist()
+        return z + abs(z) * sigma * complex(real, imag)
 
     # -- thermocouples ------------------------------------------------------------------------
     def temperature_c(self, quantity: str) -> float:

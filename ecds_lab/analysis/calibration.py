@@ -20,7 +20,7 @@ from ecds_lab.model.sensor_model import SensorModel
 #: Grid points of the first, tabulated stage of the position inversion, and Newton steps after it.
 _INVERSION_GRID, _NEWTON_STEPS = 48, 3
 #: Fraction of the range, from the near end, where the paper's few calibration points lie.
-SENSITIVE_REGION = 0.5
+SENSITIVE_REGION = 0.3
 
 
 @dataclass

@@ -27,6 +27,10 @@ from ecds_lab.model.sensor_model import SensorModel
 
 #: A fit whose RMS exceeds this multiple of the repeat noise (plus a floor in ppm) gets more starts.
 _RESTART_FACTOR, _RESTART_FLOOR_PPM = 3.0, 5.0
+#: Without repeated readings to measure the noise, a fit above this RMS (ppm) gets more starts.
+_RESTART_UNKNOWN_NOISE_PPM = 200.0
+#: How many of the best grid points of the global stage are refined.
+_RESTARTS = 3
 
 
 @dataclass
@@ -113,7 +117,7 @@ def fit_model(model: SensorModel, data: Measurements, *, start: Mapping[str, flo
     noise = noise_ppm(data)
     best, starts = _solve(model, data, params), 1
     if multistart or (multistart is None and _needs_restart(best, noise)):
-        for candidate in _alternative_starts(params):
+        for candidate in _alternative_starts(model, data, params):
             result = _solve(model, data, candidate)
             starts += 1
             if result[0].cost < best[0].cost:
@@ -199,25 +203,37 @@ def _needs_restart(solved, noise: float | None) -> bool:
     result, _ = solved
     if not result.success:
         return True
-    if noise is None:
-        return False
     rms = math.sqrt(2 * result.cost / max(len(result.fun), 1))
+    if noise is None:
+        return rms > _RESTART_UNKNOWN_NOISE_PPM
     return rms > _RESTART_FACTOR * noise + _RESTART_FLOOR_PPM
 
 
-def _alternative_starts(params: Sequence[Parameter]) -> list[list[Parameter]]:
-    """A small grid over the parameters the fit can get lost in: the distance offset/scale and tau_T."""
+def _alternative_starts(model: SensorModel, data: Measurements, params: Sequence[Parameter],
+                        keep: int = _RESTARTS) -> list[list[Parameter]]:
+    """Cheap global stage: the best few points of a grid over distance offset/scale and tau_T.
+
+    These are where a local fit gets lost (Eq. 5's shift and stretch, the target's time
+    constant); the grid is only evaluated, and the ``keep`` lowest-cost points become starts.
+    """
     free = {p.name for p in params if not p.fixed}
     p = values_of(params)
-    grid = {"p1": [p["p1"] - 5e-3, p["p1"] + 5e-3], "p2": [p["p2"] * 0.8, p["p2"] * 1.25],
-            "tau_t": [p["tau_t"] * 0.3, p["tau_t"] * 3.0]}
-    axes = [[(name, None)] + [(name, v) for v in values] for name, values in grid.items() if name in free]
-    starts = []
-    for combo in itertools.product(*axes):
-        changes = {name: v for name, v in combo if v is not None}
-        if changes:
-            starts.append(update(params, values=changes))
-    return starts
+    grid = {"p1": p["p1"] + np.linspace(-20e-3, 20e-3, 9), "p2": p["p2"] * np.array([0.7, 0.85, 1.0, 1.2, 1.4]),
+            "tau_t": p["tau_t"] * np.array([0.1, 0.3, 1.0, 3.0, 10.0])}
+    axes = {name: values for name, values in grid.items() if name in free}
+    if not axes:
+        return []
+    scored = []
+    for combo in itertools.product(*axes.values()):
+        changes = dict(zip(axes, combo))
+        candidate = update(params, values=changes)
+        with np.errstate(all="ignore"):
+            r = (data.ls_h / model.predict(data, values_of(candidate)) - 1) * 1e6
+        cost = float(r @ r)
+        if np.isfinite(cost) and any(candidate[i].value != params[i].value for i in range(len(params))):
+            scored.append((cost, candidate))
+    scored.sort(key=lambda item: item[0])
+    return [candidate for _, candidate in scored[:keep]]
 
 
 def _result(model: SensorModel, data: Measurements, solved, reasons: dict[str, str], noise: float | None,

@@ -17,6 +17,8 @@ MIN_SPAN_ALPHA_K = 5.0
 MIN_SPAN_BETA_K = 30.0
 
 #: Calibration parameters of Eq. (5) in the order they are released as distinct positions allow.
+#: One position is kept spare: an exactly determined fit through a few points chases their
+#: noise and bends between them (n = 4 points fit p3, p1, p2; p4 stays 0).
 CALIBRATION_ORDER = ("p3", "p1", "p2", "p4")
 
 
@@ -55,10 +57,11 @@ def baseline_unidentifiable(data: "Measurements") -> dict[str, str]:
     if len(np.unique(data.freq_hz[finite])) < 2:
         fixed["tau_t"] = "fewer than two frequencies with the target present: tau_t is not separable from p3"
     positions = len(np.unique(np.round(data.x_m[finite], 7)))
-    releasable = positions - (0 if (~finite).any() else 1)
+    air = bool((~finite).any())
+    releasable = positions - (1 if air else 2)
     for i, name in enumerate(CALIBRATION_ORDER):
         if i >= releasable:
             fixed[name] = ("no data with the target present" if positions == 0 else
-                           f"{positions} distinct positions{'' if (~finite).any() else ' and no coil-in-air data'}"
-                           f" determine only {max(releasable, 0)} of p1..p4")
+                           f"{positions} distinct positions{'' if air else ' and no coil-in-air data'}"
+                           f" determine only {max(releasable, 0)} of p1..p4 with a position to spare")
     return fixed

@@ -33,8 +33,7 @@ def ecds_resistance(r_coil: np.ndarray, l_coil: np.ndarray, k2: np.ndarray, omeg
 def with_parallel_elements(z_series: np.ndarray, omega: np.ndarray, capacitance: np.ndarray,
                            parallel_resistance: np.ndarray | float = np.inf) -> np.ndarray:
     """Impedance the bridge sees: the series branch in parallel with C_coil (and a loss R_p)."""
-    admittance = 1.0 / z_series + 1j * omega * capacitance + 1.0 / np.asarray(parallel_resistance, float)
-    return 1.0 / admittance
+    return 1.0 / (1.0 / z_series + 1j * omega * capacitance + 1.0 / parallel_resistance)
 
 
 def apparent_series_inductance(l_true: np.ndarray, r_true: np.ndarray, omega: np.ndarray,

@@ -66,7 +66,8 @@ class SerialTransport(Transport):
     def _receive_line(self) -> str | None:
         # The deadline runs on the transport's clock: wall time for hardware, simulated time
         # for the in-process simulators (whose port lets that time pass while it waits).
-        self._port.timeout = self.timeout_s
+        if self._port.timeout != self.timeout_s:
+            self._port.timeout = self.timeout_s
         deadline = self.clock.now() + self.timeout_s
         while True:
             line = self._pop_line()

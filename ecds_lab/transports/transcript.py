@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Iterator
+from typing import Iterator, NamedTuple
 
 #: Event kinds: bytes the host sent (a terminated command or raw real-time bytes),
 #: a line the instrument sent, or a failure seen on the link (e.g. a timeout).
@@ -18,8 +18,7 @@ ERROR = "error"
 KINDS = (SENT, RECEIVED, ERROR)
 
 
-@dataclass(frozen=True)
-class TranscriptEvent:
+class TranscriptEvent(NamedTuple):
     """One thing that crossed the link: ``text`` without termination characters."""
 
     clock_s: float

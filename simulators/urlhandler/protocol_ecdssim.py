@@ -49,7 +49,8 @@ class Serial(SerialBase):
 
     @property
     def in_waiting(self) -> int:
-        self._collect()
+        if not self._rx:
+            self._collect()
         return len(self._rx)
 
     def read(self, size: int = 1) -> bytes:
@@ -61,7 +62,8 @@ class Serial(SerialBase):
         """
         if not self.is_open:
             raise PortNotOpenError()
-        self._collect()
+        if not self._rx:
+            self._collect()
         if not self._rx:
             self._wait_for_reply()
             if not self._rx:
