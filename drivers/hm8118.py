@@ -40,6 +40,8 @@ SERIAL_SETTINGS: dict[str, Any] = {
     "baudrate": 9600, "bytesize": 8, "parity": "N", "stopbits": 1,
     "write_termination": "\r", "read_termination": "\r", "timeout_s": 3.0, "min_interval_s": 0.2,
 }
+#: Upper bound of one reading at the slowest speed, to wait for averaged readings (an assumption).
+SLOWEST_READING_S = 1.0
 #: A compensation over all 69 frequencies takes up to ~2 minutes without answering [KAK].
 COMPENSATION_TIMEOUT_S = 180.0
 
@@ -69,6 +71,7 @@ class HM8118(Instrument):
     def __init__(self, transport: Transport) -> None:
         super().__init__(transport)
         self._frequency_hz: float | None = None
+        self._averages = 1
 
     # -- error handling ([M23]: the bridge answers ERROR) ----------------------------------
     def check_reply(self, command: str, reply: str) -> None:
@@ -96,6 +99,7 @@ class HM8118(Instrument):
         """Set function, circuit, level, speed and averaging; manual trigger (*TRG) for measurements."""
         for control, value in self._plan(settings):
             setattr(self, control, value)
+        self._averages = settings.averages
 
     def _plan(self, settings: BridgeSettings) -> list[tuple[str, Any]]:
         """Validate every setting before the first one is sent."""
@@ -121,7 +125,8 @@ class HM8118(Instrument):
             self._frequency_hz = float(self.frequency_hz)
         self.write("*TRG")
         self.write("*WAI")
-        reply = self.ask("XALL?")
+        with self.transport.timeout_at_least(self.transport.timeout_s + self._averages * SLOWEST_READING_S):
+            reply = self.ask("XALL?")
         fields = reply.split(",")
         try:
             main, secondary = float(fields[0]), float(fields[1])
@@ -139,10 +144,7 @@ class HM8118(Instrument):
 
     def _compensate(self, command: str, all_frequencies: bool) -> None:
         self.write(f"CALL {1 if all_frequencies else 0}")
-        saved, self.transport.timeout_s = self.transport.timeout_s, COMPENSATION_TIMEOUT_S
-        try:
+        with self.transport.timeout_at_least(COMPENSATION_TIMEOUT_S):
             reply = self.ask(command)
-        finally:
-            self.transport.timeout_s = saved
         if reply.strip() != "0":
             raise self.fail(command, reply, "compensation failed")

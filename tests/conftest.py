@@ -52,3 +52,27 @@ def make_lab() -> Callable[..., LabHandle]:
 def sim(make_lab: Callable[..., LabHandle]) -> LabHandle:
     """The default simulated lab: the paper's prototype coil facing a copper plate."""
     return make_lab()
+
+
+@pytest.fixture
+def open_sim_station():
+    """Open stations on simulated labs (through the real drivers and transports); closed at teardown."""
+    from ecds_lab.config.station import SimulationConfig, StationConfig
+    from ecds_lab.instruments import BridgeSettings
+    from ecds_lab.station import open_station
+
+    opened = []
+
+    def build(*, averages: int = 1, **lab: Any):
+        config = StationConfig(simulated=SimulationConfig(lab=LabConfig(**lab), pacing=False))
+        station = open_station(config)
+        opened.append(station)
+        station.bridge.configure(BridgeSettings(function="L-R", circuit="series", voltage_v=1.5, speed="slow",
+                                                averages=averages))
+        station.scanner.configure()
+        station.slide.home()
+        return station
+
+    yield build
+    for station in opened:
+        station.close()

@@ -8,6 +8,8 @@ replay) implement three primitives: send bytes, receive one line, close.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from contextlib import contextmanager
+from typing import Iterator
 
 from ecds_lab.clock import Clock, WallClock
 from ecds_lab.errors import TransportError, TransportTimeout
@@ -80,6 +82,16 @@ class Transport(ABC):
         """Send a command and return the one-line reply."""
         self.write(command)
         return self.read_line()
+
+    @contextmanager
+    def timeout_at_least(self, seconds: float) -> Iterator[None]:
+        """Wait longer for replies inside the block (slow measurements, compensation runs)."""
+        saved = self.timeout_s
+        self.timeout_s = max(saved, seconds)
+        try:
+            yield
+        finally:
+            self.timeout_s = saved
 
     def close(self) -> None:
         if not self._closed:

@@ -13,6 +13,7 @@ from ecds_lab.model.effects import EFFECT_NAMES, Effect, make_effect
 from ecds_lab.model.parameters import Parameter, values_of
 from ecds_lab.model.sensor import SensorConfig
 from ecds_lab.model.sensor_model import SensorModel
+from ecds_lab.simulators.campaign import move_to
 from ecds_lab.simulators.config import LabConfig
 from ecds_lab.simulators.lab import BOX_HEATER_OUTPUT, TARGET_HEATER_OUTPUT, SimulatedLab
 
@@ -28,7 +29,7 @@ def _lab_states(config: LabConfig) -> tuple[Measurements, np.ndarray]:
         for x_mm in (15.0, 20.0, 47.5, 100.0, math.inf):
             lab.config.target_present = math.isfinite(x_mm)
             if lab.config.target_present:
-                lab.clock.sleep(lab.start_move(x_mm, 1000.0) + 1)
+                move_to(lab, x_mm)
             for f in (500.0, 15000.0, 40000.0):
                 z = lab.coil_impedance(f)
                 z_all.append(z)
@@ -64,11 +65,14 @@ def test_parallel_capacitance_raises_the_apparent_inductance_with_frequency():
     n = 2
     data = Measurements(np.arange(n, dtype=float), np.full(n, np.inf), np.array([500.0, 15000.0]),
                         np.full(n, 20.0), np.full(n, 20.0), np.ones(n), np.ones(n))
-    p = values_of(model.parameters())
+    p = values_of(model.parameters()) | {"R_p": np.inf}
     ls = model.predict(data, p)
-    omega = 2 * np.pi * data.freq_hz
-    # L || C: apparent L ~ L (1 + w^2 L C) far below resonance
-    np.testing.assert_allclose(ls / p["L0"] - 1, omega**2 * p["L0"] * p["C_p"], rtol=0.02)
+    omega, r0 = 2 * np.pi * data.freq_hz, model.sensor.resistance_ohm
+    # (R + jwL) || C far below resonance: Ls ~ L (1 + w^2 L C) - R^2 C
+    expected = omega**2 * p["L0"] * p["C_p"] - r0**2 * p["C_p"] / p["L0"]
+    np.testing.assert_allclose(ls / p["L0"] - 1, expected, rtol=0.03)
+    lossy = model.predict(data, values_of(model.parameters()))
+    assert lossy[0] < ls[0]  # the former's loss lowers the apparent L most where R/(wL) is largest
 
 
 class _Shift(Effect):

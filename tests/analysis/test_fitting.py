@@ -1,0 +1,99 @@
+"""Fitting the baseline model to simulated campaigns: recovery, uncertainties, residuals, robustness."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from ecds_lab.analysis.fitting import fit, fit_model, noise_ppm
+from ecds_lab.model.parameters import values_of
+from ecds_lab.model.sensor_model import SensorModel
+from ecds_lab.simulators.campaign import displacement_sweep, paper_campaign
+from ecds_lab.simulators.config import LabConfig
+from ecds_lab.simulators.lab import SimulatedLab
+
+NOISE_PPM = LabConfig().noise.bridge_relative["slow"] * 1e6
+
+
+def _truth(config: LabConfig) -> dict[str, float]:
+    return {"L0": config.sensor.inductance_h, "alpha": config.alpha, "beta": config.beta_per_k2,
+            "tau_t": config.tau_t, "p1": 0.0, "p2": 1.0, "p3": 1.0, "p4": 0.0, "C_p": config.sensor.capacitance_f}
+
+
+@pytest.fixture(scope="module")
+def campaign():
+    return paper_campaign(LabConfig(), seed=11)
+
+
+@pytest.fixture(scope="module")
+def baseline_fit(campaign):
+    return fit(campaign)
+
+
+def test_baseline_fit_recovers_the_simulated_parameters(baseline_fit):
+    truth = _truth(LabConfig())
+    assert baseline_fit.success
+    assert set(baseline_fit.free_names) == set(truth)
+    for name, value in truth.items():
+        err = baseline_fit.stderr[name]
+        assert np.isfinite(err) and err > 0, name
+        assert abs(baseline_fit.values[name] - value) <= 3 * err, (name, baseline_fit.values[name], value, err)
+    # the uncertainties are small enough for the comparison to mean something
+    assert baseline_fit.stderr["L0"] < 1e-5 * truth["L0"]
+    assert baseline_fit.stderr["alpha"] < 0.02 * truth["alpha"]
+    assert baseline_fit.stderr["beta"] < 0.2 * truth["beta"]
+    assert baseline_fit.stderr["tau_t"] < 1e-3 * truth["tau_t"]
+    assert baseline_fit.stderr["C_p"] < 1e-3 * truth["C_p"]
+
+
+def test_residuals_are_the_simulated_noise(baseline_fit, campaign):
+    assert abs(baseline_fit.rms_ppm / NOISE_PPM - 1) < 0.2
+    assert baseline_fit.dof == len(campaign) - len(baseline_fit.free_names)
+    recomputed = (campaign.ls_h / baseline_fit.predict(campaign) - 1) * 1e6
+    np.testing.assert_allclose(baseline_fit.residuals_ppm, recomputed, atol=1e-6)
+    rss = float(np.sum(recomputed**2))
+    n, k = len(campaign), len(baseline_fit.free_names)
+    assert baseline_fit.bic == pytest.approx(n * np.log(rss / n) + k * np.log(n), rel=1e-9)
+
+
+def test_only_the_sensor_given_loss_is_fixed_on_a_full_campaign(baseline_fit):
+    assert set(baseline_fit.fixed) == {"R_p"}
+    table = baseline_fit.params_table()
+    json.dumps(table, allow_nan=False)
+    assert table["L0"]["unit"] == "H" and table["R_p"]["stderr"] is None
+
+
+def test_noise_estimate_from_repeated_readings():
+    data = displacement_sweep(SimulatedLab(LabConfig(seed=4)), repeats=4)
+    assert abs(noise_ppm(data) / NOISE_PPM - 1) < 0.1
+    assert noise_ppm(data.select(np.arange(5))) is None
+
+
+def test_single_frequency_room_sweep_fixes_and_reports_what_it_cannot_determine():
+    data = displacement_sweep(SimulatedLab(LabConfig(seed=5)), frequencies_hz=(15000.0,), air_repeats=5)
+    result = fit(data)
+    assert {"alpha", "beta", "C_p", "tau_t", "R_p"} == set(result.fixed)
+    assert result.parameter("alpha").value == 0.0 and result.parameter("tau_t").value == LabConfig().tau_t
+    assert abs(result.rms_ppm / NOISE_PPM - 1) < 0.25
+
+
+def test_caller_fixed_values_are_held():
+    data = displacement_sweep(SimulatedLab(LabConfig(seed=6)), frequencies_hz=(15000.0,), air_repeats=5)
+    result = fit(data, fixed={"p2": 1.0})
+    assert result.parameter("p2").fixed and result.parameter("p2").value == 1.0
+    assert result.fixed["p2"] == "fixed by the caller"
+
+
+@pytest.mark.parametrize("offsets", [{"p1": 0.015}, {"p1": 0.02, "p2": 1.5}, {"tau_t": 15e-6, "p3": 1.1}])
+def test_fit_finds_parameters_far_from_the_nominal_start(campaign, offsets):
+    model = SensorModel()
+    truth = values_of(model.parameters()) | {"alpha": 3e-5, "beta": -1e-8, "C_p": 55e-12} | offsets
+    rng = np.random.default_rng(2)
+    data = replace(campaign, ls_h=model.predict(campaign, truth) * (1 + 20e-6 * rng.standard_normal(len(campaign))))
+    result = fit_model(model, data)
+    assert abs(result.rms_ppm / NOISE_PPM - 1) < 0.2
+    for name in result.free_names:
+        assert abs(result.values[name] - truth[name]) <= 4 * result.stderr[name], name
