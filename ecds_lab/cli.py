@@ -54,7 +54,8 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
     from ecds_lab.analysis.dataset import load_measurements
     from ecds_lab.analysis.diagnosis import diagnose, format_diagnosis
 
-    result = diagnose(load_measurements(args.data))
+    effects = [e.strip() for e in (args.effects or "").split(",") if e.strip()]
+    result = diagnose(load_measurements(args.data), effects)
     print(json.dumps(result, indent=2) if args.json else format_diagnosis(result))
     return 0
 
@@ -114,6 +115,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = command("diagnose", _cmd_diagnose, "where the model fails on DATA and which effect is missing")
     p.add_argument("data", type=Path)
+    p.add_argument("--effects", help="effects already added to the baseline (diagnose what is still missing)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
 
     p = command("report", _cmd_report, "write a self-contained HTML report with plots")
@@ -135,7 +137,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                         format="%(asctime)s %(levelname)s %(name)s: %(message)s")
     try:
         return args.handler(args)
-    except EcdsLabError as exc:
+    except (EcdsLabError, ValueError) as exc:
         print(f"ecds-lab {args.command}: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

@@ -6,10 +6,13 @@ the same data; ``replay_station`` gives tests a Station whose instruments are re
 
 from __future__ import annotations
 
+import logging
 import math
 import tempfile
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Iterator
 
 import numpy as np
 import yaml
@@ -17,7 +20,7 @@ import yaml
 from ecds_lab.clock import SimulatedClock
 from ecds_lab.config.loading import validate
 from ecds_lab.config.station import InstrumentConfig, StationConfig
-from ecds_lab.errors import RunFileError
+from ecds_lab.errors import ReplayDivergence, RunFileError
 from ecds_lab.runner.plan import build_plan
 from ecds_lab.runner.runner import Runner
 from ecds_lab.runner.session import load_experiment
@@ -25,7 +28,7 @@ from ecds_lab.station import Station, open_station
 from ecds_lab.storage.columns import COLUMN_NAMES, INDEX
 from ecds_lab.storage.reader import RunFile, read_run
 from ecds_lab.storage.run_file import RunWriter, metadata_for
-from ecds_lab.transports.replay import ReplayTransport
+from ecds_lab.transports.replay import ReplayState, ReplayTransport
 
 #: Columns not expected to reproduce: wall-clock time differs by nature.
 _NOT_COMPARED = {"wall_time_s"}
@@ -41,6 +44,8 @@ class ReplayResult:
     replayed_points: int
     differences: list[str] = field(default_factory=list)
     error: str = ""
+    #: The first place the code left the recording (instrument, transcript position, expected, actual).
+    divergence: str = ""
 
     @property
     def reproduced(self) -> bool:
@@ -61,6 +66,7 @@ def replay_station(run: RunFile | str | Path) -> Station:
     config = validate(f"{run.path}:station_yaml", yaml.safe_load(station_yaml), StationConfig)
     origin = min((events[0].clock_s for events in run.transcripts.values() if events), default=0.0)
     clock = SimulatedClock()
+    state = ReplayState()  # one per station: the first divergence on any link stops them all
 
     def factory(role: str, instrument: InstrumentConfig, settings: dict, clock_: SimulatedClock) -> ReplayTransport:
         if role not in run.transcripts:
@@ -68,9 +74,25 @@ def replay_station(run: RunFile | str | Path) -> Station:
         return ReplayTransport(role, run.transcripts[role], clock=clock_, clock_origin_s=origin,
                                write_termination=settings.get("write_termination", "\n"),
                                read_termination=settings.get("read_termination", "\n"),
-                               timeout_s=settings.get("timeout_s", 2.0))
+                               timeout_s=settings.get("timeout_s", 2.0), state=state)
 
     return open_station(config, station_yaml, transport_factory=factory, clock=clock)
+
+
+@contextmanager
+def _runner_quiet() -> Iterator[None]:
+    """Silence the runner's log while replaying: its warnings are about a lab (heater, slide) that is
+    not there; the replay's own result says how the run ended and where it diverged."""
+    runner_log = logging.getLogger("ecds_lab.runner")
+
+    def drop_all(record: logging.LogRecord) -> bool:
+        return False
+
+    runner_log.addFilter(drop_all)
+    try:
+        yield
+    finally:
+        runner_log.removeFilter(drop_all)
 
 
 def replay_run(path: str | Path) -> ReplayResult:
@@ -79,23 +101,41 @@ def replay_run(path: str | Path) -> ReplayResult:
     experiment = load_experiment(Path(str(path)), original.metadata.get("experiment_yaml", ""))
     plan = build_plan(experiment)
     station = replay_station(original)
-    with tempfile.TemporaryDirectory() as folder:
+    links = [t for t in station.transports.values() if isinstance(t, ReplayTransport)]
+    status, error, replayed_points = "failed", "", np.empty((0, len(COLUMN_NAMES)))
+    with tempfile.TemporaryDirectory() as folder, _runner_quiet():
         output = Path(folder) / "replay.h5"
         try:
             station.identify()
+        except ReplayDivergence as exc:
+            error = f"{type(exc).__name__}: {exc}"
+        else:
             writer = RunWriter(output, metadata=metadata_for(original.metadata.get("experiment_yaml", ""),
                                                              station.yaml_text, plan.name, plan.kind),
                                transcripts={}, identities=station.identities)
             status, error = Runner(station, plan, writer, progress=False).run()
             writer.close(status, error)
+            replayed_points = read_run(output, transcripts=False).points
         finally:
             station.close()
-        replayed = read_run(output, transcripts=False)
-    result = ReplayResult(Path(path), original.status, status, len(original.points), len(replayed.points),
+    result = ReplayResult(Path(path), original.status, status, len(original.points), len(replayed_points),
                           error=error)
-    result.differences = compare_points(original.points, replayed.points)
-    if original.status in ("completed", "failed") and status != original.status:
-        result.differences.insert(0, f"status: recorded {original.status}, replayed {status} ({error})")
+    divergence = next((link.state.divergence for link in links if link.state.divergence is not None), None)
+    closed = original.status in ("completed", "failed")
+    if divergence is not None:
+        result.divergence = str(divergence)
+        result.differences.append(f"diverged: {divergence}")
+    elif closed:
+        # A closed run's transcripts end where the run ended: a replay that left traffic unsent
+        # (e.g. a driver that skips a command at the end) has not reproduced the session.
+        result.differences += [link.remaining() for link in links if not link.finished]
+    if closed and status != original.status:
+        result.differences.append(f"status: recorded {original.status}, replayed {status}"
+                                  + (f" ({error})" if error and divergence is None else ""))
+    elif closed and divergence is None and error != original.metadata.get("error", ""):
+        result.differences.append(f"how the run ends: recorded {original.metadata.get('error', '')!r}, "
+                                  f"replayed {error!r}")
+    result.differences += compare_points(original.points, replayed_points)
     return result
 
 
@@ -123,8 +163,9 @@ def format_replay(result: ReplayResult) -> str:
     head = (f"{result.path}: recorded {result.original_points} points ({result.original_status}), "
             f"replayed {result.replayed_points} ({result.replay_status})")
     if result.reproduced:
-        return head + "\nreproduced: every point equal"
+        ending = f"; the run ends as recorded: {result.error}" if result.error else ""
+        return head + "\nreproduced: every point equal" + ending
     lines = [head, "NOT reproduced:"] + [f"  {d}" for d in result.differences]
-    if result.error:
+    if result.error and not result.divergence:
         lines.append(f"  replay stopped: {result.error}")
     return "\n".join(lines)

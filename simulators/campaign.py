@@ -26,6 +26,8 @@ FREQUENCY_SWITCH_S = 0.5
 #: Slide feed rate (mm/min) and settling time after a move (s).
 FEED_MM_PER_MIN = 600.0
 SETTLE_S = 2.0
+#: Overshoot (mm) used to approach the first position of a recording from the sweep's direction.
+BACKLASH_TAKE_UP_MM = 1.0
 #: Paper: 20-100 mm in 31 positions, 500 Hz and 15 kHz.
 PAPER_POSITIONS_MM = tuple(np.linspace(20.0, 100.0, 31).tolist())
 PAPER_FREQUENCIES_HZ = (500.0, 15000.0)
@@ -69,6 +71,16 @@ def move_to(lab: SimulatedLab, distance_mm: float) -> None:
     lab.clock.sleep(duration + SETTLE_S)
 
 
+def take_up_backlash(lab: SimulatedLab, distance_mm: float, direction: int) -> None:
+    """Arrive at the first position of a recording moving in ``direction`` (+1: increasing distance).
+
+    A recording's direction of approach is inferred from its own positions (DESIGN.md), so its
+    first reading must be approached the way its first recorded move goes.
+    """
+    move_to(lab, distance_mm - direction * BACKLASH_TAKE_UP_MM)
+    move_to(lab, distance_mm)
+
+
 def set_heater(lab: SimulatedLab, output: int, setpoint_c: float | None) -> None:
     """Set a heater's supply to the power whose steady state is ``setpoint_c`` (None or ambient: off)."""
     th = lab.config.thermal
@@ -96,6 +108,8 @@ def sweep(rec: Recorder, positions_mm: Sequence[float], frequencies_hz: Iterable
         if direction not in ("forward", "backward"):
             raise ValueError(f"direction must be 'forward' or 'backward', got {direction!r}")
         ordered = sorted(positions_mm, reverse=direction == "backward")
+        if not np.isfinite([row[1] for row in rec.rows]).any():
+            take_up_backlash(rec.lab, ordered[0], 1 if direction == "forward" else -1)
         for x in ordered:
             move_to(rec.lab, x)
             rec.read(frequencies, repeats)

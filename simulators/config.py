@@ -111,6 +111,20 @@ class Noise(_Strict):
     slide_repeatability_um: float = Field(0.0, ge=0)
 
 
+class InjectedFaults(_Strict):
+    """Failures the simulated instruments show from the start (for recorded error sessions and tests).
+
+    Applied by ``SimulatedLab.__init__`` to ``lab.faults``, which tests may also change while running.
+    """
+
+    bridge_error_commands: list[str] = Field(
+        [], description="the bridge answers ERROR to these: a mnemonic (FREQ: every frequency) "
+                        "or a whole command in upper case (FREQ 15000: only that one)")
+    open_thermocouples: list[int] = Field([], description="scanner channels whose thermocouple reads open")
+    silent_instruments: list[str] = Field([], description="emulators that never answer (hm8118, grbl, daq970a, "
+                                                          "34970a, hmp4040)")
+
+
 class LabConfig(_Strict):
     """One simulated lab: the sensor on the slide, the target, the climate, noise and effects."""
 
@@ -127,6 +141,7 @@ class LabConfig(_Strict):
     thermal: Thermal = Thermal()
     noise: Noise = Noise()
     effects: Effects = Effects()
+    faults: InjectedFaults = InjectedFaults()
     seed: int | None = 1
 
     @property

@@ -63,7 +63,8 @@ class HM8118Emulator(LineEmulator):
         mnemonic, _, argument = command.partition(" ")
         mnemonic = mnemonic.upper()
         argument = argument.strip()
-        if mnemonic.rstrip("?") in self.lab.faults.bridge_error_commands and mnemonic not in ("CROP", "CRSH"):
+        refused = self.lab.faults.bridge_error_commands
+        if (mnemonic.rstrip("?") in refused or command.upper() in refused) and mnemonic not in ("CROP", "CRSH"):
             self._answer("ERROR")
             return
         handler = self._commands.get(mnemonic)

@@ -75,7 +75,10 @@ class SimulatedLab:
         self.config = config or LabConfig()
         self.clock = clock or SimulatedClock()
         self.rng = np.random.default_rng(self.config.seed)
-        self.faults = Faults()
+        injected = self.config.faults
+        self.faults = Faults(open_thermocouples=set(injected.open_thermocouples),
+                             bridge_error_commands=set(injected.bridge_error_commands),
+                             silent_instruments=set(injected.silent_instruments))
         sensor = self.config.sensor
         self.coupling: Coupling = (
             table_coupling(sensor.coupling_table) if sensor.coupling_table else image_method_coupling(sensor.coil)

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import itertools
+from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any, Callable
 
 import pytest
@@ -76,3 +78,96 @@ def open_sim_station():
     yield build
     for station in opened:
         station.close()
+
+
+# -- experiments, run files and instrument guards (tests/config, tests/runner, tests/storage) ----------------
+
+EXPERIMENTS = Path(__file__).resolve().parent.parent / "experiments"
+
+
+@pytest.fixture
+def experiments_dir() -> Path:
+    """The shipped experiment and station YAML files."""
+    return EXPERIMENTS
+
+
+@pytest.fixture
+def yaml_copy(tmp_path: Path) -> Callable[..., Path]:
+    """Write a copy of a shipped YAML (path relative to experiments/) into tmp_path, edited by a callable.
+
+    ``yaml_copy("displacement_sweep.yaml", lambda d: d["sweep"].update(repeats="twice"))``
+    """
+    import yaml
+
+    def write(source: str, edit: Callable[[dict], Any] | None = None, *, name: str | None = None) -> Path:
+        data = yaml.safe_load((EXPERIMENTS / source).read_text())
+        if edit is not None:
+            edit(data)
+        path = tmp_path / (name or Path(source).name)
+        path.write_text(yaml.safe_dump(data, sort_keys=False))
+        return path
+
+    return write
+
+
+@dataclass
+class InstrumentGuard:
+    """What reached the instruments while the guard was on: opened stations, links and sent commands."""
+
+    stations: list[str] = field(default_factory=list)
+    links: list[str] = field(default_factory=list)
+    sent: list[tuple[str, str]] = field(default_factory=list)
+
+    @property
+    def untouched(self) -> bool:
+        return not (self.stations or self.links or self.sent)
+
+
+@pytest.fixture
+def instrument_guard(monkeypatch: pytest.MonkeyPatch) -> InstrumentGuard:
+    """Record (and swallow) every station opened, link created and command sent; tests assert ``untouched``."""
+    import ecds_lab.runner.session
+    import ecds_lab.station
+    from ecds_lab.errors import EcdsLabError
+    from ecds_lab.transports.base import Transport
+
+    guard = InstrumentGuard()
+    real_init = Transport.__init__
+
+    def refuse_station(*args: Any, **kwargs: Any) -> None:
+        guard.stations.append("open_station")
+        raise EcdsLabError("instrument_guard: a station was opened")
+
+    def init(self: Transport, name: str, **kwargs: Any) -> None:
+        guard.links.append(name)
+        real_init(self, name, **kwargs)
+
+    monkeypatch.setattr(ecds_lab.runner.session, "open_station", refuse_station)
+    monkeypatch.setattr(ecds_lab.station, "open_station", refuse_station)
+    monkeypatch.setattr(Transport, "__init__", init)
+    monkeypatch.setattr(Transport, "write", lambda self, command: guard.sent.append((self.name, command)))
+    monkeypatch.setattr(Transport, "write_bytes",
+                        lambda self, data: guard.sent.append((self.name, data.decode("latin-1"))))
+    return guard
+
+
+@pytest.fixture(scope="session")
+def shipped_run(tmp_path_factory: pytest.TempPathFactory) -> Callable[..., Any]:
+    """Run a shipped experiment once per session (default: the simulated lab); returns its RunResult.
+
+    ``shipped_run("displacement_sweep.yaml")``, ``shipped_run("target_heating_steel.yaml",
+    "stations/simulated_lab_steel.yaml")``. Call it only where nothing is monkeypatched.
+    """
+    from ecds_lab.runner.session import run_experiment
+
+    results: dict[tuple[str, str | None], Any] = {}
+
+    def run(experiment: str, station: str | None = None) -> Any:
+        key = (experiment, station)
+        if key not in results:
+            output = tmp_path_factory.mktemp("shipped") / f"{Path(experiment).stem}.h5"
+            results[key] = run_experiment(EXPERIMENTS / experiment, EXPERIMENTS / station if station else None,
+                                          output, progress=False)
+        return results[key]
+
+    return run

@@ -7,7 +7,7 @@ error of a heated coil into the small remainder the paper reports (about 10 %).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Sequence
 
 import numpy as np
@@ -86,3 +86,70 @@ def compare_compensation(room_sweep: Measurements, heated: Measurements, compens
     corrected = calibrate(room_sweep, sensor, n_points=n_points, positions_m=positions_m,
                           fixed={**shared, "alpha": compensation.alpha_per_k, "beta": compensation.beta_per_k2})
     return CompensationResult(position_errors(plain, heated), position_errors(corrected, heated), compensation)
+
+
+#: Successive readings whose coil temperature stays within this band (K) form one steady step.
+STEP_BAND_K = 1.0
+#: A steady step has at least this many readings (at one frequency).
+STEP_MIN_READINGS = 3
+#: Steps closer than this (K) are one set point approached in stages; the last one in time is kept.
+STEP_MERGE_K = 3.0
+
+
+def steady_coil_steps(air: Measurements, band_k: float = STEP_BAND_K,
+                      min_readings: int = STEP_MIN_READINGS) -> list[np.ndarray]:
+    """Row indices of the steady coil temperatures of a coil-in-air recording at one frequency.
+
+    The first entry is room: the readings within ``band_k`` of the coolest one. The others are
+    runs of at least ``min_readings`` successive readings whose temperature stays within
+    ``band_k`` (a heater set point held while the bridge reads), coolest first; readings
+    logged during a ramp change faster than that and belong to no step. Of steps within
+    ``STEP_MERGE_K`` of each other only the last in time (the most settled) is kept.
+    """
+    if not len(air):
+        return []
+    t = air.t_coil_c
+    steps = [np.flatnonzero(t <= t.min() + band_k)]
+    start = 0
+    for i in range(1, len(t) + 1):
+        if i == len(t) or air.segment[i] != air.segment[start] or abs(t[i] - t[start]) > band_k:
+            if i - start >= min_readings and t[start:i].mean() > t.min() + band_k:
+                steps.append(np.arange(start, i))
+            start = i
+    runs = sorted(steps[1:], key=lambda rows: t[rows].mean())
+    kept: list[np.ndarray] = []
+    for rows in runs:
+        if kept and t[rows].mean() - t[kept[-1]].mean() <= STEP_MERGE_K:
+            kept[-1] = max(kept[-1], rows, key=lambda r: r[-1])
+        else:
+            kept.append(rows)
+    return steps[:1] + kept
+
+
+def heated_coil_sweep(room_sweep: Measurements, air: Measurements, min_rise_k: float = 5.0) -> Measurements:
+    """Heated-coil readings the paper's way (Section 5): a room sweep scaled by the air coil's change.
+
+    L_ECDS(x, T) = L_coil(T) (1 - k~(x)): for every steady coil temperature T of the coil-in-air
+    recording ``air`` (see ``steady_coil_steps``) and every frequency both hold, each room-sweep
+    reading is scaled by L_air(T) / L_air(room) and takes the coil temperature T. Steps less
+    than ``min_rise_k`` above room are skipped. Empty when the air recording has no steady step
+    above room.
+    """
+    sweep = room_sweep.select(np.isfinite(room_sweep.x_m))
+    parts: list[Measurements] = []
+    for freq in np.intersect1d(sweep.frequencies_hz, air.frequencies_hz):
+        at_f = air.select((air.freq_hz == freq) & air.in_air)
+        steps = steady_coil_steps(at_f)
+        if len(steps) < 2:
+            continue
+        room_l, room_t = float(np.mean(at_f.ls_h[steps[0]])), float(np.mean(at_f.t_coil_c[steps[0]]))
+        rows = sweep.select(sweep.freq_hz == freq)
+        for step in steps[1:]:
+            t_step = float(np.mean(at_f.t_coil_c[step]))
+            if t_step - room_t < min_rise_k:
+                continue
+            ratio = float(np.mean(at_f.ls_h[step])) / room_l
+            parts.append(replace(rows, ls_h=rows.ls_h * ratio, t_coil_c=np.full(len(rows), t_step)))
+    if not parts:
+        return sweep.select(np.zeros(len(sweep), bool))
+    return Measurements.concatenate(parts)

@@ -11,6 +11,7 @@ from __future__ import annotations
 import csv
 import math
 from dataclasses import dataclass, field, fields, replace
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -80,6 +81,15 @@ class Measurements:
         """The rows where ``mask`` is true (or the given indices)."""
         return replace(self, **{f.name: getattr(self, f.name)[mask] for f in fields(self)
                                 if isinstance(getattr(self, f.name), np.ndarray)})
+
+    @cached_property
+    def segment_rows(self) -> list[np.ndarray]:
+        """Row indices of each segment in time order (for quantities with a memory)."""
+        rows = []
+        for segment in np.unique(self.segment):
+            index = np.flatnonzero(self.segment == segment)
+            rows.append(index[np.argsort(self.time_s[index], kind="stable")])
+        return rows
 
     def coil_temperature_rate_k_per_s(self) -> np.ndarray:
         """d(t_coil)/dt per segment, from a centred difference over roughly a minute of data."""
@@ -192,14 +202,17 @@ def _segments_from_time(time_s: np.ndarray) -> np.ndarray:
 
 
 def _rate(time_s: np.ndarray, values: np.ndarray, segment: np.ndarray, window_s: float = 60.0) -> np.ndarray:
+    """d(values)/dt per segment over at least ``window_s``: from the last reading before t - w/2
+    to the first after t + w/2, so sparse readings still get a rate from their neighbours."""
     rate = np.zeros(len(time_s))
     for seg in np.unique(segment):
         rows = np.flatnonzero(segment == seg)
+        rows = rows[np.argsort(time_s[rows], kind="stable")]
         t, v = time_s[rows], values[rows]
         if len(rows) < 2:
             continue
-        lo = np.searchsorted(t, t - window_s / 2)
-        hi = np.clip(np.searchsorted(t, t + window_s / 2, side="right") - 1, 0, len(t) - 1)
+        lo = np.clip(np.searchsorted(t, t - window_s / 2, side="right") - 1, 0, len(t) - 1)
+        hi = np.clip(np.searchsorted(t, t + window_s / 2, side="left"), 0, len(t) - 1)
         span = t[hi] - t[lo]
         ok = span > 0
         rate[rows[ok]] = (v[hi] - v[lo])[ok] / span[ok]

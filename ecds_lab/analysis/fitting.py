@@ -12,14 +12,15 @@ from __future__ import annotations
 import itertools
 import math
 import time
-from dataclasses import dataclass, field
-from typing import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 from scipy.optimize import least_squares
 
 from ecds_lab.analysis.dataset import Measurements
 from ecds_lab.model import ecm
+from ecds_lab.model.baseline import MIN_SPAN_ALPHA_K, MIN_SPAN_BETA_K
 from ecds_lab.model.effects import Effect
 from ecds_lab.model.parameters import Parameter, Scaling, update, values_of
 from ecds_lab.model.sensor import SensorConfig
@@ -50,7 +51,6 @@ class FitResult:
     starts: int
     time_s: float
     noise_ppm: float | None = None
-    extra: dict = field(default_factory=dict)
 
     @property
     def values(self) -> dict[str, float]:
@@ -91,17 +91,21 @@ class FitResult:
                          "unit": p.unit, "fixed": p.fixed} for p in self.parameters}
 
 
-def fit(data: Measurements, effects: Sequence[str | Effect] = (), sensor: SensorConfig | None = None,
-        **options: object) -> FitResult:
-    """Fit the baseline plus named effects to measurements (options as for ``fit_model``)."""
-    return fit_model(SensorModel(sensor, effects), data, **options)  # type: ignore[arg-type]
+def fit(data: Measurements, effects: Sequence[str | Effect] = (), sensor: SensorConfig | None = None, *,
+        start: Mapping[str, float] | None = None, fixed: Mapping[str, float] | None = None,
+        multistart: bool | None = None) -> FitResult:
+    """Fit the baseline plus named effects to measurements (keywords as for ``fit_model``)."""
+    return fit_model(SensorModel(sensor, effects), data, start=start, fixed=fixed, multistart=multistart)
 
 
 def fit_model(model: SensorModel, data: Measurements, *, start: Mapping[str, float] | None = None,
-              fixed: Mapping[str, float] | None = None, multistart: bool | None = None) -> FitResult:
+              fixed: Mapping[str, float] | None = None, multistart: bool | None = None,
+              rows: np.ndarray | None = None) -> FitResult:
     """Fit a model: parameters the data cannot determine and those in ``fixed`` are held constant.
 
     ``start`` overrides start values; ``multistart`` None tries more starts only when needed.
+    ``rows`` (a boolean mask) fits only those rows while the model still runs over every row,
+    so effects with a memory see the whole history (held-out validation uses this).
     """
     if len(data) == 0:
         raise ValueError("no measurements to fit")
@@ -115,10 +119,10 @@ def fit_model(model: SensorModel, data: Measurements, *, start: Mapping[str, flo
     if start:
         params = update(params, values={k: v for k, v in start.items() if k not in reasons})
     noise = noise_ppm(data)
-    best, starts = _solve(model, data, params), 1
+    best, starts = _solve(model, data, params, rows), 1
     if multistart or (multistart is None and _needs_restart(best, noise)):
         for candidate in _alternative_starts(model, data, params):
-            result = _solve(model, data, candidate)
+            result = _solve(model, data, candidate, rows)
             starts += 1
             if result[0].cost < best[0].cost:
                 best = result
@@ -130,7 +134,8 @@ def initial_values(model: SensorModel, data: Measurements, params: Sequence[Para
 
     Each reading is stripped of the parallel C and R_p, divided by (1 - k^2 f_T) at the start
     values, and the result fitted by L0 (1 + alpha dT + beta dT^2); coil-in-air rows are used
-    when there are any (they do not depend on the calibration), else all rows.
+    when there are any (they do not depend on the calibration), else all rows; alpha and beta
+    get a start only where those rows span enough temperature.
     """
     p = values_of(params)
     free = {q.name for q in params if not q.fixed}
@@ -143,9 +148,11 @@ def initial_values(model: SensorModel, data: Measurements, params: Sequence[Para
     l_coil = series.imag / omega / (1 - k2 * ecm.eddy_factor(omega, p["tau_t"]))
     rows = data.in_air if data.in_air.any() else np.ones(len(data), bool)
     d = data.t_coil_c[rows] - model.sensor.reference_temperature_c
-    fixed_part = 1 + (0 if "alpha" in free else p["alpha"]) * d + (0 if "beta" in free else p["beta"]) * d**2
-    names = [n for n in ("alpha", "beta") if n in free]
-    columns = [fixed_part] + [d ** (1 + i) for i, n in enumerate(("alpha", "beta")) if n in free]
+    span = float(np.ptp(d))
+    needs = (("alpha", MIN_SPAN_ALPHA_K), ("beta", MIN_SPAN_BETA_K))
+    names = [n for n, needed in needs if n in free and span >= needed]
+    fixed_part = 1 + (0 if "alpha" in names else p["alpha"]) * d + (0 if "beta" in names else p["beta"]) * d**2
+    columns = [fixed_part] + [d ** (1 + i) for i, n in enumerate(("alpha", "beta")) if n in names]
     coef, *_ = np.linalg.lstsq(np.column_stack(columns), l_coil[rows], rcond=None)
     if not np.isfinite(coef).all() or coef[0] <= 0:
         return {}
@@ -169,18 +176,23 @@ def noise_ppm(data: Measurements, max_gap_s: float = 10.0) -> float | None:
     return float(1.4826 * mad / math.sqrt(2))
 
 
-def _residual_function(model: SensorModel, data: Measurements, scaling: Scaling):
+def _residual_function(model: SensorModel, data: Measurements, scaling: Scaling,
+                       rows: np.ndarray | None = None) -> Callable[[np.ndarray], np.ndarray]:
+    """theta -> relative residuals (measured / predicted - 1) in ppm, of ``rows`` if given."""
     measured = data.ls_h
+    keep = slice(None) if rows is None else np.asarray(rows, bool)
 
     def residuals(theta: np.ndarray) -> np.ndarray:
-        return (measured / model.predict(data, scaling.values(theta)) - 1) * 1e6
+        return ((measured / model.predict(data, scaling.values(theta)) - 1) * 1e6)[keep]
 
     return residuals
 
 
-def _solve(model: SensorModel, data: Measurements, params: Sequence[Parameter]):
+def _solve(model: SensorModel, data: Measurements, params: Sequence[Parameter],
+           rows: np.ndarray | None = None) -> tuple[Any, Scaling]:
+    """One local least-squares fit from the parameters' current values (theta = 0)."""
     scaling = Scaling(params)
-    residuals = _residual_function(model, data, scaling)
+    residuals = _residual_function(model, data, scaling, rows)
     if not scaling.names:
         r = residuals(np.zeros(0))
         return _Trivial(r), scaling
@@ -199,7 +211,8 @@ class _Trivial:
         self.cost, self.success, self.message, self.nfev = 0.5 * float(residuals @ residuals), True, "nothing free", 1
 
 
-def _needs_restart(solved, noise: float | None) -> bool:
+def _needs_restart(solved: tuple[Any, Scaling], noise: float | None) -> bool:
+    """True when the fit failed or its RMS is well above the noise (a local minimum)."""
     result, _ = solved
     if not result.success:
         return True
@@ -236,8 +249,9 @@ def _alternative_starts(model: SensorModel, data: Measurements, params: Sequence
     return [candidate for _, candidate in scored[:keep]]
 
 
-def _result(model: SensorModel, data: Measurements, solved, reasons: dict[str, str], noise: float | None,
-            starts: int, elapsed: float) -> FitResult:
+def _result(model: SensorModel, data: Measurements, solved: tuple[Any, Scaling], reasons: dict[str, str],
+            noise: float | None, starts: int, elapsed: float) -> FitResult:
+    """Package the best solution: values, Jacobian standard errors, residuals."""
     result, scaling = solved
     values = scaling.values(result.x)
     params = update(scaling.parameters, values=values)

@@ -9,6 +9,7 @@ readings are summarised in mm, % FS and ppm FS/K.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any, Sequence
 
 import numpy as np
@@ -55,50 +56,119 @@ def fit_summary(data: Measurements, effects: Sequence[str] = (), sensor: SensorC
     return summary
 
 
-def _calibration_summary(data: Measurements, model: SensorModel, result: FitResult,
-                         freq_hz: float) -> dict[str, Any] | None:
-    """Paper-style calibrations at one frequency and the position errors they give, or None."""
+@dataclass
+class HeatedErrors:
+    """Position errors of heated readings and the temperature rise (K) of each."""
+
+    errors: PositionErrors
+    rise_k: np.ndarray
+
+
+@dataclass
+class HeatedRows:
+    """Readings with the target present taken with the target heated (coil not) or the coil heated (target not).
+
+    Room is each thermocouple's 5th percentile; heated means more than ``HEATED_K`` above it.
+    """
+
+    coil: np.ndarray
+    target: np.ndarray
+    coil_rise_k: np.ndarray
+    target_rise_k: np.ndarray
+    coil_room_c: float
+
+    @classmethod
+    def of(cls, data: Measurements) -> "HeatedRows":
+        finite = np.isfinite(data.x_m)
+        coil_room = float(np.percentile(data.t_coil_c, 5))
+        coil_rise = data.t_coil_c - coil_room
+        target_rise = (data.t_target_c - np.percentile(data.t_target_c[finite], 5) if finite.any()
+                       else np.zeros(len(data)))
+        coil = finite & (coil_rise > HEATED_K) & (np.abs(target_rise) < HEATED_K)
+        target = finite & (target_rise > HEATED_K) & (np.abs(coil_rise) < HEATED_K)
+        return cls(coil, target, coil_rise, target_rise, coil_room)
+
+
+@dataclass
+class CalibrationCase:
+    """One paper-style calibration at one frequency and the position errors it gives."""
+
+    label: str
+    freq_hz: float
+    calibration: Calibration
+    room: PositionErrors
+    target_heated: HeatedErrors | None = None
+    coil_compensated: HeatedErrors | None = None
+    coil_uncompensated: HeatedErrors | None = None
+
+
+def calibration_cases(data: Measurements, model: SensorModel, result: FitResult, freq_hz: float, *,
+                      coil_heated: Measurements | None = None) -> list[CalibrationCase]:
+    """Calibrations at one frequency with all positions and the n = 4 sensitive ones; [] without a sweep.
+
+    Needs a room-temperature sweep with more than ``FEW_POINTS`` positions. Parameters other than
+    L0 and p1..p4 are held at ``result``'s values. Target-heated readings are those with the target
+    more than ``HEATED_K`` above room and the coil not; coil-heated ones the reverse, or the
+    ``coil_heated`` readings given (e.g. built from a coil-in-air heating run, see
+    ``compensation.heated_coil_sweep``), at this frequency.
+    """
     at_f = data.select(data.freq_hz == freq_hz)
     room = room_temperature_rows(at_f)
     finite = np.isfinite(at_f.x_m)
     if len(np.unique(np.round(at_f.x_m[room & finite], 7))) < FEW_POINTS + 1:
-        return None
+        return []
     held = {name: value for name, value in result.values.items() if name not in _CALIBRATED}
     sweep = at_f.select(room)
-    coil_rise = at_f.t_coil_c - np.percentile(at_f.t_coil_c, 5)
-    target_rise = at_f.t_target_c - np.percentile(at_f.t_target_c[finite], 5)
-    coil_hot = finite & (coil_rise > HEATED_K) & (np.abs(target_rise) < HEATED_K)
-    target_hot = finite & (target_rise > HEATED_K) & (np.abs(coil_rise) < HEATED_K)
-    out: dict[str, Any] = {"freq_hz": float(freq_hz)}
+    heated = HeatedRows.of(at_f)
+    coil_hot, target_hot, coil_rise, target_rise = heated.coil, heated.target, heated.coil_rise_k, heated.target_rise_k
+    if coil_heated is not None:
+        hot_coil = coil_heated.select((coil_heated.freq_hz == freq_hz) & np.isfinite(coil_heated.x_m))
+        hot_coil_rise = hot_coil.t_coil_c - heated.coil_room_c
+    else:
+        hot_coil, hot_coil_rise = at_f.select(coil_hot), coil_rise[coil_hot]
+    cases = []
     for label, n_points in (("all_points", None), (f"n{FEW_POINTS}", FEW_POINTS)):
         cal = calibrate(sweep, model.sensor, n_points=n_points, fixed=held, effects=model.effects)
+        case = CalibrationCase(label, float(freq_hz), cal, position_errors(cal, at_f.select(room & finite)))
+        if target_hot.any():
+            case.target_heated = HeatedErrors(position_errors(cal, at_f.select(target_hot)), target_rise[target_hot])
+        if len(hot_coil):
+            plain = calibrate(sweep, model.sensor, n_points=n_points, fixed={**held, "alpha": 0.0, "beta": 0.0},
+                              effects=model.effects)
+            case.coil_compensated = HeatedErrors(position_errors(cal, hot_coil), hot_coil_rise)
+            case.coil_uncompensated = HeatedErrors(position_errors(plain, hot_coil), hot_coil_rise)
+        cases.append(case)
+    return cases
+
+
+def _calibration_summary(data: Measurements, model: SensorModel, result: FitResult,
+                         freq_hz: float) -> dict[str, Any] | None:
+    """Paper-style calibrations at one frequency and the position errors they give, or None."""
+    cases = calibration_cases(data, model, result, freq_hz)
+    if not cases:
+        return None
+    out: dict[str, Any] = {"freq_hz": float(freq_hz)}
+    for case in cases:
+        cal = case.calibration
         entry: dict[str, Any] = {
             "n_points": cal.n_points,
             "positions_mm": (cal.positions_m * 1e3).tolist(),
             "fs_mm": cal.fs_m * 1e3,
             "rmse_ppm": cal.fit.rms_ppm,
             "params": {k: v for k, v in cal.fit.params_table().items() if k in _CALIBRATED},
-            "room_temperature": _errors(position_errors(cal, at_f.select(room & finite))),
+            "room_temperature": _errors(case.room),
         }
-        if coil_hot.any():
-            entry["coil_heated"] = _heated(cal, sweep, at_f.select(coil_hot), coil_rise[coil_hot], held,
-                                           n_points, model)
-        if target_hot.any():
-            errors = position_errors(cal, at_f.select(target_hot))
-            entry["target_heated"] = _errors(errors, target_rise[target_hot])
-        out[label] = entry
+        if case.coil_compensated is not None and case.coil_uncompensated is not None:
+            compensated = _errors(case.coil_compensated.errors, case.coil_compensated.rise_k)
+            uncompensated = _errors(case.coil_uncompensated.errors, case.coil_uncompensated.rise_k)
+            ratio = (compensated["max_abs_mm"] / uncompensated["max_abs_mm"]
+                     if uncompensated["max_abs_mm"] else None)
+            entry["coil_heated"] = {"compensated": compensated, "uncompensated": uncompensated,
+                                    "compensated_ratio": ratio}
+        if case.target_heated is not None:
+            entry["target_heated"] = _errors(case.target_heated.errors, case.target_heated.rise_k)
+        out[case.label] = entry
     return out
-
-
-def _heated(cal: Calibration, sweep: Measurements, hot: Measurements, rise: np.ndarray,
-            held: dict[str, float], n_points: int | None, model: SensorModel) -> dict[str, Any]:
-    """Errors of heated-coil readings with Eq. (4) (compensated) and with alpha = beta = 0."""
-    plain = calibrate(sweep, model.sensor, n_points=n_points, fixed={**held, "alpha": 0.0, "beta": 0.0},
-                      effects=model.effects)
-    compensated = _errors(position_errors(cal, hot), rise)
-    uncompensated = _errors(position_errors(plain, hot), rise)
-    ratio = compensated["max_abs_mm"] / uncompensated["max_abs_mm"] if uncompensated["max_abs_mm"] else None
-    return {"compensated": compensated, "uncompensated": uncompensated, "compensated_ratio": ratio}
 
 
 def _errors(errors: PositionErrors, rise_k: np.ndarray | None = None) -> dict[str, Any]:

@@ -10,6 +10,7 @@ spectroscopy        a list of bridge frequencies at given coil temperatures (Tab
 
 from __future__ import annotations
 
+import math
 from typing import Annotated, Literal, Union
 
 import numpy as np
@@ -66,6 +67,15 @@ class SweepConfig(_Strict):
             raise ValueError("give either positions_mm or start_mm/stop_mm/step_mm, not both")
         if self.positions_mm is not None and not self.positions_mm:
             raise ValueError("positions_mm is empty")
+        if self.positions_mm is None:
+            assert self.start_mm is not None and self.stop_mm is not None and self.step_mm is not None
+            span = abs(self.stop_mm - self.start_mm)
+            steps = span / self.step_mm
+            if abs(steps - round(steps)) > 1e-6 * max(1.0, steps):
+                near = sorted({span / n for n in (max(1, math.floor(steps)), math.ceil(steps))}, reverse=True)
+                raise ValueError(f"step_mm {self.step_mm:g} does not divide the {span:g} mm from start_mm to stop_mm "
+                                 f"(positions run from start_mm to stop_mm inclusive); allowed: a step that divides "
+                                 f"it, e.g. {' or '.join(f'{v:g}' for v in near)} mm")
         return self
 
     def positions(self) -> list[float]:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator, model_validator
 
 from ecds_lab.simulators.config import LabConfig
 
@@ -85,12 +85,19 @@ class StationConfig(_Strict):
     heaters: HeaterWiring = HeaterWiring()
     safety: SafetyConfig = SafetyConfig()
 
+    @field_validator(*ROLES)
+    @classmethod
+    def _driver_fits_role(cls, instrument: InstrumentConfig, info: ValidationInfo) -> InstrumentConfig:
+        allowed = ROLES[info.field_name]
+        if instrument.driver not in allowed:
+            raise ValueError(f"driver {instrument.driver!r} cannot serve as {info.field_name}; "
+                             f"allowed: {', '.join(allowed)}")
+        return instrument
+
     @model_validator(mode="after")
     def _check(self) -> "StationConfig":
-        for role, allowed in ROLES.items():
+        for role in ROLES:
             instrument: InstrumentConfig = getattr(self, role)
-            if instrument.driver not in allowed:
-                raise ValueError(f"{role}: driver {instrument.driver!r} cannot serve as {role}; allowed: {', '.join(allowed)}")
             if self.simulated is None and instrument.link is None:
                 raise ValueError(f"{role}: a real station needs a 'link' (serial url or visa resource)")
         return self

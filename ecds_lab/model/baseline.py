@@ -54,7 +54,9 @@ def baseline_unidentifiable(data: "Measurements") -> dict[str, str]:
         fixed["beta"] = f"coil temperature span {span:.1f} K < {MIN_SPAN_BETA_K:g} K"
     if len(np.unique(data.freq_hz)) < 2:
         fixed["C_p"] = "one frequency only: C_p is not separable from L0"
-    if len(np.unique(data.freq_hz[finite])) < 2:
+    if not finite.any():
+        fixed["tau_t"] = "no data with the target present"
+    elif len(np.unique(data.freq_hz[finite])) < 2:
         fixed["tau_t"] = "fewer than two frequencies with the target present: tau_t is not separable from p3"
     positions = len(np.unique(np.round(data.x_m[finite], 7)))
     air = bool((~finite).any())

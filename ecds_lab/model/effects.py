@@ -20,7 +20,7 @@ so later hooks see e.g. the effective target temperature. ``p`` maps every param
 name of the model to its value. History-dependent effects (moisture, thermal lag)
 integrate along time within each ``data.segment``.
 
-To add an effect: subclass ``Effect``, then add it to ``EFFECTS`` below.
+To add an effect: subclass ``Effect`` and enter it in ``EFFECTS`` with ``@register``.
 """
 
 from __future__ import annotations
@@ -54,6 +54,10 @@ class Effect:
     """Base of every effect: no parameters, every hook the identity."""
 
     name: ClassVar[str] = ""
+    #: Other start values worth a try where the fit can settle in a wrong valley (e.g. time constants).
+    alternative_starts: ClassVar[tuple[dict[str, float], ...]] = ()
+    #: One line saying what the effect explains (for diagnoses and reports).
+    explains: ClassVar[str] = ""
 
     def __init__(self, sensor: SensorConfig) -> None:
         self.sensor = sensor
@@ -92,9 +96,26 @@ class Effect:
 EFFECTS: dict[str, type[Effect]] = {}
 
 
+def register(cls: type[Effect]) -> type[Effect]:
+    """Class decorator: enter an effect in ``EFFECTS`` under its name (names must be unique)."""
+    if not cls.name:
+        raise ValueError(f"effect class {cls.__name__} has no name")
+    if EFFECTS.get(cls.name, cls) is not cls:
+        raise ValueError(f"effect name {cls.name!r} is registered twice")
+    EFFECTS[cls.name] = cls
+    return cls
+
+
+def library() -> dict[str, type[Effect]]:
+    """The registered effects, the library's modules imported (they register themselves)."""
+    import ecds_lab.model.library  # noqa: F401  (registers the library's effects)
+
+    return EFFECTS
+
+
 def make_effect(name: str, sensor: SensorConfig) -> Effect:
     """An effect by its DESIGN.md name; unknown names fail listing the known ones."""
-    if name in EFFECTS:
+    if name in library():
         return EFFECTS[name](sensor)
     known = ", ".join(sorted(EFFECTS)) or "none yet"
     if name in EFFECT_NAMES:

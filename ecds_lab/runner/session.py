@@ -80,6 +80,9 @@ def run_experiment(experiment_path: Path, station_path: Path | None = None, outp
         raise ConfigError(f"{experiment_path}: differs from the experiment recorded in {resume}; "
                           "resume with the same experiment file")
     output = Path(output) if output is not None else default_output(experiment_path, resume)
+    if resume is not None and output.resolve() == Path(resume).resolve():
+        raise RunFileError(f"{output}: a resumed run goes to a new file and never modifies {resume}; "
+                           "choose another -o")
     if output.exists() and not overwrite:
         raise RunFileError(f"{output} exists; choose another -o or pass --overwrite")
     started = time.monotonic()

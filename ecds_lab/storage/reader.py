@@ -6,7 +6,7 @@ Files are opened in SWMR-read mode, which also opens a file whose writer was kil
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import h5py
@@ -26,6 +26,8 @@ class RunFile:
     metadata: dict[str, str]
     points: np.ndarray
     transcripts: dict[str, list[TranscriptEvent]]
+    #: role -> the instrument's identification string (``*IDN?`` reply or banner) at the start of the run
+    identities: dict[str, str] = field(default_factory=dict)
 
     @property
     def status(self) -> str:
@@ -66,11 +68,24 @@ def read_run(path: str | Path, *, transcripts: bool = True) -> RunFile:
                                    f"this ecds-lab reads {', '.join(COLUMN_NAMES)}")
             points = table[()]
             events = _read_transcripts(entry) if transcripts and "transcripts" in entry else {}
+            identities = _read_identities(entry)
     except RunFileError:
         raise
     except (OSError, KeyError, ValueError) as exc:
         raise RunFileError(f"{path}: cannot read the run file (truncated or corrupt?): {exc}") from exc
-    return RunFile(path, metadata, points, events)
+    return RunFile(path, metadata, points, events, identities)
+
+
+def _read_identities(entry: h5py.Group) -> dict[str, str]:
+    """role -> identity string from /entry/instrument/<role> (roles without one are left out)."""
+    if "instrument" not in entry:
+        return {}
+    out = {}
+    for role, group in entry["instrument"].items():
+        identity = group.attrs.get("identity") if isinstance(group, h5py.Group) else None
+        if identity is not None:
+            out[role] = identity.decode() if isinstance(identity, bytes) else str(identity)
+    return out
 
 
 def _read_transcripts(entry: h5py.Group) -> dict[str, list[TranscriptEvent]]:

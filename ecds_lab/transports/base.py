@@ -12,7 +12,7 @@ from contextlib import contextmanager
 from typing import Iterator
 
 from ecds_lab.clock import Clock, WallClock
-from ecds_lab.errors import TransportError, TransportTimeout
+from ecds_lab.errors import EcdsLabError, TransportError, TransportTimeout
 from ecds_lab.transports.transcript import ERROR, RECEIVED, SENT, Transcript
 
 
@@ -120,7 +120,7 @@ class Transport(ABC):
         self._log(SENT, text)
         try:
             self._send(data)
-        except TransportError:
+        except EcdsLabError:  # already ours and named (a link's TransportError, a replay's ReplayDivergence)
             raise
         except Exception as exc:  # a serial/VISA library error becomes ours, with the instrument named
             self._log(ERROR, str(exc))

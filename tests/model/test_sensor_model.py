@@ -164,3 +164,20 @@ def test_parameter_names_must_be_unique():
 
     with pytest.raises(ValueError, match="L0"):
         SensorModel(effects=[Clash(SensorConfig())])
+
+
+def test_register_enters_an_effect_once(monkeypatch):
+    monkeypatch.setattr(effects_module, "EFFECTS", {})
+
+    @effects_module.register
+    class Demo(Effect):
+        name = "demo"
+
+    assert effects_module.EFFECTS == {"demo": Demo}
+    assert isinstance(make_effect("demo", SensorConfig()), Demo)
+
+    class Other(Effect):
+        name = "demo"
+
+    with pytest.raises(ValueError, match="twice"):
+        effects_module.register(Other)

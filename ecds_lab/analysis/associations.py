@@ -1,0 +1,128 @@
+"""Where does the residual live? A score per recorded variable, strongest first.
+
+For each variable the residual (ppm of L) is averaged in bins of that variable, within each
+frequency (an effect often differs between 500 Hz and 15 kHz). The score is the share of the
+residual's energy those bin means explain beyond what noise alone would explain by chance,
+so pure noise scores about 0 and a residual that is a clean function of the variable about 1.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from ecds_lab.analysis.dataset import Measurements
+
+MAX_BINS = 10
+#: Time is confounded with every phase of a campaign, so it ranks first only when it explains
+#: clearly more than every physical variable (by this factor).
+TIME_MARGIN = 1.25
+
+
+@dataclass(frozen=True)
+class Variable:
+    name: str
+    unit: str
+    values: Callable[[Measurements], np.ndarray]
+    categorical: bool = False
+
+
+VARIABLES: tuple[Variable, ...] = (
+    Variable("x_mm", "mm", lambda d: np.where(np.isfinite(d.x_m), d.x_mm, np.nan)),
+    Variable("freq_hz", "Hz", lambda d: d.freq_hz, categorical=True),
+    Variable("t_coil_c", "C", lambda d: d.t_coil_c),
+    Variable("t_target_c", "C", lambda d: d.t_target_c),
+    Variable("time_s", "s", lambda d: d.time_s),
+    Variable("direction", "", lambda d: np.where(np.isfinite(d.x_m), d.direction, np.nan).astype(float),
+             categorical=True),
+    Variable("coil_rate_k_per_min", "K/min", lambda d: d.coil_temperature_rate_k_per_s() * 60.0),
+)
+
+
+@dataclass(frozen=True)
+class Association:
+    variable: str
+    score: float
+    detail: str
+
+
+def _bin_index(values: np.ndarray, categorical: bool) -> tuple[np.ndarray, int]:
+    """Bin number of every value: one bin per category, else up to MAX_BINS quantile bins."""
+    if categorical:
+        _, index = np.unique(values, return_inverse=True)
+        return index, int(index.max()) + 1 if len(index) else 0
+    unique = np.unique(values)
+    if len(unique) <= MAX_BINS:
+        _, index = np.unique(values, return_inverse=True)
+        return index, len(unique)
+    edges = np.unique(np.quantile(values, np.linspace(0, 1, MAX_BINS + 1)))
+    index = np.clip(np.searchsorted(edges, values, side="right") - 1, 0, len(edges) - 2)
+    return index, len(edges) - 1
+
+
+def _explained(r: np.ndarray, index: np.ndarray, bins: int, noise_ppm: float) -> tuple[float, np.ndarray]:
+    """Energy explained by bin means beyond chance, and the bin means."""
+    counts = np.bincount(index, minlength=bins)
+    sums = np.bincount(index, weights=r, minlength=bins)
+    means = np.divide(sums, counts, out=np.zeros(bins), where=counts > 0)
+    occupied = int((counts > 0).sum())
+    between = float(np.sum(counts * (means - r.mean()) ** 2))
+    return max(0.0, between - (occupied - 1) * noise_ppm**2), means
+
+
+def _trend(v: np.ndarray, r: np.ndarray) -> float:
+    """Change of the residual over the variable's range by a straight-line fit (ppm)."""
+    if np.ptp(v) == 0:
+        return 0.0
+    slope = np.polyfit(v, r, 1)[0]
+    return float(slope * np.ptp(v))
+
+
+def _describe(variable: Variable, data: Measurements, values: np.ndarray, r: np.ndarray) -> str:
+    """Plain words: how the residual changes with the variable, per frequency."""
+    if variable.name == "freq_hz":
+        parts = [f"{r[data.freq_hz == f].mean():+.0f} ppm at {f:g} Hz" for f in np.unique(data.freq_hz)]
+        return "mean residual " + ", ".join(parts)
+    if variable.name == "direction":
+        parts = [f"{r[values == d].mean():+.0f} ppm when approaching {'upward' if d > 0 else 'downward'}"
+                 for d in (1.0, -1.0) if (values == d).any()]
+        return "mean residual " + " vs ".join(parts)
+    changes = []
+    for f in np.unique(data.freq_hz):
+        rows = (data.freq_hz == f) & np.isfinite(values)
+        if rows.sum() >= 3:
+            changes.append((f, _trend(values[rows], r[rows]), float(np.nanmin(values[rows])),
+                            float(np.nanmax(values[rows]))))
+    if not changes:
+        return "too few readings"
+    text = ", ".join(f"{change:+.0f} ppm over {lo:.4g}..{hi:.4g} {variable.unit} at {f:g} Hz"
+                     for f, change, lo, hi in changes)
+    sizes = sorted(((abs(c), f) for f, c, _, _ in changes), reverse=True)
+    if len(sizes) >= 2 and sizes[-1][0] > 0 and sizes[0][0] > 2 * sizes[-1][0]:
+        text += f" ({sizes[0][0] / sizes[-1][0]:.1f}x larger at {sizes[0][1]:g} Hz)"
+    return "residual changes by " + text
+
+
+def residual_associations(data: Measurements, residuals_ppm: np.ndarray, noise_ppm: float) -> list[Association]:
+    """Score every variable by how much of the residual it explains; strongest first."""
+    r = np.asarray(residuals_ppm, float)
+    total = float(np.sum((r - r.mean()) ** 2)) or 1.0
+    out = []
+    for variable in VARIABLES:
+        values = variable.values(data)
+        explained = 0.0
+        groups = [np.ones(len(r), bool)] if variable.name == "freq_hz" else \
+            [data.freq_hz == f for f in np.unique(data.freq_hz)]
+        for group in groups:
+            rows = group & np.isfinite(values)
+            if rows.sum() < 3:
+                continue
+            index, bins = _bin_index(values[rows], variable.categorical)
+            if bins < 2:
+                continue
+            explained += _explained(r[rows], index, bins, noise_ppm)[0]
+        score = min(1.0, explained / total)
+        out.append(Association(variable.name, round(score, 4), _describe(variable, data, values, r)))
+    return sorted(out, key=lambda a: -(a.score / TIME_MARGIN if a.variable == "time_s" else a.score))

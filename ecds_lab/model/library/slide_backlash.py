@@ -1,0 +1,30 @@
+"""slide_backlash: the position reached depends on the direction of approach.
+
+Lead-screw play leaves the carriage short of the commanded position by half the backlash,
+on the side it came from: x_eff = x - direction * b / 2 (direction +1 increasing x, -1 decreasing).
+"""
+
+from __future__ import annotations
+
+from typing import Mapping
+
+import numpy as np
+
+from ecds_lab.model.effects import Effect, register
+from ecds_lab.model.parameters import Parameter
+
+
+@register
+class SlideBacklash(Effect):
+    name = "slide_backlash"
+    explains = "the slide stops short by half its backlash, on the side it approached from"
+
+    def parameters(self) -> list[Parameter]:
+        return [Parameter("backlash", 0.0, -1e-3, 1e-3, "m", "slide backlash (play between directions)", 2e-5)]
+
+    def unidentifiable(self, data) -> dict[str, str]:  # noqa: ANN001
+        directions = set(np.unique(data.direction[np.isfinite(data.x_m)]).tolist()) - {0}
+        return {} if directions == {-1, 1} else {"backlash": "the data approach from one direction only"}
+
+    def effective_distance(self, x_m: np.ndarray, data, p: Mapping[str, float]) -> np.ndarray:  # noqa: ANN001
+        return x_m - data.direction * p["backlash"] / 2

@@ -1,0 +1,36 @@
+"""thermal_lag: the winding's temperature lags the thermocouple on the former (first order).
+
+The thermocouple reads the former, the inductance follows the winding; during ramps the
+winding trails by a time constant tau_lag: dT_w/dt = (T_tc - T_w) / tau_lag, per recording.
+"""
+
+from __future__ import annotations
+
+from typing import Mapping
+
+import numpy as np
+
+from ecds_lab.model.effects import Effect, register
+from ecds_lab.model.library.history import first_order_lag, segment_rows
+from ecds_lab.model.parameters import Parameter
+
+
+@register
+class ThermalLag(Effect):
+    name = "thermal_lag"
+    explains = "the winding lags the coil thermocouple during temperature changes"
+    alternative_starts = ({"lag_tau": 15.0}, {"lag_tau": 600.0}, {"lag_tau": 2400.0})
+
+    def parameters(self) -> list[Parameter]:
+        return [Parameter("lag_tau", 60.0, 1.0, 7200.0, "s", "time constant of the winding behind the thermocouple",
+                          100.0)]
+
+    def unidentifiable(self, data) -> dict[str, str]:  # noqa: ANN001
+        rate = np.abs(data.coil_temperature_rate_k_per_s())
+        return {} if rate.max(initial=0.0) > 1e-3 else {"lag_tau": "the coil temperature never changes"}
+
+    def winding_temperature(self, t_c: np.ndarray, data, p: Mapping[str, float]) -> np.ndarray:  # noqa: ANN001
+        out = np.array(t_c, dtype=float)
+        for rows in segment_rows(data):
+            out[rows] = first_order_lag(data.time_s[rows], out[rows], p["lag_tau"])
+        return out

@@ -1,0 +1,257 @@
+"""Figures of the model fit: L(x) with the fitted model (Fig. 6), sensitivity (Fig. 7), residual maps
+and the diagnosis (candidate ranking, residuals before and after the best effect)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable, Sequence
+
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.colors import Normalize
+
+from ecds_lab.analysis.dataset import Measurements
+from ecds_lab.analysis.fitting import FitResult
+from ecds_lab.report.canvas import Png, styled, subplots, to_png
+
+#: Readings of one state are within this many kelvin (target and coil) of each other.
+STATE_BIN_K = 5.0
+#: A state is drawn as a curve when it has readings at this many positions or more.
+MIN_CURVE_POSITIONS = 5
+GREY = "0.6"
+MATERIAL_MARKERS = {"copper": "o", "steel": "s"}
+CATEGORY_COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown", "tab:pink")
+
+
+@dataclass(frozen=True)
+class Variable:
+    """A recorded variable as the residual plots show it."""
+
+    name: str
+    label: str
+    values: Callable[[Measurements], np.ndarray]
+    categorical: bool = False
+
+
+VARIABLES: dict[str, Variable] = {v.name: v for v in (
+    Variable("x_mm", "distance x (mm)", lambda d: np.where(np.isfinite(d.x_m), d.x_mm, np.nan)),
+    Variable("t_coil_c", "coil temperature (°C)", lambda d: d.t_coil_c),
+    Variable("t_target_c", "target temperature (°C)", lambda d: d.t_target_c),
+    Variable("time_s", "time in run (h)", lambda d: d.time_s / 3600.0),
+    Variable("direction", "direction of approach", lambda d: np.where(np.isfinite(d.x_m), d.direction, np.nan),
+             categorical=True),
+    Variable("freq_hz", "frequency (Hz)", lambda d: d.freq_hz, categorical=True),
+    Variable("coil_rate_k_per_min", "coil temperature rate (K/min)",
+             lambda d: d.coil_temperature_rate_k_per_s() * 60.0),
+)}
+#: Abscissae of the residual maps; each is coloured by every other variable (and frequency).
+MAP_AXES = ("x_mm", "t_coil_c", "t_target_c", "time_s", "direction")
+MAP_COLOURS = ("x_mm", "t_coil_c", "t_target_c", "time_s", "direction", "freq_hz")
+
+
+@dataclass
+class Curve:
+    """Readings of one group in one thermal state at one frequency, with the fitted model."""
+
+    material: str
+    fit: FitResult
+    data: Measurements
+
+
+def states(data: Measurements) -> list[np.ndarray]:
+    """Row indices of each thermal state (target and coil temperature within STATE_BIN_K), coolest first."""
+    key = np.round(data.t_target_c / STATE_BIN_K) * 1000 + np.round(data.t_coil_c / STATE_BIN_K)
+    return [np.flatnonzero(key == k) for k in np.unique(key)]
+
+
+def model_grid(fit: FitResult, freq_hz: float, t_coil_c: float, t_target_c: float,
+               x_mm: np.ndarray) -> np.ndarray:
+    """The fitted model's Ls (H) over distances at one frequency and thermal state."""
+    n = len(x_mm)
+    grid = Measurements(time_s=np.arange(n, dtype=float), x_m=np.asarray(x_mm) * 1e-3, freq_hz=np.full(n, freq_hz),
+                        t_coil_c=np.full(n, t_coil_c), t_target_c=np.full(n, t_target_c), ls_h=np.ones(n),
+                        rs_ohm=np.ones(n), source="model grid")
+    return fit.predict(grid)
+
+
+def _state_label(material: str, rows: Measurements) -> str:
+    return (f"{material}, target {np.mean(rows.t_target_c):.0f} °C, "
+            f"coil {np.mean(rows.t_coil_c):.0f} °C")
+
+
+@styled
+def inductance_vs_distance(groups: Sequence[tuple[str, FitResult, Measurements]]) -> Png:
+    """Fig. 6: measured L(x) per frequency and thermal state, the fitted model over it."""
+    freqs = np.unique(np.concatenate([d.freq_hz[np.isfinite(d.x_m)] for _, _, d in groups]))
+    fig, axes = subplots(4.6 * len(freqs) + 1.8, 4.2, 1, len(freqs), sharey=False)
+    all_t = np.concatenate([d.t_target_c for _, _, d in groups])
+    norm = Normalize(float(np.min(all_t)), max(float(np.max(all_t)), float(np.min(all_t)) + 1.0))
+    cmap = _cmap("plasma")
+    for ax, freq in zip(axes[0], freqs):
+        for material, fit, data in groups:
+            part = data.select(np.isfinite(data.x_m) & (data.freq_hz == freq))
+            marker = MATERIAL_MARKERS.get(material, "^")
+            for rows in states(part):
+                state = part.select(rows)
+                positions = np.unique(np.round(state.x_mm, 4))
+                colour = cmap(norm(np.mean(state.t_target_c)))
+                if len(positions) < MIN_CURVE_POSITIONS:
+                    ax.plot(state.x_mm, state.ls_h * 1e3, marker, ms=2.5, color=GREY, alpha=0.6, ls="none")
+                    continue
+                ax.plot(state.x_mm, state.ls_h * 1e3, marker, ms=3.5, mfc="none", color=colour, ls="none",
+                        label=_state_label(material, state))
+                x = np.linspace(positions.min(), positions.max(), 120)
+                model = model_grid(fit, float(freq), float(np.mean(state.t_coil_c)),
+                                   float(np.mean(state.t_target_c)), x)
+                ax.plot(x, model * 1e3, "-", color=colour, lw=1.0)
+        ax.set_title(f"{freq:g} Hz: measured (markers), fitted model (lines)")
+        ax.set_xlabel("distance x (mm)")
+        ax.set_ylabel("inductance L (mH)")
+    fig.colorbar(_mappable(norm, cmap), ax=axes[0, -1], label="target temperature (°C)", shrink=0.9)
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    if labels:
+        axes[0, 0].legend(handles[:12], labels[:12], loc="lower right", frameon=False)
+    return to_png(fig, "Measured inductance against distance per frequency, with the fitted model")
+
+
+@styled
+def sensitivity(groups: Sequence[tuple[str, FitResult, Measurements]]) -> Png:
+    """Fig. 7: S = dL/dx at room temperature per frequency: model (lines), measured differences (markers)."""
+    from ecds_lab.analysis.calibration import room_temperature_rows
+
+    freqs = np.unique(np.concatenate([d.freq_hz[np.isfinite(d.x_m)] for _, _, d in groups]))
+    fig, axes = subplots(4.4 * len(freqs), 3.6, 1, len(freqs))
+    for ax, freq in zip(axes[0], freqs):
+        for (material, fit, data), colour in zip(groups, CATEGORY_COLOURS):
+            room = data.select(room_temperature_rows(data) & np.isfinite(data.x_m) & (data.freq_hz == freq))
+            if not len(room):
+                continue
+            positions, index = np.unique(np.round(room.x_mm, 4), return_inverse=True)
+            mean_l = np.bincount(index, room.ls_h) / np.bincount(index)
+            if len(positions) >= 3:
+                measured = np.gradient(mean_l, positions * 1e-3)
+                ax.plot(positions, measured * 1e3, MATERIAL_MARKERS.get(material, "^"), ms=3.5, mfc="none",
+                        color=colour, label=f"{material}: measured (finite differences)")
+            x = np.linspace(positions.min(), positions.max(), 200)
+            model = model_grid(fit, float(freq), float(np.mean(room.t_coil_c)), float(np.mean(room.t_target_c)), x)
+            ax.plot(x, np.gradient(model, x * 1e-3) * 1e3, "-", color=colour, lw=1.2, label=f"{material}: model")
+        ax.set_title(f"sensitivity at {freq:g} Hz, room temperature")
+        ax.set_xlabel("distance x (mm)")
+        ax.set_ylabel("S = dL/dx (µH/mm)")
+        ax.legend(frameon=False)
+    return to_png(fig, "Sensitivity dL/dx against distance per frequency")
+
+
+@styled
+def residual_maps(data: Measurements, residuals_ppm: np.ndarray, noise_ppm: float | None) -> Png:
+    """Residual (ppm of L) against x, temperatures, time and direction, each coloured by the other variables."""
+    rows, cols = len(MAP_AXES), len(MAP_COLOURS) - 1
+    fig, axes = subplots(2.45 * cols, 2.0 * rows, rows, cols, sharey=True)
+    r = np.asarray(residuals_ppm, float)
+    values = {name: VARIABLES[name].values(data) for name in MAP_COLOURS}
+    rng = np.random.default_rng(0)
+    jitter = rng.uniform(-0.18, 0.18, len(data))
+    for i, axis_name in enumerate(MAP_AXES):
+        x = values[axis_name] + (jitter if VARIABLES[axis_name].categorical else 0.0)
+        colours = [c for c in MAP_COLOURS if c != axis_name][:cols]
+        for j, colour_name in enumerate(colours):
+            ax = axes[i, j]
+            _coloured_scatter(ax, x, r, values[colour_name], VARIABLES[colour_name], show_key=True)
+            if noise_ppm:
+                ax.axhspan(-noise_ppm, noise_ppm, color="0.85", zorder=0, lw=0)
+            ax.axhline(0.0, color="0.4", lw=0.6, zorder=1)
+            if i == 0:
+                ax.set_title(f"colour: {VARIABLES[colour_name].label}", fontsize=8)
+            if j == 0:
+                ax.set_ylabel("residual (ppm of L)")
+            ax.set_xlabel(VARIABLES[axis_name].label, fontsize=8)
+            if axis_name == "direction":
+                ax.set_xticks([-1, 0, 1], ["−", "0", "+"])
+    return to_png(fig, "Residual maps: residual in ppm against distance, temperatures, time and direction, "
+                       "coloured by the other variables")
+
+
+def _coloured_scatter(ax: Axes, x: np.ndarray, y: np.ndarray, c: np.ndarray, variable: Variable,
+                      show_key: bool) -> None:
+    """Scatter coloured by a variable: discrete colours for a categorical one, a colour bar otherwise."""
+    known = np.isfinite(c) & np.isfinite(x)
+    if (~np.isfinite(c) & np.isfinite(x)).any():
+        unknown = ~np.isfinite(c) & np.isfinite(x)
+        ax.scatter(x[unknown], y[unknown], s=4, color=GREY, lw=0, rasterized=True)
+    if variable.categorical:
+        for value, colour in zip(np.unique(c[known]), CATEGORY_COLOURS):
+            sel = known & (c == value)
+            label = f"{value:+.0f}" if variable.name == "direction" else f"{value:g}"
+            ax.scatter(x[sel], y[sel], s=4, color=colour, lw=0, label=label, rasterized=True)
+        if show_key and known.any():
+            ax.legend(loc="upper right", frameon=False, markerscale=2.0, handletextpad=0.1, borderaxespad=0.1)
+        return
+    if not known.any():
+        return
+    cmap = _cmap("viridis")
+    low, high = float(np.min(c[known])), float(np.max(c[known]))
+    points = ax.scatter(x[known], y[known], s=4, c=c[known], cmap=cmap, vmin=low, vmax=max(high, low + 1e-9), lw=0,
+                        rasterized=True)
+    if show_key:
+        bar = ax.figure.colorbar(points, ax=ax, pad=0.01, fraction=0.06, aspect=25)
+        bar.ax.tick_params(labelsize=6.5)
+
+
+@styled
+def candidate_ranking(effects: Sequence[str], rms_ppm: Sequence[float], delta_bic: Sequence[float],
+                      baseline_rms_ppm: float, noise_ppm: float) -> Png:
+    """The diagnosis' candidates: residual RMS and delta BIC (best first, at the top)."""
+    n = len(effects)
+    fig, axes = subplots(9.5, 1.0 + 0.38 * n, 1, 2, sharey=True)
+    y = np.arange(n)[::-1]
+    colours = ["tab:green" if i == 0 and delta_bic[0] < 0 else "tab:blue" for i in range(n)]
+    ax = axes[0, 0]
+    ax.barh(y, rms_ppm, color=colours, height=0.6)
+    ax.axvline(baseline_rms_ppm, color="tab:red", lw=1.2, ls="--", label=f"baseline {baseline_rms_ppm:.1f} ppm")
+    ax.axvline(noise_ppm, color="0.2", lw=1.2, ls=":", label=f"noise {noise_ppm:.1f} ppm")
+    ax.set_yticks(y, effects)
+    ax.set_xlabel("residual RMS with the effect added (ppm of L)")
+    ax.set_xlim(0, 1.08 * max(max(rms_ppm), baseline_rms_ppm, noise_ppm))
+    ax.legend(loc="lower right", frameon=True, framealpha=0.9)
+    ax = axes[0, 1]
+    ax.barh(y, delta_bic, color=colours, height=0.6)
+    ax.axvline(0.0, color="0.3", lw=0.8)
+    ax.set_xlabel("ΔBIC against the baseline (negative: the effect earns its parameters)")
+    return to_png(fig, "Diagnosis: candidate effects ranked by residual RMS and delta BIC")
+
+
+@styled
+def before_after(data: Measurements, before_ppm: np.ndarray, after_ppm: np.ndarray, effect: str,
+                 variables: Sequence[str], noise_ppm: float | None) -> Png:
+    """Residuals of the baseline and of the baseline plus the best effect against the most telling variables."""
+    names = [v for v in variables if v in VARIABLES][:3] or ["x_mm"]
+    fig, axes = subplots(4.0 * len(names), 3.4, 1, len(names), sharey=True)
+    jitter = np.random.default_rng(1).uniform(-0.18, 0.18, len(data))
+    for ax, name in zip(axes[0], names):
+        variable = VARIABLES[name]
+        x = variable.values(data) + (jitter if variable.categorical else 0.0)
+        if noise_ppm:
+            ax.axhspan(-noise_ppm, noise_ppm, color="0.88", zorder=0, lw=0, label="± noise")
+        ax.scatter(x, before_ppm, s=5, color="tab:red", alpha=0.45, lw=0, label="baseline", rasterized=True)
+        ax.scatter(x, after_ppm, s=5, color="tab:blue", alpha=0.7, lw=0, label=f"+ {effect}", rasterized=True)
+        ax.axhline(0.0, color="0.4", lw=0.6)
+        ax.set_xlabel(variable.label)
+        if name == "freq_hz":
+            ax.set_xscale("log")
+        if name == "direction":
+            ax.set_xticks([-1, 0, 1], ["−", "0", "+"])
+    axes[0, 0].set_ylabel("residual (ppm of L)")
+    axes[0, 0].legend(loc="upper left", frameon=True, framealpha=0.9, markerscale=2.0)
+    return to_png(fig, f"Residuals before and after adding {effect}")
+
+
+def _cmap(name: str):  # noqa: ANN202
+    import matplotlib
+
+    return matplotlib.colormaps[name]
+
+
+def _mappable(norm: Normalize, cmap):  # noqa: ANN001, ANN202
+    from matplotlib.cm import ScalarMappable
+
+    return ScalarMappable(norm=norm, cmap=cmap)

@@ -1,0 +1,185 @@
+"""What the report shows, computed from its inputs: fits, diagnosis, calibrations, heating, spectroscopy.
+
+Every part the data cannot support is an ``Omitted`` carrying the one-line reason the report
+prints instead. Readings are grouped by target material (a copper and a steel target cannot
+share one model); coil-in-air recordings belong to every group, since the coil alone does not
+depend on the target. The main group (copper when present) gets the residual maps and the
+diagnosis.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ecds_lab.analysis.calibration import room_temperature_rows
+from ecds_lab.analysis.compensation import TemperatureCompensation, fit_coil_temperature, heated_coil_sweep
+from ecds_lab.analysis.dataset import Measurements
+from ecds_lab.analysis.fitting import FitResult, fit_model
+from ecds_lab.analysis.spectroscopy import RlcFit, fit_parallel_rlc
+from ecds_lab.analysis.summary import CalibrationCase, HeatedRows, calibration_cases
+from ecds_lab.model.sensor import SensorConfig
+from ecds_lab.model.sensor_model import SensorModel
+from ecds_lab.report.inputs import DEFAULT_TARGET, SPECTROSCOPY_MIN_FREQUENCIES, ReportInput
+
+log = logging.getLogger("ecds_lab.report")
+
+#: A coil-in-air recording must span this many kelvin of coil temperature to characterise heating.
+MIN_HEATING_SPAN_K = 10.0
+
+
+@dataclass
+class Omitted:
+    """A part of the report the data cannot support, and why (one line)."""
+
+    reason: str
+
+
+@dataclass
+class TargetGroup:
+    """The readings of one target material, the baseline fit and the calibrations per frequency."""
+
+    material: str
+    sources: list[str]
+    data: Measurements
+    fit: FitResult
+    cases: dict[float, list[CalibrationCase]] = field(default_factory=dict)
+    coil_from_air: bool = False
+
+    @property
+    def has_target(self) -> bool:
+        return bool(np.isfinite(self.data.x_m).any())
+
+
+@dataclass
+class CoilHeating:
+    """Eq. (4) fitted to the coil-in-air readings of every input."""
+
+    data: Measurements
+    compensation: TemperatureCompensation
+
+
+@dataclass
+class Spectrum:
+    """One impedance spectrum (a pass over the frequencies) and its parallel RLC fit."""
+
+    source: str
+    data: Measurements
+    fit: RlcFit
+
+
+@dataclass
+class Findings:
+    inputs: list[ReportInput]
+    groups: list[TargetGroup] | Omitted
+    diagnosis: Any
+    heating: CoilHeating | Omitted
+    spectra: list[Spectrum] | Omitted
+
+    @property
+    def main(self) -> TargetGroup | None:
+        return self.groups[0] if isinstance(self.groups, list) and self.groups else None
+
+
+def find(inputs: list[ReportInput], diagnosis: Any = None) -> Findings:
+    """Everything the report shows; ``diagnosis`` (a Diagnosis of the main group) skips running one."""
+    model_inputs = [i for i in inputs if not i.is_spectroscopy]
+    groups = target_groups(model_inputs)
+    heating = coil_heating(model_inputs)
+    if isinstance(groups, list):
+        for group in groups:
+            group.cases, group.coil_from_air = calibrations(group, heating)
+    main = groups[0] if isinstance(groups, list) and groups else None
+    if diagnosis is None:
+        diagnosis = run_diagnosis_of(main) if main is not None else Omitted(groups.reason)
+    return Findings(inputs, groups, diagnosis, heating, spectra_of(inputs))
+
+
+def target_groups(inputs: list[ReportInput]) -> list[TargetGroup] | Omitted:
+    """One fitted group per target material, the main one (copper if present, else the largest) first."""
+    if not inputs:
+        return Omitted("no data for the sensor model: every input is a spectroscopy recording")
+    with_target = [i for i in inputs if np.isfinite(i.data.x_m).any()]
+    coil_only = [i for i in inputs if i not in with_target]
+    materials = sorted({i.target for i in with_target}) or [DEFAULT_TARGET]
+    groups = []
+    for material in materials:
+        members = [i for i in with_target if i.target == material] + coil_only
+        data = Measurements.concatenate([i.data for i in members])
+        model = SensorModel(SensorConfig(target=material))
+        groups.append(TargetGroup(material, [i.name for i in members], data, fit_model(model, data)))
+    groups.sort(key=lambda g: (g.material != DEFAULT_TARGET, -len(g.data)))
+    return groups
+
+
+def calibrations(group: TargetGroup, heating: CoilHeating | Omitted) -> tuple[dict[float, list[CalibrationCase]], bool]:
+    """Paper-style calibrations per frequency (n = all and n = 4), with heated-coil readings built
+    from the coil-in-air recording when the group has no sweep with the coil heated."""
+    data, cases = group.data, {}
+    if not group.has_target:
+        return cases, False
+    synthetic = None
+    if not HeatedRows.of(data).coil.any() and isinstance(heating, CoilHeating):
+        sweep = data.select(room_temperature_rows(data) & np.isfinite(data.x_m))
+        built = heated_coil_sweep(sweep, heating.data)
+        synthetic = built if len(built) else None
+    for freq in data.frequencies_hz:
+        found = calibration_cases(data, group.fit.model, group.fit, float(freq), coil_heated=synthetic)
+        if found:
+            cases[float(freq)] = found
+    return cases, synthetic is not None
+
+
+def coil_heating(inputs: list[ReportInput]) -> CoilHeating | Omitted:
+    """Eq. (4) on every coil-in-air reading, when they span enough coil temperature."""
+    parts = [i.data.select(i.data.in_air) for i in inputs if i.data.in_air.any()]
+    if not parts:
+        return Omitted("no coil-heating data: no readings of the coil in air (x_mm = inf)")
+    air = Measurements.concatenate(parts)
+    span = float(np.ptp(air.t_coil_c))
+    if span < MIN_HEATING_SPAN_K:
+        return Omitted(f"no coil-heating data: the coil-in-air readings span {span:.1f} K of coil temperature "
+                       f"(at least {MIN_HEATING_SPAN_K:.0f} K needed)")
+    return CoilHeating(air, fit_coil_temperature(air))
+
+
+def spectra_of(inputs: list[ReportInput]) -> list[Spectrum] | Omitted:
+    """Parallel RLC fits of every spectrum in the spectroscopy inputs."""
+    spectra = []
+    for item in inputs:
+        if not item.is_spectroscopy:
+            continue
+        air = item.data.select(item.data.in_air)
+        for rows in split_spectra(air):
+            part = air.select(rows)
+            if len(np.unique(part.freq_hz)) < SPECTROSCOPY_MIN_FREQUENCIES:
+                continue
+            fit = fit_parallel_rlc(part.freq_hz, part.ls_h, part.rs_ohm)
+            fit.t_coil_c = float(np.mean(part.t_coil_c))
+            spectra.append(Spectrum(item.name, part, fit))
+    if not spectra:
+        return Omitted(f"no spectroscopy data: no input has coil-in-air readings at "
+                       f"{SPECTROSCOPY_MIN_FREQUENCIES} or more frequencies")
+    return spectra
+
+
+def split_spectra(data: Measurements) -> list[np.ndarray]:
+    """Row indices of each pass over the frequencies: a new pass starts where the frequency falls."""
+    starts = np.flatnonzero((np.diff(data.freq_hz) < 0) | (np.diff(data.segment) != 0)) + 1
+    return np.split(np.arange(len(data)), starts)
+
+
+def run_diagnosis_of(group: TargetGroup) -> Any:
+    """The diagnosis of the main group, or Omitted saying why there is none."""
+    try:
+        from ecds_lab.analysis.diagnosis import run_diagnosis
+    except ImportError as exc:
+        return Omitted(f"the diagnosis is not available in this installation ({exc})")
+    try:
+        return run_diagnosis(group.data, sensor=group.fit.model.sensor)
+    except Exception as exc:  # noqa: BLE001 - one failing analysis must not cost the whole report
+        log.warning("diagnosis failed", exc_info=True)
+        return Omitted(f"the diagnosis failed: {type(exc).__name__}: {exc}")

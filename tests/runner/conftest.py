@@ -1,0 +1,78 @@
+"""Fixtures of the runner tests: the stations a run opened, events at a simulated time, safe-state checks."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Callable
+
+import pytest
+
+import ecds_lab.runner.session
+from ecds_lab.clock import SimulatedClock
+from ecds_lab.station import Station
+from ecds_lab.storage.reader import read_run
+from ecds_lab.transports.transcript import SENT
+
+
+def all_off_commands(outputs: int) -> list[str]:
+    """What HMP4040.all_off puts on the wire: master switch off, then every output disarmed (drivers/hmp.py)."""
+    return ["OUTP:GEN OFF"] + [c for n in range(1, outputs + 1) for c in (f"INST OUT{n}", "OUTP:SEL OFF")]
+
+
+@pytest.fixture
+def opened_stations(monkeypatch: pytest.MonkeyPatch) -> list[Station]:
+    """Every Station that run_experiment opens (its ``.lab`` is the SimulatedLab behind the simulators)."""
+    stations: list[Station] = []
+    real_open = ecds_lab.runner.session.open_station
+
+    def keep(*args: Any, **kwargs: Any) -> Station:
+        station = real_open(*args, **kwargs)
+        stations.append(station)
+        return station
+
+    monkeypatch.setattr(ecds_lab.runner.session, "open_station", keep)
+    return stations
+
+
+@pytest.fixture
+def at_simulated_time(monkeypatch: pytest.MonkeyPatch) -> Callable[[float, Callable[[], None]], list[float]]:
+    """``at_simulated_time(1800, action)``: run ``action`` once, when a simulated clock first sleeps past 1800 s.
+
+    ``action`` may be an exception class, which is then raised there (``KeyboardInterrupt``: Ctrl-C
+    arriving while the runner or a driver waits). Returns a list that receives the simulated time
+    at which the action ran.
+    """
+    real_sleep = SimulatedClock.sleep
+
+    def install(after_s: float, action: Callable[[], None] | type[BaseException]) -> list[float]:
+        fired: list[float] = []
+
+        def sleep(self: SimulatedClock, seconds: float) -> None:
+            real_sleep(self, seconds)
+            if not fired and self.now() >= after_s:
+                fired.append(self.now())
+                if isinstance(action, type) and issubclass(action, BaseException):
+                    raise action
+                action()
+
+        monkeypatch.setattr(SimulatedClock, "sleep", sleep)
+        return fired
+
+    return install
+
+
+@pytest.fixture
+def assert_heater_off() -> Callable[..., None]:
+    """Check that a run left the heater off: the simulated supply's outputs, the heater's transcript in
+    memory and (given the run file) the transcript the file recorded all end with the all-off commands."""
+
+    def check(station: Station, run_file: Path | None = None) -> None:
+        assert station.lab is not None
+        assert {n: out.on for n, out in station.lab.supply.items()} == {n: False for n in station.lab.supply}
+        expected = all_off_commands(station.heater.outputs)
+        assert station.transports["heater"].transcript.sent()[-len(expected):] == expected
+        if run_file is not None:
+            recorded = [e.text for e in read_run(run_file).transcripts["heater"] if e.kind == SENT]
+            assert recorded[-len(expected):] == expected
+
+    return check

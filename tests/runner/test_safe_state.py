@@ -1,0 +1,138 @@
+"""Ctrl-C and interlocks while heating: the heater ends off, the file says how the run ended, points are kept."""
+
+from __future__ import annotations
+
+import os
+import signal
+
+import numpy as np
+import pytest
+
+from ecds_lab.drivers.hmp import HMP4040
+from ecds_lab.runner.plan import build_plan
+from ecds_lab.runner.session import load_experiment, run_experiment
+from ecds_lab.station import load_station_config
+from ecds_lab.storage.columns import PLANNED_POINT
+from ecds_lab.storage.reader import read_run
+from ecds_lab.storage.run_file import RunWriter
+
+HEATING = "target_heating_copper.yaml"
+#: Simulated time at which faults arrive: past the first (ambient) sweep, while heating to the second setpoint.
+MID_HEATING_S = 1800.0
+
+
+def run_heating(*args, **kwargs):  # noqa: ANN002, ANN003, ANN201
+    """run_experiment, where a KeyboardInterrupt that escapes fails the test (instead of stopping pytest)."""
+    try:
+        return run_experiment(*args, progress=False, **kwargs)
+    except KeyboardInterrupt:
+        pytest.fail("KeyboardInterrupt escaped run_experiment: the run was not closed and made safe")
+
+
+@pytest.fixture
+def appended(monkeypatch: pytest.MonkeyPatch) -> list[tuple[int, int]]:
+    """(kind, point) of every row the runner handed to the run file, in order."""
+    rows: list[tuple[int, int]] = []
+    real_append = RunWriter.append
+
+    def append(self: RunWriter, values: dict) -> None:
+        real_append(self, values)
+        rows.append((int(values["kind"]), int(values["point"])))
+
+    monkeypatch.setattr(RunWriter, "append", append)
+    return rows
+
+
+def test_ctrl_c_while_heating_aborts_with_the_heater_off_and_keeps_the_points(
+        tmp_path, experiments_dir, opened_stations, at_simulated_time, appended, assert_heater_off):
+    heater_on_at_interrupt: list[bool] = []
+
+    def interrupt() -> None:
+        lab = opened_stations[0].lab
+        heater_on_at_interrupt.append(any(out.on for out in lab.supply.values()))
+        raise KeyboardInterrupt
+
+    fired = at_simulated_time(MID_HEATING_S, interrupt)
+    output = tmp_path / "heating.h5"
+    result = run_heating(experiments_dir / HEATING, None, output)
+
+    assert fired and heater_on_at_interrupt == [True], "the interrupt must arrive while the heater is on"
+    assert result.status == "aborted" and "Ctrl-C" in result.error
+    recorded = read_run(output)
+    assert recorded.status == "aborted" and "Ctrl-C" in recorded.metadata["error"]
+    (station,) = opened_stations
+    assert_heater_off(station, output)
+
+    # every row measured before the interrupt is in the file, in order, and nothing else
+    kinds, points = recorded.column("kind").astype(int), recorded.column("point").astype(int)
+    assert list(zip(kinds, points)) == appended
+    planned = points[kinds == PLANNED_POINT]
+    assert list(planned) == list(range(len(planned)))
+    plan = build_plan(load_experiment(experiments_dir / HEATING))
+    first_setpoint = [p for p in plan.points if p.label == plan.points[0].label]
+    assert len(first_setpoint) <= len(planned) < len(plan.points)
+
+
+def test_a_second_ctrl_c_cannot_skip_switching_the_heater_off(
+        tmp_path, experiments_dir, opened_stations, at_simulated_time, monkeypatch, assert_heater_off):
+    real_all_off = HMP4040.all_off
+    completed: list[bool] = []
+
+    def all_off_hit_by_ctrl_c(self: HMP4040) -> None:
+        os.kill(os.getpid(), signal.SIGINT)  # the operator presses Ctrl-C again while the lab is made safe
+        real_all_off(self)
+        completed.append(True)
+
+    monkeypatch.setattr(HMP4040, "all_off", all_off_hit_by_ctrl_c)
+    at_simulated_time(MID_HEATING_S, KeyboardInterrupt)
+    output = tmp_path / "heating.h5"
+    result = run_heating(experiments_dir / HEATING, None, output)
+
+    assert completed == [True]
+    assert result.status == "aborted"
+    assert read_run(output).status == "aborted"
+    assert_heater_off(opened_stations[0], output)
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # Ctrl-C works again afterwards
+
+
+def test_over_temperature_fails_the_run_naming_thermocouple_and_limit(
+        tmp_path, experiments_dir, opened_stations, assert_heater_off):
+    station_config, _ = load_station_config(None)
+    # the config check refuses setpoints at or above the limit; lower it after that check, below the 2nd setpoint
+    setpoints = load_experiment(experiments_dir / HEATING).heating.setpoints_c
+    limit = (setpoints[0] + setpoints[1]) / 2
+    safety = station_config.safety.model_copy(
+        update={"max_temperature_c": {**station_config.safety.max_temperature_c, "target": limit}})
+    output = tmp_path / "hot.h5"
+    result = run_heating(experiments_dir / HEATING, None, output, station_overrides={"safety": safety})
+
+    assert result.status == "failed"
+    assert result.error.startswith("SafetyInterlock")
+    assert "target thermocouple" in result.error and f"{limit:g} C limit" in result.error
+    reading = float(result.error.split("reads ")[1].split(" C")[0])
+    assert reading > limit
+    recorded = read_run(output)
+    assert recorded.status == "failed" and recorded.metadata["error"] == result.error
+    assert np.nanmax(recorded.column("t_target_c")) <= limit  # every recorded reading was within the limit
+    assert_heater_off(opened_stations[0], output)
+
+
+def test_open_thermocouple_while_heating_fails_the_run_naming_the_channel(
+        tmp_path, experiments_dir, opened_stations, at_simulated_time, assert_heater_off):
+    channel = load_station_config(None)[0].scanner.options["channels"]["target"]
+
+    def break_thermocouple() -> None:
+        opened_stations[0].lab.faults.open_thermocouples.add(channel)
+
+    fired = at_simulated_time(MID_HEATING_S, break_thermocouple)
+    output = tmp_path / "open.h5"
+    result = run_heating(experiments_dir / HEATING, None, output)
+
+    assert fired
+    assert result.status == "failed"
+    assert result.error.startswith("SafetyInterlock") and "thermocouple" in result.error
+    assert f"channel {channel}" in result.error
+    recorded = read_run(output)
+    assert recorded.status == "failed" and f"channel {channel}" in recorded.metadata["error"]
+    assert recorded.column("time_s").max() <= fired[0] + 60  # nothing measured long after the fault
+    assert_heater_off(opened_stations[0], output)
