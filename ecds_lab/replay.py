@@ -18,12 +18,12 @@ import numpy as np
 import yaml
 
 from ecds_lab.clock import SimulatedClock
+from ecds_lab.config.experiment import EXPERIMENT_ADAPTER
 from ecds_lab.config.loading import validate
 from ecds_lab.config.station import InstrumentConfig, StationConfig
 from ecds_lab.errors import ReplayDivergence, RunFileError
 from ecds_lab.runner.plan import build_plan
 from ecds_lab.runner.runner import Runner
-from ecds_lab.runner.session import load_experiment
 from ecds_lab.station import Station, open_station
 from ecds_lab.storage.columns import COLUMN_NAMES, INDEX
 from ecds_lab.storage.reader import RunFile, read_run
@@ -52,6 +52,18 @@ class ReplayResult:
         return not self.differences and self.original_points == self.replayed_points
 
 
+def _recorded_yaml(run: RunFile, key: str, what: str) -> object:
+    """A YAML document the run file carries (its experiment or station), parsed; RunFileError if unusable."""
+    text = run.metadata.get(key, "")
+    if not text.strip():
+        raise RunFileError(f"{run.path}: no {what} configuration recorded ({key})")
+    try:
+        return yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise RunFileError(f"{run.path}: the recorded {what} configuration ({key}) is not valid YAML: "
+                           f"{getattr(exc, 'problem', exc)}") from exc
+
+
 def replay_station(run: RunFile | str | Path) -> Station:
     """A Station for a recorded run: its drivers, with replay links serving the run's transcripts."""
     if not isinstance(run, RunFile):
@@ -60,10 +72,8 @@ def replay_station(run: RunFile | str | Path) -> Station:
         raise RunFileError(f"{run.path}: a resumed run holds two sessions; replay the original run file instead")
     if not run.transcripts:
         raise RunFileError(f"{run.path}: holds no transcripts to replay")
-    station_yaml = run.metadata.get("station_yaml")
-    if not station_yaml:
-        raise RunFileError(f"{run.path}: no station configuration recorded")
-    config = validate(f"{run.path}:station_yaml", yaml.safe_load(station_yaml), StationConfig)
+    station_yaml = run.metadata.get("station_yaml", "")
+    config = validate(f"{run.path}:station_yaml", _recorded_yaml(run, "station_yaml", "station"), StationConfig)
     origin = min((events[0].clock_s for events in run.transcripts.values() if events), default=0.0)
     clock = SimulatedClock()
     state = ReplayState()  # one per station: the first divergence on any link stops them all
@@ -98,7 +108,8 @@ def _runner_quiet() -> Iterator[None]:
 def replay_run(path: str | Path) -> ReplayResult:
     """Execute the recorded experiment against the recorded traffic and compare the points."""
     original = read_run(path)
-    experiment = load_experiment(Path(str(path)), original.metadata.get("experiment_yaml", ""))
+    experiment = validate(f"{path}:experiment_yaml", _recorded_yaml(original, "experiment_yaml", "experiment"),
+                          EXPERIMENT_ADAPTER)
     plan = build_plan(experiment)
     station = replay_station(original)
     links = [t for t in station.transports.values() if isinstance(t, ReplayTransport)]

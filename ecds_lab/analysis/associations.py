@@ -4,6 +4,8 @@ For each variable the residual (ppm of L) is averaged in bins of that variable, 
 frequency (an effect often differs between 500 Hz and 15 kHz). The score is the share of the
 residual's energy those bin means explain beyond what noise alone would explain by chance,
 so pure noise scores about 0 and a residual that is a clean function of the variable about 1.
+The frequency itself is scored on the offsets between frequencies, every other variable on the
+residual within each frequency.
 """
 
 from __future__ import annotations
@@ -109,6 +111,7 @@ def residual_associations(data: Measurements, residuals_ppm: np.ndarray, noise_p
     """Score every variable by how much of the residual it explains; strongest first."""
     r = np.asarray(residuals_ppm, float)
     total = float(np.sum((r - r.mean()) ** 2)) or 1.0
+    within = sum(float(np.sum((r[g] - r[g].mean()) ** 2)) for g in (data.freq_hz == f for f in np.unique(data.freq_hz)))
     out = []
     for variable in VARIABLES:
         values = variable.values(data)
@@ -123,6 +126,8 @@ def residual_associations(data: Measurements, residuals_ppm: np.ndarray, noise_p
             if bins < 2:
                 continue
             explained += _explained(r[rows], index, bins, noise_ppm)[0]
-        score = min(1.0, explained / total)
+        # Frequency is scored against all the residual, every other variable against what is
+        # left within each frequency (an offset between frequencies is the frequency's to explain).
+        score = min(1.0, explained / (total if variable.name == "freq_hz" else (within or 1.0)))
         out.append(Association(variable.name, round(score, 4), _describe(variable, data, values, r)))
     return sorted(out, key=lambda a: -(a.score / TIME_MARGIN if a.variable == "time_s" else a.score))

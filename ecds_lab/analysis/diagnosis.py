@@ -247,18 +247,25 @@ def explain(result: Diagnosis) -> str:
               if best.cv_rmse_ppm is not None and result.baseline_cv_rmse_ppm is not None else "")
         lines.append(f"Adding {best.effect} ({effect.explains}) brings it from {base.rms_ppm:.1f} to "
                      f"{best.rmse_ppm:.1f} ppm (delta BIC {best.delta_bic:+.0f}{cv}); fitted {values}.")
-        if best.rmse_ppm > FAILING_RATIO * noise:
-            lines.append("That is still above the noise: part of the missing physics is outside the library.")
+        follow = result.follow_up
+        second = (follow is not None and follow.verdict == "missing_effect" and follow.best is not None
+                  and follow.best.delta_bic < DECISIVE_DELTA_BIC)
+        final_ppm = best.rmse_ppm
+        if second:
+            lines.append(f"With {best.effect} added, a second effect helps: {follow.best.effect} "
+                         f"({follow.best.fit.model.effects[-1].explains}) brings the residual to "
+                         f"{follow.best.rmse_ppm:.1f} ppm (delta BIC {follow.best.delta_bic:+.0f}); "
+                         f"fit with --effects {best.effect},{follow.best.effect}.")
+            final_ppm = follow.best.rmse_ppm
+        elif follow is not None and follow.verdict == "adequate":
+            lines.append(f"With it added the model is adequate ({follow.baseline.rms_ppm:.1f} ppm).")
+        if final_ppm > FAILING_RATIO * noise:
+            lines.append(f"Even so the residual stays {final_ppm / noise:.1f}x the noise: the library effects "
+                         "explain only part of it, and the rest lies outside the library; the associations "
+                         "above show where it lives.")
     else:
         lines.append("None of the library effects explains it: the missing effect is outside the library; "
                      "look at the variables above for where it lives.")
-    follow = result.follow_up
-    if follow is not None:
-        if follow.verdict == "missing_effect" and follow.best is not None and follow.best.delta_bic < DECISIVE_DELTA_BIC:
-            lines.append(f"With {best.effect if best else ''} added, a second effect stands out: "
-                         f"{follow.best.effect} brings the residual to {follow.best.rmse_ppm:.1f} ppm.")
-        elif follow.verdict == "adequate":
-            lines.append(f"With it added the model is adequate ({follow.baseline.rms_ppm:.1f} ppm).")
     return " ".join(lines)
 
 

@@ -14,6 +14,8 @@ from typing import Any, Callable
 import matplotlib
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.cm import ScalarMappable
+from matplotlib.colors import Colormap, Normalize
 from matplotlib.figure import Figure
 
 #: Pixels per inch of the embedded PNGs (sizes are given in inches).
@@ -54,10 +56,10 @@ def styled(draw: Callable[..., Png]) -> Callable[..., Png]:
     return wrapper
 
 
-def subplots(width_in: float, height_in: float, rows: int = 1, cols: int = 1,
+def subplots(width_in: float, height_in: float, rows: int = 1, cols: int = 1, *, layout: str | None = "constrained",
              **kwargs: Any) -> tuple[Figure, np.ndarray]:
-    """A figure (constrained layout, Agg canvas) and a 2-D array of its axes."""
-    figure = Figure(figsize=(width_in, height_in), dpi=DPI, layout="constrained")
+    """A figure on an Agg canvas (constrained layout unless ``layout=None``) and a 2-D array of its axes."""
+    figure = Figure(figsize=(width_in, height_in), dpi=DPI, layout=layout)
     FigureCanvasAgg(figure)
     return figure, figure.subplots(rows, cols, squeeze=False, **kwargs)
 
@@ -69,3 +71,13 @@ def to_png(figure: Figure, alt: str) -> Png:
     width, height = (int(round(v)) for v in figure.get_size_inches() * DPI)
     figure.clear()
     return Png(buffer.getvalue(), width, height, alt)
+
+
+def colormap(name: str) -> Colormap:
+    """A registered matplotlib colour map by name."""
+    return matplotlib.colormaps[name]
+
+
+def colour_scale(norm: Normalize, cmap: Colormap) -> ScalarMappable:
+    """A colour scale not tied to one plot, for a colour bar shared by several."""
+    return ScalarMappable(norm=norm, cmap=cmap)

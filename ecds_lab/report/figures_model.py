@@ -8,11 +8,11 @@ from typing import Callable, Sequence
 
 import numpy as np
 from matplotlib.axes import Axes
-from matplotlib.colors import Normalize
+from matplotlib.colors import Colormap, Normalize
 
 from ecds_lab.analysis.dataset import Measurements
 from ecds_lab.analysis.fitting import FitResult
-from ecds_lab.report.canvas import Png, styled, subplots, to_png
+from ecds_lab.report.canvas import Png, colormap, colour_scale, styled, subplots, to_png
 
 #: Readings of one state are within this many kelvin (target and coil) of each other.
 STATE_BIN_K = 5.0
@@ -86,7 +86,7 @@ def inductance_vs_distance(groups: Sequence[tuple[str, FitResult, Measurements]]
     fig, axes = subplots(4.6 * len(freqs) + 1.8, 4.2, 1, len(freqs), sharey=False)
     all_t = np.concatenate([d.t_target_c for _, _, d in groups])
     norm = Normalize(float(np.min(all_t)), max(float(np.max(all_t)), float(np.min(all_t)) + 1.0))
-    cmap = _cmap("plasma")
+    cmap = colormap("plasma")
     for ax, freq in zip(axes[0], freqs):
         for material, fit, data in groups:
             part = data.select(np.isfinite(data.x_m) & (data.freq_hz == freq))
@@ -107,7 +107,7 @@ def inductance_vs_distance(groups: Sequence[tuple[str, FitResult, Measurements]]
         ax.set_title(f"{freq:g} Hz: measured (markers), fitted model (lines)")
         ax.set_xlabel("distance x (mm)")
         ax.set_ylabel("inductance L (mH)")
-    fig.colorbar(_mappable(norm, cmap), ax=axes[0, -1], label="target temperature (°C)", shrink=0.9)
+    fig.colorbar(colour_scale(norm, cmap), ax=axes[0, -1], label="target temperature (°C)", shrink=0.9)
     handles, labels = axes[0, 0].get_legend_handles_labels()
     if labels:
         axes[0, 0].legend(handles[:12], labels[:12], loc="lower right", frameon=False)
@@ -144,57 +144,82 @@ def sensitivity(groups: Sequence[tuple[str, FitResult, Measurements]]) -> Png:
 
 @styled
 def residual_maps(data: Measurements, residuals_ppm: np.ndarray, noise_ppm: float | None) -> Png:
-    """Residual (ppm of L) against x, temperatures, time and direction, each coloured by the other variables."""
-    rows, cols = len(MAP_AXES), len(MAP_COLOURS) - 1
-    fig, axes = subplots(2.45 * cols, 2.0 * rows, rows, cols, sharey=True)
+    """Residual (ppm of L) against x, temperatures, time and direction (rows), coloured by each variable (columns).
+
+    Every column has one colour variable and one colour key at its top; the panel whose colour
+    would repeat its own axis is drawn in one colour.
+    """
+    rows, cols = len(MAP_AXES), len(MAP_COLOURS)
+    fig, axes = subplots(2.05 * cols, 1.75 * rows + 0.9, rows, cols, sharey=True, layout=None,
+                         gridspec_kw={"left": 0.055, "right": 0.99, "bottom": 0.055, "top": 0.86,
+                                      "wspace": 0.12, "hspace": 0.55})
     r = np.asarray(residuals_ppm, float)
     values = {name: VARIABLES[name].values(data) for name in MAP_COLOURS}
-    rng = np.random.default_rng(0)
-    jitter = rng.uniform(-0.18, 0.18, len(data))
+    jitter = np.random.default_rng(0).uniform(-0.18, 0.18, len(data))
+    scales = {}
+    for name in MAP_COLOURS:
+        c = values[name][np.isfinite(values[name])]
+        if not VARIABLES[name].categorical and len(c):
+            scales[name] = Normalize(float(np.min(c)), max(float(np.max(c)), float(np.min(c)) + 1e-9))
+    cmap = colormap("viridis")
     for i, axis_name in enumerate(MAP_AXES):
         x = values[axis_name] + (jitter if VARIABLES[axis_name].categorical else 0.0)
-        colours = [c for c in MAP_COLOURS if c != axis_name][:cols]
-        for j, colour_name in enumerate(colours):
+        for j, colour_name in enumerate(MAP_COLOURS):
             ax = axes[i, j]
-            _coloured_scatter(ax, x, r, values[colour_name], VARIABLES[colour_name], show_key=True)
+            if colour_name == axis_name:
+                ax.scatter(x, r, s=3, color="0.35", lw=0, rasterized=True)
+            else:
+                _coloured_scatter(ax, x, r, values[colour_name], VARIABLES[colour_name], scales.get(colour_name), cmap)
             if noise_ppm:
-                ax.axhspan(-noise_ppm, noise_ppm, color="0.85", zorder=0, lw=0)
+                ax.axhspan(-noise_ppm, noise_ppm, color="0.86", zorder=0, lw=0)
             ax.axhline(0.0, color="0.4", lw=0.6, zorder=1)
-            if i == 0:
-                ax.set_title(f"colour: {VARIABLES[colour_name].label}", fontsize=8)
-            if j == 0:
-                ax.set_ylabel("residual (ppm of L)")
-            ax.set_xlabel(VARIABLES[axis_name].label, fontsize=8)
+            ax.locator_params(axis="x", nbins=4)
+            ax.set_xlabel(VARIABLES[axis_name].label, fontsize=7.5, labelpad=1)
+            ax.tick_params(labelsize=7, pad=1)
             if axis_name == "direction":
                 ax.set_xticks([-1, 0, 1], ["−", "0", "+"])
+        axes[i, 0].set_ylabel("residual (ppm)", fontsize=7.5)
+    for j, colour_name in enumerate(MAP_COLOURS):
+        variable, top = VARIABLES[colour_name], axes[0, j]
+        if colour_name in scales:
+            box = top.get_position()
+            bar_ax = fig.add_axes((box.x0, box.y1 + 0.045, box.width, 0.012))
+            bar = fig.colorbar(colour_scale(scales[colour_name], cmap), cax=bar_ax, orientation="horizontal")
+            bar.ax.tick_params(labelsize=6.5, pad=1)
+            bar.ax.xaxis.set_ticks_position("top")
+            bar.ax.locator_params(nbins=4)
+            bar_ax.set_title(f"colour: {variable.label}", fontsize=7.5, pad=12)
+        else:
+            known = np.unique(values[colour_name][np.isfinite(values[colour_name])])
+            handles = [top.scatter([], [], s=12, color=c) for _, c in zip(known, CATEGORY_COLOURS)]
+            labels = [_category_label(variable, v) for v in known]
+            top.legend(handles, labels, loc="lower center", bbox_to_anchor=(0.5, 1.02), ncol=len(labels),
+                       frameon=False, fontsize=7, handletextpad=0.1, columnspacing=0.6,
+                       title=f"colour: {variable.label}", title_fontsize=7.5)
     return to_png(fig, "Residual maps: residual in ppm against distance, temperatures, time and direction, "
-                       "coloured by the other variables")
+                       "coloured by each recorded variable")
+
+
+def _category_label(variable: Variable, value: float) -> str:
+    if variable.name == "direction":
+        return {1: "+ (increasing x)", -1: "− (decreasing x)"}.get(int(value), "none")
+    return f"{value:g}"
 
 
 def _coloured_scatter(ax: Axes, x: np.ndarray, y: np.ndarray, c: np.ndarray, variable: Variable,
-                      show_key: bool) -> None:
-    """Scatter coloured by a variable: discrete colours for a categorical one, a colour bar otherwise."""
+                      norm: Normalize | None, cmap: Colormap) -> None:
+    """Scatter coloured by a variable: fixed colours for a categorical one, ``norm`` and ``cmap`` otherwise;
+    rows without a value (coil in air has no distance) are grey."""
     known = np.isfinite(c) & np.isfinite(x)
-    if (~np.isfinite(c) & np.isfinite(x)).any():
-        unknown = ~np.isfinite(c) & np.isfinite(x)
-        ax.scatter(x[unknown], y[unknown], s=4, color=GREY, lw=0, rasterized=True)
+    unknown = ~np.isfinite(c) & np.isfinite(x)
+    if unknown.any():
+        ax.scatter(x[unknown], y[unknown], s=3, color=GREY, lw=0, rasterized=True)
     if variable.categorical:
         for value, colour in zip(np.unique(c[known]), CATEGORY_COLOURS):
             sel = known & (c == value)
-            label = f"{value:+.0f}" if variable.name == "direction" else f"{value:g}"
-            ax.scatter(x[sel], y[sel], s=4, color=colour, lw=0, label=label, rasterized=True)
-        if show_key and known.any():
-            ax.legend(loc="upper right", frameon=False, markerscale=2.0, handletextpad=0.1, borderaxespad=0.1)
-        return
-    if not known.any():
-        return
-    cmap = _cmap("viridis")
-    low, high = float(np.min(c[known])), float(np.max(c[known]))
-    points = ax.scatter(x[known], y[known], s=4, c=c[known], cmap=cmap, vmin=low, vmax=max(high, low + 1e-9), lw=0,
-                        rasterized=True)
-    if show_key:
-        bar = ax.figure.colorbar(points, ax=ax, pad=0.01, fraction=0.06, aspect=25)
-        bar.ax.tick_params(labelsize=6.5)
+            ax.scatter(x[sel], y[sel], s=3, color=colour, lw=0, rasterized=True)
+    elif known.any():
+        ax.scatter(x[known], y[known], s=3, c=c[known], cmap=cmap, norm=norm, lw=0, rasterized=True)
 
 
 @styled
@@ -216,7 +241,7 @@ def candidate_ranking(effects: Sequence[str], rms_ppm: Sequence[float], delta_bi
     ax = axes[0, 1]
     ax.barh(y, delta_bic, color=colours, height=0.6)
     ax.axvline(0.0, color="0.3", lw=0.8)
-    ax.set_xlabel("ΔBIC against the baseline (negative: the effect earns its parameters)")
+    ax.set_xlabel("ΔBIC against the baseline (< 0: effect supported)")
     return to_png(fig, "Diagnosis: candidate effects ranked by residual RMS and delta BIC")
 
 
@@ -243,15 +268,3 @@ def before_after(data: Measurements, before_ppm: np.ndarray, after_ppm: np.ndarr
     axes[0, 0].set_ylabel("residual (ppm of L)")
     axes[0, 0].legend(loc="upper left", frameon=True, framealpha=0.9, markerscale=2.0)
     return to_png(fig, f"Residuals before and after adding {effect}")
-
-
-def _cmap(name: str):  # noqa: ANN202
-    import matplotlib
-
-    return matplotlib.colormaps[name]
-
-
-def _mappable(norm: Normalize, cmap):  # noqa: ANN001, ANN202
-    from matplotlib.cm import ScalarMappable
-
-    return ScalarMappable(norm=norm, cmap=cmap)

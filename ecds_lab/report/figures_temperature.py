@@ -7,14 +7,14 @@ from typing import Sequence
 
 import numpy as np
 from matplotlib.axes import Axes
-from matplotlib.colors import Normalize
+from matplotlib.colors import Colormap, Normalize
 
 from ecds_lab.analysis.compensation import TemperatureCompensation
 from ecds_lab.analysis.dataset import Measurements
 from ecds_lab.analysis.summary import CalibrationCase, HeatedErrors
 from ecds_lab.model.ecm import parallel_rlc_impedance
-from ecds_lab.report.canvas import Png, styled, subplots, to_png
-from ecds_lab.report.figures_model import STATE_BIN_K, _cmap, _mappable
+from ecds_lab.report.canvas import Png, colormap, colour_scale, styled, subplots, to_png
+from ecds_lab.report.figures_model import STATE_BIN_K
 
 #: Line style per calibration: all positions solid, the paper's n = 4 dashed.
 CALIBRATION_STYLE = {"all_points": ("-", "o"), "n4": ("--", "^")}
@@ -26,7 +26,7 @@ def calibration_label(case: CalibrationCase) -> str:
     return f"n = {case.calibration.n_points}"
 
 
-def _error_lines(ax: Axes, case: CalibrationCase, heated: HeatedErrors, norm: Normalize, cmap) -> None:  # noqa: ANN001
+def _error_lines(ax: Axes, case: CalibrationCase, heated: HeatedErrors, norm: Normalize, cmap: Colormap) -> None:
     """One line per temperature step: the mean error at each reference position, coloured by the rise."""
     line, marker = CALIBRATION_STYLE.get(case.label, ("-", "o"))
     errors = heated.errors
@@ -59,9 +59,9 @@ def target_heating_errors(panels: Sequence[tuple[str, float, list[CalibrationCas
     """Fig. 14/22: position error of target-heated readings against x, per frequency (rows) and target (columns)."""
     materials = sorted({m for m, _, _ in panels}, key=lambda m: (m != "copper", m))
     freqs = sorted({f for _, f, _ in panels})
-    fig, axes = subplots(5.0 * len(materials) + 1.0, 3.3 * len(freqs), len(freqs), len(materials), squeeze=False)
+    fig, axes = subplots(5.0 * len(materials) + 1.0, 3.3 * len(freqs), len(freqs), len(materials))
     rises = np.concatenate([c.target_heated.rise_k for _, _, cases in panels for c in cases if c.target_heated])
-    norm, cmap = Normalize(0.0, float(np.max(rises))), _cmap("plasma")
+    norm, cmap = Normalize(0.0, float(np.max(rises))), colormap("plasma")
     for ax in axes.flat:
         ax.set_visible(False)
     for material, freq, cases in panels:
@@ -76,7 +76,7 @@ def target_heating_errors(panels: Sequence[tuple[str, float, list[CalibrationCas
         ax.set_ylabel("position error e_pos (mm)")
         _fs_axis(ax, cases[0].calibration.fs_m)
         _style_key(ax, cases)
-    fig.colorbar(_mappable(norm, cmap), ax=axes[:, -1].tolist(), label="target temperature rise Δϑ_T (K)",
+    fig.colorbar(colour_scale(norm, cmap), ax=axes[:, -1].tolist(), label="target temperature rise Δϑ_T (K)",
                  shrink=0.8)
     return to_png(fig, "Position error of target-heated readings against distance")
 
@@ -86,7 +86,7 @@ def coil_heating_errors(panels: Sequence[tuple[float, list[CalibrationCase]]]) -
     """Fig. 20/23: position error of coil-heated readings, uncompensated (left) and with Eq. (4) (right)."""
     fig, axes = subplots(11.0, 3.3 * len(panels), len(panels), 2)
     rises = np.concatenate([c.coil_compensated.rise_k for _, cases in panels for c in cases if c.coil_compensated])
-    norm, cmap = Normalize(0.0, float(np.max(rises))), _cmap("inferno_r")
+    norm, cmap = Normalize(0.0, float(np.max(rises))), colormap("inferno_r")
     for row, (freq, cases) in enumerate(panels):
         for col, (title, pick) in enumerate((("uncompensated", lambda c: c.coil_uncompensated),
                                               ("compensated with Eq. (4)", lambda c: c.coil_compensated))):
@@ -100,7 +100,7 @@ def coil_heating_errors(panels: Sequence[tuple[float, list[CalibrationCase]]]) -
             ax.set_ylabel("position error e_pos (mm)")
             _fs_axis(ax, cases[0].calibration.fs_m)
             _style_key(ax, cases)
-    fig.colorbar(_mappable(norm, cmap), ax=axes[:, -1].tolist(), label="coil temperature rise Δϑ_coil (K)",
+    fig.colorbar(colour_scale(norm, cmap), ax=axes[:, -1].tolist(), label="coil temperature rise Δϑ_coil (K)",
                  shrink=0.8)
     return to_png(fig, "Position error of coil-heated readings, uncompensated and compensated")
 
@@ -149,18 +149,20 @@ def spectra(items: Sequence[tuple[Measurements, "object"]]) -> Png:
     fig, axes = subplots(11.0, 3.8, 1, 2)
     temps = [float(np.mean(d.t_coil_c)) for d, _ in items]
     norm = Normalize(min(temps), max(max(temps), min(temps) + 1.0))
-    cmap = _cmap("coolwarm")
-    for (data, fit), temp in zip(items, temps):
-        colour = cmap(norm(temp))
+    cmap = colormap("plasma")
+    markers = "osD^v<>p"
+    for k, ((data, fit), temp) in enumerate(zip(items, temps)):
+        colour = cmap(0.85 * norm(temp))
+        marker = markers[k % len(markers)]
         omega = 2 * np.pi * data.freq_hz
         z = data.rs_ohm + 1j * omega * data.ls_h
         f = np.geomspace(float(np.min(data.freq_hz)), float(np.max(data.freq_hz)), 400)
         zf = parallel_rlc_impedance(2 * np.pi * f, fit.inductance_h, fit.capacitance_f, fit.parallel_resistance_ohm,
                                     fit.series_resistance_ohm)
         label = f"{temp:.0f} °C"
-        axes[0, 0].plot(data.freq_hz, np.abs(z) / 1e3, "o", ms=3.5, mfc="none", color=colour, label=f"{label} measured")
+        axes[0, 0].plot(data.freq_hz, np.abs(z) / 1e3, marker, ms=4, mfc="none", color=colour, label=f"{label} measured")
         axes[0, 0].plot(f, np.abs(zf) / 1e3, "--", color=colour, lw=1.2, label=f"{label} parallel RLC fit")
-        axes[0, 1].plot(data.freq_hz, np.degrees(np.angle(z)), "o", ms=3.5, mfc="none", color=colour)
+        axes[0, 1].plot(data.freq_hz, np.degrees(np.angle(z)), marker, ms=4, mfc="none", color=colour)
         axes[0, 1].plot(f, np.degrees(np.angle(zf)), "--", color=colour, lw=1.2)
     for ax in axes[0]:
         ax.set_xscale("log")

@@ -29,6 +29,9 @@ log = logging.getLogger("ecds_lab.report")
 
 #: A coil-in-air recording must span this many kelvin of coil temperature to characterise heating.
 MIN_HEATING_SPAN_K = 10.0
+#: A frequency is calibrated only where bridge noise alone costs less than this share of full scale
+#: (median over the sweep's positions): a steel target at 500 Hz hardly changes L at all.
+MAX_NOISE_ERROR_FS = 0.01
 
 
 @dataclass
@@ -48,6 +51,8 @@ class TargetGroup:
     fit: FitResult
     cases: dict[float, list[CalibrationCase]] = field(default_factory=dict)
     coil_from_air: bool = False
+    #: frequency -> why it was not calibrated
+    skipped: dict[float, str] = field(default_factory=dict)
 
     @property
     def has_target(self) -> bool:
@@ -91,7 +96,7 @@ def find(inputs: list[ReportInput], diagnosis: Any = None) -> Findings:
     heating = coil_heating(model_inputs)
     if isinstance(groups, list):
         for group in groups:
-            group.cases, group.coil_from_air = calibrations(group, heating)
+            calibrations(group, heating)
     main = groups[0] if isinstance(groups, list) and groups else None
     if diagnosis is None:
         diagnosis = run_diagnosis_of(main) if main is not None else Omitted(groups.reason)
@@ -115,22 +120,43 @@ def target_groups(inputs: list[ReportInput]) -> list[TargetGroup] | Omitted:
     return groups
 
 
-def calibrations(group: TargetGroup, heating: CoilHeating | Omitted) -> tuple[dict[float, list[CalibrationCase]], bool]:
-    """Paper-style calibrations per frequency (n = all and n = 4), with heated-coil readings built
-    from the coil-in-air recording when the group has no sweep with the coil heated."""
-    data, cases = group.data, {}
+def calibrations(group: TargetGroup, heating: CoilHeating | Omitted) -> None:
+    """Paper-style calibrations per frequency (n = all and n = 4) into ``group.cases``, with heated-coil
+    readings built from the coil-in-air recording when the group has no sweep with the coil heated."""
+    data = group.data
     if not group.has_target:
-        return cases, False
+        return
+    sweep = data.select(room_temperature_rows(data) & np.isfinite(data.x_m))
     synthetic = None
     if not HeatedRows.of(data).coil.any() and isinstance(heating, CoilHeating):
-        sweep = data.select(room_temperature_rows(data) & np.isfinite(data.x_m))
         built = heated_coil_sweep(sweep, heating.data)
         synthetic = built if len(built) else None
     for freq in data.frequencies_hz:
+        at_f = sweep.select(sweep.freq_hz == freq)
+        error_mm = noise_limited_error_mm(group.fit, at_f)
+        fs_mm = float(np.ptp(at_f.x_mm)) if len(at_f) else 0.0
+        if len(at_f) and error_mm > MAX_NOISE_ERROR_FS * fs_mm:
+            group.skipped[float(freq)] = (f"{group.material} target at {freq:g} Hz not calibrated: L hardly depends "
+                                          f"on x there (bridge noise alone would mean a {error_mm:.2g} mm position "
+                                          f"error at a typical position, {error_mm / fs_mm:.1%} of FS)")
+            continue
         found = calibration_cases(data, group.fit.model, group.fit, float(freq), coil_heated=synthetic)
         if found:
-            cases[float(freq)] = found
-    return cases, synthetic is not None
+            group.cases[float(freq)] = found
+    group.coil_from_air = synthetic is not None and any(c.coil_compensated for cs in group.cases.values() for c in cs)
+
+
+def noise_limited_error_mm(fit: FitResult, sweep: Measurements) -> float:
+    """Median over a sweep's readings of noise * L / |dL/dx| (mm), the fit's repeat noise (or RMS) as noise."""
+    if not len(sweep):
+        return 0.0
+    noise = fit.noise_ppm if fit.noise_ppm is not None else fit.rms_ppm
+    step = 1e-4
+    values = fit.values
+    slope = (fit.model.predict(sweep, values, sweep.x_m + step) - fit.model.predict(sweep, values, sweep.x_m - step))
+    with np.errstate(divide="ignore"):
+        error_m = noise * 1e-6 * sweep.ls_h / np.abs(slope / (2 * step))
+    return float(np.median(error_m) * 1e3)
 
 
 def coil_heating(inputs: list[ReportInput]) -> CoilHeating | Omitted:

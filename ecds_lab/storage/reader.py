@@ -55,7 +55,7 @@ def read_run(path: str | Path, *, transcripts: bool = True) -> RunFile:
     if not path.exists():
         raise RunFileError(f"{path}: no such run file")
     try:
-        with h5py.File(path, "r", swmr=True) as f:
+        with _open(path) as f:
             if "entry" not in f or "points" not in f["entry"]:
                 raise RunFileError(f"{path}: not an ecds-lab run file (no /entry/points)")
             entry = f["entry"]
@@ -74,6 +74,29 @@ def read_run(path: str | Path, *, transcripts: bool = True) -> RunFile:
     except (OSError, KeyError, ValueError) as exc:
         raise RunFileError(f"{path}: cannot read the run file (truncated or corrupt?): {exc}") from exc
     return RunFile(path, metadata, points, events, identities)
+
+
+def _open(path: Path) -> h5py.File:
+    """Open a closed run file plainly; fall back to SWMR-read only for a file a writer left open.
+
+    A plain open checks the file against the size its superblock records, so a truncated file
+    fails at once. SWMR-read skips that check and retries unreadable metadata (a writer may be
+    mid-flush), which on a truncated or damaged file can spin for minutes; it is kept for the
+    files that need it: a live run, or one whose writer was killed (consistency flags still set).
+    """
+    try:
+        return h5py.File(path, "r")
+    except OSError:
+        if not _left_open_by_writer(path):
+            raise
+    return h5py.File(path, "r", swmr=True)
+
+
+def _left_open_by_writer(path: Path) -> bool:
+    """Whether the superblock (version 2/3, as libver='latest' writes) still has its write-access flags set."""
+    with open(path, "rb") as raw:
+        head = raw.read(12)
+    return len(head) == 12 and head[:8] == b"\x89HDF\r\n\x1a\n" and head[8] >= 2 and bool(head[11] & 0x05)
 
 
 def _read_identities(entry: h5py.Group) -> dict[str, str]:

@@ -1,0 +1,375 @@
+"""The report's sections: what each shows from the findings, as HTML with embedded figures.
+
+Order: runs; L(x) with the model fit and sensitivity; residual maps; diagnosis; position error
+and temperature stability; coil heating; spectroscopy. A section, or a part of one, that the
+data cannot support is replaced by a one-line note saying why.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from datetime import datetime
+from typing import Any, Callable
+
+import numpy as np
+
+from ecds_lab.analysis.calibration import temperature_stability_ppm_fs_per_k
+from ecds_lab.analysis.summary import HeatedErrors
+from ecds_lab.report import figures_model as fm
+from ecds_lab.report import figures_temperature as ft
+from ecds_lab.report.findings import CoilHeating, Findings, Omitted, TargetGroup
+from ecds_lab.report.inputs import ReportInput
+from ecds_lab.report.markup import (
+    Html,
+    badge,
+    figure,
+    lines,
+    note,
+    number,
+    paragraph,
+    side_by_side,
+    table,
+    value_error,
+)
+
+#: TS is quoted over the readings of the highest temperature step: rises above this share of the largest.
+TOP_STEP_SHARE = 0.8
+
+#: The paper's Table 1: temperature stability of commercial sensors and of the paper's demonstrator.
+PAPER_TABLE_1 = (
+    ("Micro-Epsilon EU80", "80 mm", "−40 … 200 °C", "< 150"),
+    ("Kaman KDM-8206", "60 mm", "—", "1000 (compensated 200)"),
+    ("ATO ECDS-5060", "50 mm", "—", "1000 (compensated 200)"),
+    ("Gruber et al. 2024, coil heated", "100 mm", "20 … 130 °C", "< 22"),
+    ("Gruber et al. 2024, target heated", "100 mm", "20 … 130 °C", "−11 … 18"),
+)
+#: The paper's Table 2: parallel RLC fits of the moist fired-clay coil.
+PAPER_TABLE_2 = (("20 °C", "61", "62.5", "92"), ("65 °C", "60.4", "47.46", "212"), ("120 °C", "58.4", "47.53", "984"))
+
+
+#: Parameters shown in friendlier units: name -> (factor, unit).
+DISPLAY_UNITS = {"L0": (1e3, "mH"), "alpha": (1e6, "ppm/K"), "beta": (1e6, "ppm/K²"), "tau_t": (1e6, "µs"),
+                 "p1": (1e3, "mm"), "C_p": (1e12, "pF"), "R_p": (1e-3, "kΩ")}
+
+
+@dataclass
+class Section:
+    anchor: str
+    title: str
+    body: Html
+
+
+def build_sections(findings: Findings) -> list[Section]:
+    """Every section in report order."""
+    builders: list[tuple[str, str, Callable[[Findings], Html]]] = [
+        ("runs", "Runs and files", runs_section),
+        ("fit", "Inductance against distance and the model fit", fit_section),
+        ("residuals", "Residual maps", residual_section),
+        ("diagnosis", "Diagnosis", diagnosis_section),
+        ("position", "Position error and temperature stability", position_section),
+        ("heating", "Coil heating characterisation", heating_section),
+        ("spectroscopy", "Impedance spectroscopy", spectroscopy_section),
+    ]
+    return [Section(anchor, title, build(findings)) for anchor, title, build in builders]
+
+
+# -- runs ----------------------------------------------------------------------------------------
+def _use_of(item: ReportInput, findings: Findings) -> str:
+    if item.is_spectroscopy:
+        return "spectroscopy"
+    groups = findings.groups if isinstance(findings.groups, list) else []
+    used = [g.material for g in groups if item.name in g.sources]
+    return "model fit: " + ", ".join(f"{m} target" for m in used) if used else "—"
+
+
+def _duration(item: ReportInput) -> str:
+    lab = _hours_or_seconds(item.lab_duration_s)
+    wall = item.run.wall_duration_s if item.run is not None else None
+    if wall is None or abs(wall - item.lab_duration_s) < max(60.0, 0.05 * item.lab_duration_s):
+        return lab
+    return f"{lab} lab clock ({_hours_or_seconds(wall)} wall)"
+
+
+def _hours_or_seconds(seconds: float) -> str:
+    return f"{seconds / 3600:.2f} h" if seconds >= 3600 else f"{seconds:.0f} s"
+
+
+def _started(run_start: str) -> str:
+    try:
+        return datetime.fromisoformat(run_start).strftime("%Y-%m-%d %H:%M:%S %Z").strip()
+    except ValueError:
+        return run_start or "—"
+
+
+def runs_section(findings: Findings) -> Html:
+    runs = [i for i in findings.inputs if i.run is not None]
+    csvs = [i for i in findings.inputs if i.run is None]
+    parts = []
+    if runs:
+        shared = all(i.run.identities == runs[0].run.identities for i in runs)  # type: ignore[union-attr]
+        rows = []
+        for item in runs:
+            run = item.run
+            assert run is not None
+            points = f"{len(item.data)} readings"
+            if run.planned_points is not None:
+                points += f" of {run.points} rows; {run.planned_points} planned points"
+            status = badge(run.status or "unknown", "good" if run.status == "completed" else "bad")
+            row = [item.name, lines([run.experiment or "—", f"kind: {run.kind or '—'}"]),
+                   lines([run.station or "—", f"target: {item.target}"])]
+            if not shared:
+                row.append(lines([f"{role}: {ident}" for role, ident in sorted(run.identities.items())] or ["—"]))
+            row += [status, lines([_started(run.start_time), _duration(item)]), points,
+                    lines(run.faults) if run.faults else "none", _use_of(item, findings)]
+            rows.append(row)
+        header = ["file", "experiment", "station"] + ([] if shared else ["instruments"]) + [
+            "status", "started / duration", "points", "faults", "used for"]
+        parts.append(table(header, rows, css="runs"))
+        identities = sorted(runs[0].run.identities.items()) if shared else []  # type: ignore[union-attr]
+        if identities:
+            parts.append(table(("role", "instrument identity"), identities,
+                               caption=f"Instruments (the same in all {len(runs)} runs)" if len(runs) > 1
+                               else "Instruments", css="instruments"))
+    if csvs:
+        parts.append(table(("CSV file", "rows", "used for"),
+                           [(i.name, str(len(i.data)), _use_of(i, findings)) for i in csvs], css="runs"))
+        parts.append(paragraph("A CSV holds readings only (no run metadata); its target is taken to be copper, "
+                               "the paper's prototype.", "small"))
+    return Html("".join(parts))
+
+
+# -- model fit -----------------------------------------------------------------------------------
+def _groups_or_note(findings: Findings) -> list[TargetGroup] | Html:
+    if isinstance(findings.groups, Omitted):
+        return note(findings.groups.reason)
+    return findings.groups
+
+
+def _params_table(group: TargetGroup) -> Html:
+    fit = group.fit
+    rows = []
+    for p in fit.parameters:
+        stderr = None if p.fixed else fit.stderr.get(p.name)
+        how = fit.fixed.get(p.name, "fixed") if p.fixed else "fitted"
+        scale, unit = DISPLAY_UNITS.get(p.name, (1.0, p.unit))
+        rows.append((p.name, value_error(p.value, stderr, scale), unit, how))
+    noise = f", repeat noise {fit.noise_ppm:.1f} ppm" if fit.noise_ppm is not None else ""
+    caption = (f"{group.material} target: baseline fit of {fit.n} readings, residual RMS {fit.rms_ppm:.1f} ppm of L"
+               f"{noise}")
+    return table(("parameter", "value", "unit", "status"), rows, caption=caption, css="params")
+
+
+def fit_section(findings: Findings) -> Html:
+    groups = _groups_or_note(findings)
+    if isinstance(groups, Html):
+        return groups
+    parts = [paragraph("Baseline model, the paper's Eq. (2) with Eq. (4) and the calibrated coupling Eq. (5), "
+                       "fitted to all readings of each target material.")]
+    with_target = [g for g in groups if g.has_target]
+    if with_target:
+        curves = [(g.material, g.fit, g.data) for g in with_target]
+        parts.append(figure(fm.inductance_vs_distance(curves),
+                            "Measured inductance L(x) per frequency (like the paper's Fig. 6): markers are readings, "
+                            "one colour per thermal state (target temperature); lines are the fitted model at that "
+                            "state. Grey: readings of states with fewer than five positions (ramps)."))
+        parts.append(figure(fm.sensitivity(curves),
+                            "Sensitivity S = dL/dx at room temperature (like the paper's Fig. 7): the fitted model "
+                            "(lines) and finite differences of the measured sweep (markers)."))
+    else:
+        parts.append(note("no L(x) or sensitivity plot: no readings with the target present (all coil in air)"))
+    parts.append(Html('<div class="tables">' + "".join(_params_table(g) for g in groups) + "</div>"))
+    return Html("".join(parts))
+
+
+def residual_section(findings: Findings) -> Html:
+    main = findings.main
+    if main is None:
+        return note(findings.groups.reason if isinstance(findings.groups, Omitted) else "no model fit")
+    fit = main.fit
+    air = int(main.data.in_air.sum())
+    caption = (f"Residual of the baseline fit ({main.material} target, {fit.n} readings, RMS {fit.rms_ppm:.1f} ppm) "
+               "against each variable (rows), coloured by each other variable (columns); grey band: ± the "
+               "repeat noise. Structure in a row shows where the model fails; the colours show what it goes "
+               "with." + (f" The {air} coil-in-air readings have no distance and are grey where x is the colour."
+                         if air else ""))
+    return figure(fm.residual_maps(main.data, fit.residuals_ppm, fit.noise_ppm), caption)
+
+
+# -- diagnosis -----------------------------------------------------------------------------------
+def diagnosis_section(findings: Findings) -> Html:
+    diagnosis = findings.diagnosis
+    if isinstance(diagnosis, Omitted):
+        return note(diagnosis.reason)
+    main = findings.main
+    verdict = str(diagnosis.verdict)
+    parts = [Html(f'<p>{badge(verdict.replace("_", " "), "good" if verdict == "adequate" else "bad")} '
+                  f"noise {diagnosis.noise_ppm:.1f} ppm, baseline residual {diagnosis.baseline.rms_ppm:.1f} ppm "
+                  f"of L ({main.material if main else ''} target data)</p>"),
+             paragraph(diagnosis.explanation, "explanation")]
+    candidates = list(diagnosis.candidates)
+    if candidates:
+        parts.append(figure(fm.candidate_ranking([c.effect for c in candidates], [c.rmse_ppm for c in candidates],
+                                                 [c.delta_bic for c in candidates], diagnosis.baseline.rms_ppm,
+                                                 diagnosis.noise_ppm),
+                            "Each library effect added to the baseline in turn: residual RMS (left; dashed: "
+                            "baseline, dotted: noise) and ΔBIC (right; below zero the effect earns its extra "
+                            "parameters). Best first."))
+        rows = [(c.effect, number(c.rmse_ppm, 4), number(c.cv_rmse_ppm, 4), f"{c.delta_bic:+.1f}")
+                for c in candidates]
+        ranking = table(("effect", "RMS (ppm)", "held-out RMS (ppm)", "ΔBIC"), rows, caption="Candidates, best first")
+        associations = table(("variable", "score", "detail"),
+                             [(a.variable, f"{a.score:.2f}", a.detail) for a in diagnosis.associations],
+                             caption="Where the residual lives (share of it each variable explains)")
+        parts.append(side_by_side(ranking, associations))
+        parts.append(_before_after(diagnosis, main))
+    else:
+        parts.append(note("no candidate ranking: the diagnosis tried no effects"))
+    return Html("".join(parts))
+
+
+def _before_after(diagnosis: Any, main: TargetGroup | None) -> Html:
+    best = diagnosis.candidates[0]
+    data = getattr(diagnosis, "data", None) or (main.data if main else None)
+    before, after = np.asarray(diagnosis.baseline.residuals_ppm), np.asarray(best.fit.residuals_ppm)
+    if data is None or not (len(data) == len(before) == len(after)):
+        return note("no before/after residual plot: the diagnosis' residuals do not match the readings row by row")
+    variables = [a.variable for a in diagnosis.associations if a.variable in fm.VARIABLES]
+    if "x_mm" not in variables:
+        variables.append("x_mm")
+    caption = (f"Residuals before (baseline, red) and after adding the best candidate, {best.effect} (blue), "
+               f"against the variables the residual is most associated with: RMS {diagnosis.baseline.rms_ppm:.1f} → "
+               f"{best.rmse_ppm:.1f} ppm.")
+    return figure(fm.before_after(data, before, after, best.effect, variables, diagnosis.noise_ppm), caption)
+
+
+# -- position error ------------------------------------------------------------------------------
+def _ts_top_step(heated: HeatedErrors) -> tuple[float, float, float]:
+    """(largest rise K, TS min, TS max in ppm FS/K) over the readings of the top temperature step."""
+    top = heated.rise_k >= TOP_STEP_SHARE * float(np.max(heated.rise_k))
+    ts = temperature_stability_ppm_fs_per_k(heated.errors.error_m[top], heated.errors.fs_m, heated.rise_k[top])
+    return float(np.max(heated.rise_k)), float(np.min(ts)), float(np.max(ts))
+
+
+#: The paper's figure to compare each case with (Table 1 and Section 5).
+PAPER_TS = {"target heated": "−11 … 18", "coil heated, Eq. (4)": "< 22 (500 Hz)", "coil heated, uncompensated": "—"}
+
+
+def _ts_rows(group: TargetGroup, with_coil: bool) -> list[tuple[str, ...]]:
+    """One row per case and frequency: largest rise, then max |e_pos| and TS for each calibration."""
+    rows = []
+    for freq, cases in group.cases.items():
+        picks = [("target heated", lambda c: c.target_heated)]
+        if with_coil:
+            picks += [("coil heated, uncompensated", lambda c: c.coil_uncompensated),
+                      ("coil heated, Eq. (4)", lambda c: c.coil_compensated)]
+        for what, pick in picks:
+            found = [(case, pick(case)) for case in cases if pick(case) is not None]
+            if not found:
+                continue
+            cells = [what, group.material, f"{freq:g} Hz", f"{_ts_top_step(found[0][1])[0]:.0f} K"]
+            for case, heated in found:
+                _, low, high = _ts_top_step(heated)
+                fs = float(np.max(np.abs(heated.errors.error_fs_percent)))
+                cells.append(Html(f"n = {case.calibration.n_points}: {heated.errors.max_abs_mm():.3g} mm "
+                                  f"({fs:.2g} % FS)<br>TS {low:+.0f} … {high:+.0f}"))
+            rows.append(tuple(cells + [PAPER_TS[what]]))
+    return rows
+
+
+def position_section(findings: Findings) -> Html:
+    groups = _groups_or_note(findings)
+    if isinstance(groups, Html):
+        return groups
+    parts: list[Html] = []
+    with_cases = [g for g in groups if g.cases]
+    skipped = [note(reason) for g in groups for reason in g.skipped.values()]
+    if not with_cases:
+        return Html("".join(skipped) or note("no calibration: no room-temperature sweep with five or more "
+                                             "positions at one frequency"))
+    parts.append(paragraph("Each frequency is calibrated on its room-temperature sweep (Eq. 5) with all positions "
+                           "and with the paper's n = 4 points in the sensitive near range; the heated readings are "
+                           "then turned into positions and compared with the slide's."))
+    parts.extend(skipped)
+    target_panels = [(g.material, f, cases) for g in with_cases for f, cases in g.cases.items()
+                     if any(c.target_heated is not None for c in cases)]
+    if target_panels:
+        parts.append(figure(ft.target_heating_errors(target_panels),
+                            "Position error of the readings with the target heated and the coil at room "
+                            "temperature (like the paper's Fig. 14 and 22), mean per position and temperature step; "
+                            "solid: calibrated with all positions, dashed: with n = 4."))
+    else:
+        parts.append(note("no target-heating position error: no readings with the target heated "
+                          "(more than 5 K above room) and the coil at room temperature"))
+    main = with_cases[0]
+    coil_panels = [(f, cases) for f, cases in main.cases.items() if any(c.coil_compensated for c in cases)]
+    if coil_panels:
+        how = ("built the paper's way (Section 5) from the room-temperature sweep scaled by the coil-in-air "
+               "inductance at each steady coil temperature" if main.coil_from_air
+               else "measured with the coil heated and the target present")
+        parts.append(figure(ft.coil_heating_errors(coil_panels),
+                            f"Position error of coil-heated readings ({how}), without (left) and with (right) the "
+                            f"Eq. (4) temperature compensation (like the paper's Fig. 20 and 23); {main.material} "
+                            "target; solid: all positions, dashed: n = 4."))
+    else:
+        parts.append(note("no coil-heating position error: no readings with the coil heated and the target "
+                          "present, and no coil-in-air heating run to build them from"))
+    rows = [row for group in with_cases for row in _ts_rows(group, group is main)]
+    if rows:
+        ours = table(("case", "target", "frequency", "Δϑ max", "all positions", "n = 4", "paper"), rows,
+                     caption="These data: max |e_pos| and TS = e_pos / (FS · Δϑ) in ppm FS/K over the readings "
+                             "of the highest temperature step", css="ts")
+        paper = table(("sensor", "range", "temperature", "TS (ppm FS/K)"), PAPER_TABLE_1,
+                      caption="The paper's Table 1: commercial sensors and the paper's demonstrator", css="ts")
+        parts.append(side_by_side(ours, paper))
+    return Html("".join(parts))
+
+
+# -- coil heating --------------------------------------------------------------------------------
+def heating_section(findings: Findings) -> Html:
+    heating = findings.heating
+    if isinstance(heating, Omitted):
+        return note(heating.reason)
+    assert isinstance(heating, CoilHeating)
+    comp = heating.compensation
+    fit = comp.fit
+    parts = [figure(ft.coil_heating(heating.data, comp),
+                    "Change of the coil-in-air inductance with coil temperature (like the paper's Fig. 17 at "
+                    "15 kHz and Fig. 19 at 500 Hz) with the fit of Eq. (4), L_coil = L0 (1 + α Δϑ + β Δϑ²); "
+                    "red: heating ramps, blue: cooling, black: steady. Below: what Eq. (4) leaves (ppm).")]
+    rows = [("L0", value_error(fit.values["L0"], fit.stderr.get("L0"), 1e3, "mH")),
+            ("α", value_error(fit.values["alpha"], fit.stderr.get("alpha"), 1e6, "ppm/K")),
+            ("β", value_error(fit.values["beta"], fit.stderr.get("beta"), 1e6, "ppm/K²"))]
+    if not fit.parameter("C_p").fixed:
+        rows.append(("C_p", value_error(fit.values["C_p"], fit.stderr.get("C_p"), 1e12, "pF")))
+    rows.append(("residual RMS", f"{fit.rms_ppm:.1f} ppm of L"
+                 + (f" (repeat noise {fit.noise_ppm:.1f} ppm)" if fit.noise_ppm is not None else "")))
+    rows.append(("readings", f"{fit.n}, coil {np.min(heating.data.t_coil_c):.0f} … "
+                             f"{np.max(heating.data.t_coil_c):.0f} °C"))
+    expansion = fit.model.sensor.former_expansion_per_k
+    parts.append(table(("Eq. (4)", "value"), rows,
+                       caption=f"Fit of Eq. (4) to the coil in air (reference {comp.reference_c:g} °C); the former's "
+                               f"expansion alone ({fit.model.sensor.former}, {expansion * 1e6:g} ppm/K, ΔL ∝ area) "
+                               f"gives α ≈ {2 * expansion * 1e6:g} ppm/K", css="params"))
+    return Html("".join(parts))
+
+
+# -- spectroscopy --------------------------------------------------------------------------------
+def spectroscopy_section(findings: Findings) -> Html:
+    spectra = findings.spectra
+    if isinstance(spectra, Omitted):
+        return note(spectra.reason)
+    parts = [figure(ft.spectra([(s.data, s.fit) for s in spectra]),
+                    "Impedance of the coil in air against frequency at each coil temperature (like the paper's "
+                    "Fig. 18): readings (markers) and the fitted parallel RLC circuit, (R_s + jωL) ‖ C ‖ R_p "
+                    "(dashed).")]
+    rows = [(s.source, f"{s.fit.t_coil_c:.0f} °C", value_error(s.fit.inductance_h, s.fit.stderr["inductance_h"], 1e3),
+             value_error(s.fit.capacitance_f, s.fit.stderr["capacitance_f"], 1e12),
+             value_error(s.fit.parallel_resistance_ohm, s.fit.stderr["parallel_resistance_ohm"], 1e-3),
+             f"{s.fit.series_resistance_ohm:.1f}", f"{s.fit.resonance_hz / 1e3:.1f}", f"{s.fit.rms_ppm:.0f}")
+            for s in spectra]
+    ours = table(("file", "ϑ_coil", "L_p (mH)", "C_p (pF)", "R_p (kΩ)", "R_s (Ω)", "f_res (kHz)", "RMS (ppm |Z|)"),
+                 rows, caption="These data: parallel RLC fits", css="ts")
+    paper = table(("ϑ_coil", "L_p (mH)", "C_p (pF)", "R_p (kΩ)"), PAPER_TABLE_2,
+                  caption="The paper's Table 2 (moist fired-clay former)", css="ts")
+    parts.append(side_by_side(ours, paper))
+    return Html("".join(parts))

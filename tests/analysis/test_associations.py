@@ -1,0 +1,43 @@
+"""Residual associations: the variable a residual depends on comes first; noise scores near zero."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ecds_lab.analysis.associations import residual_associations
+from ecds_lab.analysis.dataset import Measurements
+
+
+@pytest.fixture
+def data() -> Measurements:
+    rng = np.random.default_rng(5)
+    n = 1200
+    t = np.sort(rng.uniform(0, 36000, n))
+    return Measurements(time_s=t, x_m=rng.choice(np.linspace(0.02, 0.1, 17), n),
+                        freq_hz=rng.choice([500.0, 15000.0], n), t_coil_c=rng.uniform(22, 130, n),
+                        t_target_c=rng.uniform(22, 130, n), ls_h=np.full(n, 0.05), rs_ohm=np.full(n, 100.0))
+
+
+@pytest.mark.parametrize("variable, shape", [
+    ("t_coil_c", lambda d: 3.0 * (d.t_coil_c - 22)),
+    ("t_target_c", lambda d: np.where(d.freq_hz == 500, 5.0, 1.0) * (d.t_target_c - 22)),
+    ("x_mm", lambda d: 4000.0 / d.x_mm),
+    ("time_s", lambda d: d.time_s / 100.0),
+])
+def test_the_variable_the_residual_lives_in_comes_first(data, variable, shape):
+    noise = np.random.default_rng(1).normal(0, 20, len(data))
+    found = residual_associations(data, shape(data) + noise, noise_ppm=20.0)
+    assert found[0].variable == variable
+    assert found[0].score > 0.5
+
+
+def test_pure_noise_scores_near_zero(data):
+    noise = np.random.default_rng(2).normal(0, 20, len(data))
+    assert max(a.score for a in residual_associations(data, noise, noise_ppm=20.0)) < 0.05
+
+
+def test_detail_names_the_frequency_where_the_residual_is_larger(data):
+    residual = np.where(data.freq_hz == 500, 5.0, 1.0) * (data.t_target_c - 22)
+    target = next(a for a in residual_associations(data, residual, 1.0) if a.variable == "t_target_c")
+    assert "larger at 500 Hz" in target.detail

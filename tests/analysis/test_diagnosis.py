@@ -1,0 +1,87 @@
+"""Diagnosis on campaigns with a hidden effect: named first, error to the noise, no false alarms."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from ecds_lab.analysis.diagnosis import FAILING_RATIO, diagnose, format_diagnosis, run_diagnosis
+from ecds_lab.cli import main
+from ecds_lab.model.effects import EFFECT_NAMES
+
+RATIO_TO_NOISE = 1.5
+
+
+@pytest.mark.parametrize("effect", EFFECT_NAMES)
+def test_each_library_effect_is_ranked_first_and_brings_the_error_to_the_noise(campaign_with, effect):
+    result = run_diagnosis(campaign_with(effect), follow_up=False)
+    assert result.verdict == "missing_effect"
+    assert result.best.effect == effect, [(c.effect, round(c.delta_bic)) for c in result.candidates]
+    assert result.best.rmse_ppm <= RATIO_TO_NOISE * result.noise_ppm
+    assert result.baseline.rms_ppm > result.best.rmse_ppm
+
+
+def test_no_hidden_effect_is_judged_adequate(campaign_with):
+    report = diagnose(campaign_with())
+    assert report["verdict"] == "adequate", report["explanation"]
+    assert report["baseline"]["rmse_ppm"] <= FAILING_RATIO * report["noise_ppm"]
+    assert "noise level" in report["explanation"]
+
+
+def test_the_noise_is_estimated_from_the_data(campaign_with):
+    result = run_diagnosis(campaign_with(), follow_up=False)
+    simulated_ppm = 20.0  # LabConfig's slow-speed bridge noise
+    assert result.noise_ppm == pytest.approx(simulated_ppm, rel=0.2)
+
+
+def test_effect_outside_the_library_is_missing_and_located(campaign_with):
+    report = diagnose(campaign_with("bridge_drift"))
+    assert report["verdict"] == "missing_effect"
+    assert report["associations"][0]["variable"] == "time_s"
+    assert report["ranking"][0]["rmse_ppm"] > FAILING_RATIO * report["noise_ppm"]
+    assert "outside the library" in report["explanation"]
+
+
+def test_two_effects_are_found_in_turn(campaign_with):
+    result = run_diagnosis(campaign_with("target_bending", "slide_backlash"))
+    first = result.best.effect
+    assert first in ("target_bending", "slide_backlash")
+    assert result.follow_up is not None
+    second = result.follow_up.best.effect
+    assert {first, second} == {"target_bending", "slide_backlash"}
+    assert result.follow_up.best.rmse_ppm <= RATIO_TO_NOISE * result.noise_ppm
+    assert second in result.explanation
+
+
+def test_json_has_the_fields_design_md_fixes(campaign_with):
+    report = diagnose(campaign_with("target_bending"))
+    assert set(report) >= {"noise_ppm", "baseline", "verdict", "ranking", "associations", "explanation"}
+    assert {"rmse_ppm", "params"} <= set(report["baseline"])
+    for entry in report["ranking"]:
+        assert {"effect", "rmse_ppm", "delta_bic", "params"} <= set(entry)
+    variables = {a["variable"] for a in report["associations"]}
+    assert variables >= {"x_mm", "freq_hz", "t_coil_c", "t_target_c", "time_s", "direction", "coil_rate_k_per_min"}
+    bending = report["ranking"][0]["params"]["bending"]
+    assert bending["unit"] == "m/K" and bending["value"] == pytest.approx(2e-6, rel=0.1)
+    json.dumps(report)  # serialisable as it stands
+    assert "target_bending" in format_diagnosis(report)
+
+
+def test_cli_diagnose_json_and_effects_option(campaign_with, tmp_path, capsys):
+    path = tmp_path / "bending.csv"
+    campaign_with("target_bending").to_csv(path)
+    assert main(["diagnose", str(path), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["ranking"][0]["effect"] == "target_bending"
+    assert main(["diagnose", str(path), "--effects", "target_bending", "--json"]) == 0
+    after = json.loads(capsys.readouterr().out)
+    assert after["verdict"] == "adequate"
+    assert after["baseline"]["effects"] == ["target_bending"]
+
+
+def test_unknown_effect_is_a_clear_error(campaign_with, tmp_path, capsys):
+    path = tmp_path / "plain.csv"
+    campaign_with().to_csv(path)
+    assert main(["diagnose", str(path), "--effects", "warp_drive"]) == 2
+    assert "unknown effect(s) warp_drive" in capsys.readouterr().err

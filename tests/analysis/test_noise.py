@@ -1,0 +1,33 @@
+"""Noise estimates from repeated readings and, failing those, from successive residual differences."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ecds_lab.analysis.dataset import Measurements
+from ecds_lab.analysis.noise import estimate_noise
+
+
+def readings(n_positions: int, repeats: int, sigma_ppm: float, structure_ppm: float = 0.0) -> tuple:
+    rng = np.random.default_rng(3)
+    x = np.repeat(np.linspace(0.02, 0.1, n_positions), repeats)
+    t = np.arange(len(x)) * 2.0
+    residual = structure_ppm * np.sin(x * 200) + rng.normal(0, sigma_ppm, len(x))
+    data = Measurements(time_s=t, x_m=x, freq_hz=np.full(len(x), 15000.0), t_coil_c=np.full(len(x), 22.0),
+                        t_target_c=np.full(len(x), 22.0), ls_h=np.full(len(x), 0.05), rs_ohm=np.full(len(x), 100.0))
+    return data, residual
+
+
+def test_repeated_readings_give_the_noise_despite_structure():
+    data, residual = readings(40, 3, sigma_ppm=20.0, structure_ppm=500.0)
+    estimate = estimate_noise(data, residual)
+    assert estimate.method == "repeated readings"
+    assert estimate.ppm == pytest.approx(20.0, rel=0.15)
+
+
+def test_without_repeats_successive_differences_are_used():
+    data, residual = readings(400, 1, sigma_ppm=20.0, structure_ppm=5.0)
+    estimate = estimate_noise(data, residual)
+    assert estimate.method == "successive differences of the residual"
+    assert estimate.ppm == pytest.approx(20.0, rel=0.2)
