@@ -244,8 +244,8 @@ class Runner:
             self._control(step.interval_s, temperatures)
             value = temperatures[step.heater]
             window.append((now, value))
-            while window and window[0][0] < now - step.window_s:
-                window.popleft()
+            while len(window) > 1 and window[1][0] <= now - step.window_s:
+                window.popleft()  # keep one reading at or before the window's start: it spans the window
             if self._bar is not None:
                 self._bar.set_postfix_str(f"{step.heater} {value:.1f} C -> {step.setpoint_c:g} C")
             if now - last_log >= step.log_interval_s:
@@ -262,7 +262,7 @@ class Runner:
     @staticmethod
     def _steady(window: deque[tuple[float, float]], step: WaitSteady) -> bool:
         """Slope of a straight-line fit over a full window below the threshold."""
-        if len(window) < 3 or window[-1][0] - window[0][0] < step.window_s * 0.95:
+        if len(window) < 3 or window[-1][0] - window[0][0] < step.window_s:
             return False
         n = len(window)
         mean_t = sum(t for t, _ in window) / n
