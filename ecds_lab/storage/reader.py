@@ -71,7 +71,7 @@ def read_run(path: str | Path, *, transcripts: bool = True) -> RunFile:
             identities = _read_identities(entry)
     except RunFileError:
         raise
-    except (OSError, KeyError, ValueError) as exc:
+    except (OSError, KeyError, ValueError, RuntimeError, TypeError) as exc:  # h5py's errors for damaged files
         raise RunFileError(f"{path}: cannot read the run file (truncated or corrupt?): {exc}") from exc
     return RunFile(path, metadata, points, events, identities)
 
