@@ -16,6 +16,7 @@ from ecds_lab.cli import main
 from ecds_lab.config.experiment import SweepConfig
 from ecds_lab.config.station import DRIVERS, ROLES
 from ecds_lab.drivers.hm8118 import FREQUENCIES_HZ
+from ecds_lab.simulators.config import TargetBending
 from ecds_lab.errors import ConfigError
 from ecds_lab.runner.session import prepare, run_experiment
 
@@ -37,6 +38,14 @@ def station_yaml(experiments_dir: Path) -> dict:
 def unknown_key(copy, tmp_path, experiments) -> BadConfig:  # noqa: ANN001
     path = copy("displacement_sweep.yaml", lambda d: d["sweep"].update(settle_sec=2.0))
     return BadConfig(path, None, path, ["field 'sweep.settle_sec'", "unknown key", *SweepConfig.model_fields])
+
+
+def unknown_key_in_station(copy, tmp_path, experiments) -> BadConfig:  # noqa: ANN001
+    station = copy("stations/simulated_lab.yaml",
+                   lambda d: d["simulated"]["lab"]["effects"].update(target_bending={"shift_um": 2.0}))
+    return BadConfig(experiments / "displacement_sweep.yaml", station, station,
+                     ["field 'simulated.lab.effects.target_bending.shift_um'", "unknown key",
+                      "allowed: " + ", ".join(sorted(TargetBending.model_fields))])
 
 
 def wrong_type(copy, tmp_path, experiments) -> BadConfig:  # noqa: ANN001
@@ -128,7 +137,7 @@ def malformed_station(copy, tmp_path, experiments) -> BadConfig:  # noqa: ANN001
 
 
 CASES: list[Callable[..., BadConfig]] = [
-    unknown_key, wrong_type, wrong_choice, wrong_type_in_station, frequency_not_on_the_bridge,
+    unknown_key, unknown_key_in_station, wrong_type, wrong_choice, wrong_type_in_station, frequency_not_on_the_bridge,
     position_beyond_travel, range_beyond_travel, park_beyond_travel, setpoint_above_safety_limit,
     power_above_heater_wiring, driver_in_the_wrong_role, unknown_driver, malformed_experiment, malformed_station,
 ]

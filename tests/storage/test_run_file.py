@@ -123,7 +123,7 @@ def test_reader_api(sweep_file):
         run.column("inductance")
     measurements = read_measurements(sweep_file)
     assert len(measurements) == len(run.points)
-    np.testing.assert_array_equal(measurements.x_mm, run.column("x_commanded_mm"))
+    np.testing.assert_array_equal(measurements.x_m, run.column("x_commanded_mm") * 1e-3)
 
 
 def test_reader_refuses_missing_foreign_and_truncated_files(tmp_path, sweep_file):
@@ -149,8 +149,10 @@ def test_export_writes_the_csv_import_format(experiment, shipped_run, tmp_path, 
     exported, recorded = Measurements.from_csv(csv_path), read_measurements(path)
     assert len(exported) == len(recorded) > 0
     assert capsys.readouterr().out.startswith(f"{len(recorded)} rows")
-    for name in ("time_s", "x_m", "freq_hz", "t_coil_c", "t_target_c", "ls_h", "rs_ohm"):
+    for name in ("time_s", "freq_hz", "t_coil_c", "t_target_c", "ls_h", "rs_ohm"):
         np.testing.assert_array_equal(getattr(exported, name), getattr(recorded, name), err_msg=name)
+    # x goes m -> mm -> m through the CSV: equal to the last bit or one ulp off, never more
+    np.testing.assert_allclose(exported.x_m, recorded.x_m, rtol=4e-16, atol=0)
     run = read_run(path, transcripts=False)
     in_air = ~np.isfinite(run.column("x_commanded_mm"))
     assert np.isinf(exported.x_m).sum() == in_air.sum()
