@@ -147,13 +147,14 @@ class Measurements:
                    t_target_c=data[:, 4], ls_h=data[:, 5], rs_ohm=data[:, 6], source=str(path))
 
     def to_csv(self, path: str | Path) -> None:
-        """Write the CSV import format, 15 significant digits (clean decimals; finer than any reading)."""
-        columns = [self.time_s, self.x_mm, self.freq_hz, self.t_coil_c, self.t_target_c, self.ls_h, self.rs_ohm]
+        """Write the CSV import format: every value exactly, x rounded to 1 pm (so 26 mm reads 26.0, not 26.000000000000004)."""
+        columns = [self.time_s, np.round(self.x_mm, 9), self.freq_hz, self.t_coil_c, self.t_target_c, self.ls_h,
+                   self.rs_ohm]
         with Path(path).open("w", newline="") as handle:
             writer = csv.writer(handle)
             writer.writerow(CSV_COLUMNS)
             for row in zip(*columns):
-                writer.writerow([f"{v:.15g}" if math.isfinite(v) else "inf" for v in row])
+                writer.writerow([repr(float(v)) if math.isfinite(v) else "inf" for v in row])
 
 
 def load_measurements(path: str | Path) -> Measurements:
