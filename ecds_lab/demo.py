@@ -42,7 +42,7 @@ def run_demo(output: Path, progress: bool = True) -> list[RunResult]:
 def analyse_campaign(run_files: list[Path], output: Path) -> None:
     """Fit and diagnose the copper campaign, then write the HTML report."""
     from ecds_lab.analysis.dataset import Measurements, load_measurements
-    from ecds_lab.analysis.diagnosis import diagnose, format_diagnosis
+    from ecds_lab.analysis.diagnosis import format_diagnosis, run_diagnosis
     from ecds_lab.analysis.summary import fit_summary
     from ecds_lab.report.html import write_report
 
@@ -50,7 +50,8 @@ def analyse_campaign(run_files: list[Path], output: Path) -> None:
     data = Measurements.concatenate([load_measurements(p) for p in copper])
     fit = fit_summary(data, [])
     (output / "fit.json").write_text(json.dumps(fit, indent=2))
-    diagnosis = diagnose(data)
-    (output / "diagnosis.json").write_text(json.dumps(diagnosis, indent=2))
-    print(format_diagnosis(diagnosis))
-    write_report(run_files, output / "report.html")
+    diagnosis = run_diagnosis(data)
+    report = diagnosis.to_json()
+    (output / "diagnosis.json").write_text(json.dumps(report, indent=2))
+    print(format_diagnosis(report))
+    write_report(run_files, output / "report.html", diagnosis=diagnosis)

@@ -9,6 +9,7 @@ from typing import Callable, Sequence
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.colors import Colormap, Normalize
+from matplotlib.figure import Figure
 
 from ecds_lab.analysis.dataset import Measurements
 from ecds_lab.analysis.fitting import FitResult
@@ -18,9 +19,16 @@ from ecds_lab.report.canvas import Png, colormap, colour_scale, styled, subplots
 STATE_BIN_K = 5.0
 #: A state is drawn as a curve when it has readings at this many positions or more.
 MIN_CURVE_POSITIONS = 5
+#: Sensitivity needs a room-temperature sweep over at least this many positions.
+MIN_SENSITIVITY_POSITIONS = 3
 GREY = "0.6"
 MATERIAL_MARKERS = {"copper": "o", "steel": "s"}
 CATEGORY_COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown", "tab:pink")
+
+
+def category_colour(index: int) -> str:
+    """The colour of the index-th value of a categorical variable (the palette repeats)."""
+    return CATEGORY_COLOURS[index % len(CATEGORY_COLOURS)]
 
 
 @dataclass(frozen=True)
@@ -47,15 +55,6 @@ VARIABLES: dict[str, Variable] = {v.name: v for v in (
 #: Abscissae of the residual maps; each is coloured by every other variable (and frequency).
 MAP_AXES = ("x_mm", "t_coil_c", "t_target_c", "time_s", "direction")
 MAP_COLOURS = ("x_mm", "t_coil_c", "t_target_c", "time_s", "direction", "freq_hz")
-
-
-@dataclass
-class Curve:
-    """Readings of one group in one thermal state at one frequency, with the fitted model."""
-
-    material: str
-    fit: FitResult
-    data: Measurements
 
 
 def states(data: Measurements) -> list[np.ndarray]:
@@ -114,6 +113,14 @@ def inductance_vs_distance(groups: Sequence[tuple[str, FitResult, Measurements]]
     return to_png(fig, "Measured inductance against distance per frequency, with the fitted model")
 
 
+def room_sweep_positions(data: Measurements) -> int:
+    """The most distinct positions of a room-temperature sweep at any one frequency."""
+    from ecds_lab.analysis.calibration import room_temperature_rows
+
+    room = data.select(room_temperature_rows(data) & np.isfinite(data.x_m))
+    return max((len(np.unique(np.round(room.x_mm[room.freq_hz == f], 4))) for f in room.frequencies_hz), default=0)
+
+
 @styled
 def sensitivity(groups: Sequence[tuple[str, FitResult, Measurements]]) -> Png:
     """Fig. 7: S = dL/dx at room temperature per frequency: model (lines), measured differences (markers)."""
@@ -127,11 +134,12 @@ def sensitivity(groups: Sequence[tuple[str, FitResult, Measurements]]) -> Png:
             if not len(room):
                 continue
             positions, index = np.unique(np.round(room.x_mm, 4), return_inverse=True)
+            if len(positions) < MIN_SENSITIVITY_POSITIONS:
+                continue
             mean_l = np.bincount(index, room.ls_h) / np.bincount(index)
-            if len(positions) >= 3:
-                measured = np.gradient(mean_l, positions * 1e-3)
-                ax.plot(positions, measured * 1e3, MATERIAL_MARKERS.get(material, "^"), ms=3.5, mfc="none",
-                        color=colour, label=f"{material}: measured (finite differences)")
+            measured = np.gradient(mean_l, positions * 1e-3)
+            ax.plot(positions, measured * 1e3, MATERIAL_MARKERS.get(material, "^"), ms=3.5, mfc="none",
+                    color=colour, label=f"{material}: measured (finite differences)")
             x = np.linspace(positions.min(), positions.max(), 200)
             model = model_grid(fit, float(freq), float(np.mean(room.t_coil_c)), float(np.mean(room.t_target_c)), x)
             ax.plot(x, np.gradient(model, x * 1e-3) * 1e3, "-", color=colour, lw=1.2, label=f"{material}: model")
@@ -142,48 +150,68 @@ def sensitivity(groups: Sequence[tuple[str, FitResult, Measurements]]) -> Png:
     return to_png(fig, "Sensitivity dL/dx against distance per frequency")
 
 
-@styled
-def residual_maps(data: Measurements, residuals_ppm: np.ndarray, noise_ppm: float | None) -> Png:
-    """Residual (ppm of L) against x, temperatures, time and direction (rows), coloured by each variable (columns).
+#: Residual map rows: panel height, space below for the axis label, above for the colour keys (inches).
+ROW_PANEL_IN, ROW_BOTTOM_IN, KEYS_IN, ROW_TOP_IN = 1.55, 0.45, 0.95, 0.12
 
-    Every column has one colour variable and one colour key at its top; the panel whose colour
+
+@styled
+def residual_map_row(data: Measurements, residuals_ppm: np.ndarray, noise_ppm: float | None, axis_name: str,
+                     keys: bool) -> Png:
+    """One row of the residual maps: residual (ppm of L) against ``axis_name``, one panel per colour variable.
+
+    Rows drawn separately line up (same width and margins) and share the residual axis; the
+    colour keys (one per column) are drawn above the row with ``keys``. The panel whose colour
     would repeat its own axis is drawn in one colour.
     """
-    rows, cols = len(MAP_AXES), len(MAP_COLOURS)
-    fig, axes = subplots(2.05 * cols, 1.75 * rows + 0.9, rows, cols, sharey=True, layout=None,
-                         gridspec_kw={"left": 0.055, "right": 0.99, "bottom": 0.055, "top": 0.86,
-                                      "wspace": 0.12, "hspace": 0.55})
+    cols = len(MAP_COLOURS)
+    height = ROW_PANEL_IN + ROW_BOTTOM_IN + (KEYS_IN if keys else ROW_TOP_IN)
+    fig, axes = subplots(2.05 * cols, height, 1, cols, sharey=True, layout=None,
+                         gridspec_kw={"left": 0.055, "right": 0.99, "bottom": ROW_BOTTOM_IN / height,
+                                      "top": 1 - (KEYS_IN if keys else ROW_TOP_IN) / height, "wspace": 0.12})
     r = np.asarray(residuals_ppm, float)
     values = {name: VARIABLES[name].values(data) for name in MAP_COLOURS}
+    scales = _colour_scales(values)
+    cmap = colormap("viridis")
     jitter = np.random.default_rng(0).uniform(-0.18, 0.18, len(data))
+    x = values[axis_name] + (jitter if VARIABLES[axis_name].categorical else 0.0)
+    span = float(np.max(np.abs(r))) * 1.05 if len(r) else 1.0
+    for ax, colour_name in zip(axes[0], MAP_COLOURS):
+        if colour_name == axis_name:
+            ax.scatter(x, r, s=3, color="0.35", lw=0)
+        else:
+            _coloured_scatter(ax, x, r, values[colour_name], VARIABLES[colour_name], scales.get(colour_name), cmap)
+        if noise_ppm:
+            ax.axhspan(-noise_ppm, noise_ppm, color="0.86", zorder=0, lw=0)
+        ax.axhline(0.0, color="0.4", lw=0.6, zorder=1)
+        ax.set_ylim(-span, span)
+        ax.locator_params(axis="x", nbins=4)
+        ax.set_xlabel(VARIABLES[axis_name].label, fontsize=7.5, labelpad=1)
+        ax.tick_params(labelsize=7, pad=1)
+        if axis_name == "direction":
+            ax.set_xticks([-1, 0, 1], ["−", "0", "+"])
+    axes[0, 0].set_ylabel("residual (ppm)", fontsize=7.5)
+    if keys:
+        _colour_keys(fig, axes[0], values, scales, cmap, KEYS_IN / height)
+    return to_png(fig, f"Residual in ppm against {VARIABLES[axis_name].label}, coloured by each recorded variable")
+
+
+def _colour_scales(values: dict[str, np.ndarray]) -> dict[str, Normalize]:
     scales = {}
-    for name in MAP_COLOURS:
-        c = values[name][np.isfinite(values[name])]
+    for name, v in values.items():
+        c = v[np.isfinite(v)]
         if not VARIABLES[name].categorical and len(c):
             scales[name] = Normalize(float(np.min(c)), max(float(np.max(c)), float(np.min(c)) + 1e-9))
-    cmap = colormap("viridis")
-    for i, axis_name in enumerate(MAP_AXES):
-        x = values[axis_name] + (jitter if VARIABLES[axis_name].categorical else 0.0)
-        for j, colour_name in enumerate(MAP_COLOURS):
-            ax = axes[i, j]
-            if colour_name == axis_name:
-                ax.scatter(x, r, s=3, color="0.35", lw=0, rasterized=True)
-            else:
-                _coloured_scatter(ax, x, r, values[colour_name], VARIABLES[colour_name], scales.get(colour_name), cmap)
-            if noise_ppm:
-                ax.axhspan(-noise_ppm, noise_ppm, color="0.86", zorder=0, lw=0)
-            ax.axhline(0.0, color="0.4", lw=0.6, zorder=1)
-            ax.locator_params(axis="x", nbins=4)
-            ax.set_xlabel(VARIABLES[axis_name].label, fontsize=7.5, labelpad=1)
-            ax.tick_params(labelsize=7, pad=1)
-            if axis_name == "direction":
-                ax.set_xticks([-1, 0, 1], ["−", "0", "+"])
-        axes[i, 0].set_ylabel("residual (ppm)", fontsize=7.5)
-    for j, colour_name in enumerate(MAP_COLOURS):
-        variable, top = VARIABLES[colour_name], axes[0, j]
+    return scales
+
+
+def _colour_keys(fig: Figure, axes: Sequence[Axes], values: dict[str, np.ndarray], scales: dict[str, Normalize],
+                 cmap: Colormap, room: float) -> None:
+    """A colour bar (continuous) or legend (categorical) above each column."""
+    for ax, colour_name in zip(axes, MAP_COLOURS):
+        variable = VARIABLES[colour_name]
         if colour_name in scales:
-            box = top.get_position()
-            bar_ax = fig.add_axes((box.x0, box.y1 + 0.045, box.width, 0.012))
+            box = ax.get_position()
+            bar_ax = fig.add_axes((box.x0, box.y1 + 0.28 * room, box.width, 0.07 * room))
             bar = fig.colorbar(colour_scale(scales[colour_name], cmap), cax=bar_ax, orientation="horizontal")
             bar.ax.tick_params(labelsize=6.5, pad=1)
             bar.ax.xaxis.set_ticks_position("top")
@@ -191,13 +219,11 @@ def residual_maps(data: Measurements, residuals_ppm: np.ndarray, noise_ppm: floa
             bar_ax.set_title(f"colour: {variable.label}", fontsize=7.5, pad=12)
         else:
             known = np.unique(values[colour_name][np.isfinite(values[colour_name])])
-            handles = [top.scatter([], [], s=12, color=c) for _, c in zip(known, CATEGORY_COLOURS)]
+            handles = [ax.scatter([], [], s=12, color=category_colour(i)) for i in range(len(known))]
             labels = [_category_label(variable, v) for v in known]
-            top.legend(handles, labels, loc="lower center", bbox_to_anchor=(0.5, 1.02), ncol=len(labels),
-                       frameon=False, fontsize=7, handletextpad=0.1, columnspacing=0.6,
-                       title=f"colour: {variable.label}", title_fontsize=7.5)
-    return to_png(fig, "Residual maps: residual in ppm against distance, temperatures, time and direction, "
-                       "coloured by each recorded variable")
+            ax.legend(handles, labels, loc="lower center", bbox_to_anchor=(0.5, 1.02), ncol=max(len(labels), 1),
+                      frameon=False, fontsize=7, handletextpad=0.1, columnspacing=0.6,
+                      title=f"colour: {variable.label}", title_fontsize=7.5)
 
 
 def _category_label(variable: Variable, value: float) -> str:
@@ -213,13 +239,13 @@ def _coloured_scatter(ax: Axes, x: np.ndarray, y: np.ndarray, c: np.ndarray, var
     known = np.isfinite(c) & np.isfinite(x)
     unknown = ~np.isfinite(c) & np.isfinite(x)
     if unknown.any():
-        ax.scatter(x[unknown], y[unknown], s=3, color=GREY, lw=0, rasterized=True)
+        ax.scatter(x[unknown], y[unknown], s=3, color=GREY, lw=0)
     if variable.categorical:
-        for value, colour in zip(np.unique(c[known]), CATEGORY_COLOURS):
+        for i, value in enumerate(np.unique(c[known])):
             sel = known & (c == value)
-            ax.scatter(x[sel], y[sel], s=3, color=colour, lw=0, rasterized=True)
+            ax.scatter(x[sel], y[sel], s=3, color=category_colour(i), lw=0)
     elif known.any():
-        ax.scatter(x[known], y[known], s=3, c=c[known], cmap=cmap, norm=norm, lw=0, rasterized=True)
+        ax.scatter(x[known], y[known], s=3, c=c[known], cmap=cmap, norm=norm, lw=0)
 
 
 @styled
@@ -257,8 +283,8 @@ def before_after(data: Measurements, before_ppm: np.ndarray, after_ppm: np.ndarr
         x = variable.values(data) + (jitter if variable.categorical else 0.0)
         if noise_ppm:
             ax.axhspan(-noise_ppm, noise_ppm, color="0.88", zorder=0, lw=0, label="± noise")
-        ax.scatter(x, before_ppm, s=5, color="tab:red", alpha=0.45, lw=0, label="baseline", rasterized=True)
-        ax.scatter(x, after_ppm, s=5, color="tab:blue", alpha=0.7, lw=0, label=f"+ {effect}", rasterized=True)
+        ax.scatter(x, before_ppm, s=5, color="tab:red", alpha=0.45, lw=0, label="baseline")
+        ax.scatter(x, after_ppm, s=5, color="tab:blue", alpha=0.7, lw=0, label=f"+ {effect}")
         ax.axhline(0.0, color="0.4", lw=0.6)
         ax.set_xlabel(variable.label)
         if name == "freq_hz":

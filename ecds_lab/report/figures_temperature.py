@@ -13,11 +13,14 @@ from ecds_lab.analysis.compensation import TemperatureCompensation
 from ecds_lab.analysis.dataset import Measurements
 from ecds_lab.analysis.summary import CalibrationCase, HeatedErrors
 from ecds_lab.model.ecm import parallel_rlc_impedance
-from ecds_lab.report.canvas import Png, colormap, colour_scale, styled, subplots, to_png
+from ecds_lab.report.canvas import Png, colormap, colour_scale, grid, styled, subplots, to_png
 from ecds_lab.report.figures_model import STATE_BIN_K
 
 #: Line style per calibration: all positions solid, the paper's n = 4 dashed.
 CALIBRATION_STYLE = {"all_points": ("-", "o"), "n4": ("--", "^")}
+#: Position-error panels: size, and margins that leave room for the labels and the % FS axis (inches).
+PANEL_W_IN, PANEL_H_IN, KEY_W_IN = 4.3, 2.6, 1.0
+MARGINS = {"left": 0.75, "right": 0.55, "bottom": 0.5, "top": 0.3, "gap_w": 1.55, "gap_h": 0.75}
 #: Rate of the coil temperature (K/min) above which a reading counts as heating (below minus: cooling).
 RAMP_K_PER_MIN = 0.3
 
@@ -59,14 +62,17 @@ def target_heating_errors(panels: Sequence[tuple[str, float, list[CalibrationCas
     """Fig. 14/22: position error of target-heated readings against x, per frequency (rows) and target (columns)."""
     materials = sorted({m for m, _, _ in panels}, key=lambda m: (m != "copper", m))
     freqs = sorted({f for _, f, _ in panels})
-    fig, axes = subplots(5.0 * len(materials) + 1.0, 3.3 * len(freqs), len(freqs), len(materials))
+    fig, axes, key = grid(PANEL_W_IN, PANEL_H_IN, len(freqs), len(materials), key_w=KEY_W_IN, **MARGINS)
     rises = np.concatenate([c.target_heated.rise_k for _, _, cases in panels for c in cases if c.target_heated])
     norm, cmap = Normalize(0.0, float(np.max(rises))), colormap("plasma")
     for ax in axes.flat:
-        ax.set_visible(False)
+        ax.set_axis_off()
+        ax.text(0.5, 0.5, "not calibrated at this frequency\n(see the note above)", ha="center", va="center",
+                color="0.45", transform=ax.transAxes)
     for material, freq, cases in panels:
         ax = axes[freqs.index(freq), materials.index(material)]
-        ax.set_visible(True)
+        ax.set_axis_on()
+        ax.texts[0].remove()
         for case in cases:
             if case.target_heated is not None:
                 _error_lines(ax, case, case.target_heated, norm, cmap)
@@ -76,15 +82,14 @@ def target_heating_errors(panels: Sequence[tuple[str, float, list[CalibrationCas
         ax.set_ylabel("position error e_pos (mm)")
         _fs_axis(ax, cases[0].calibration.fs_m)
         _style_key(ax, cases)
-    fig.colorbar(colour_scale(norm, cmap), ax=axes[:, -1].tolist(), label="target temperature rise Δϑ_T (K)",
-                 shrink=0.8)
+    fig.colorbar(colour_scale(norm, cmap), cax=key, label="target temperature rise Δϑ_T (K)")
     return to_png(fig, "Position error of target-heated readings against distance")
 
 
 @styled
 def coil_heating_errors(panels: Sequence[tuple[float, list[CalibrationCase]]]) -> Png:
     """Fig. 20/23: position error of coil-heated readings, uncompensated (left) and with Eq. (4) (right)."""
-    fig, axes = subplots(11.0, 3.3 * len(panels), len(panels), 2)
+    fig, axes, key = grid(PANEL_W_IN, PANEL_H_IN, len(panels), 2, key_w=KEY_W_IN, **MARGINS)
     rises = np.concatenate([c.coil_compensated.rise_k for _, cases in panels for c in cases if c.coil_compensated])
     norm, cmap = Normalize(0.0, float(np.max(rises))), colormap("inferno_r")
     for row, (freq, cases) in enumerate(panels):
@@ -100,8 +105,7 @@ def coil_heating_errors(panels: Sequence[tuple[float, list[CalibrationCase]]]) -
             ax.set_ylabel("position error e_pos (mm)")
             _fs_axis(ax, cases[0].calibration.fs_m)
             _style_key(ax, cases)
-    fig.colorbar(colour_scale(norm, cmap), ax=axes[:, -1].tolist(), label="coil temperature rise Δϑ_coil (K)",
-                 shrink=0.8)
+    fig.colorbar(colour_scale(norm, cmap), cax=key, label="coil temperature rise Δϑ_coil (K)")
     return to_png(fig, "Position error of coil-heated readings, uncompensated and compensated")
 
 
@@ -160,7 +164,8 @@ def spectra(items: Sequence[tuple[Measurements, "object"]]) -> Png:
         zf = parallel_rlc_impedance(2 * np.pi * f, fit.inductance_h, fit.capacitance_f, fit.parallel_resistance_ohm,
                                     fit.series_resistance_ohm)
         label = f"{temp:.0f} °C"
-        axes[0, 0].plot(data.freq_hz, np.abs(z) / 1e3, marker, ms=4, mfc="none", color=colour, label=f"{label} measured")
+        axes[0, 0].plot(data.freq_hz, np.abs(z) / 1e3, marker, ms=4, mfc="none", color=colour,
+                        label=f"{label} measured")
         axes[0, 0].plot(f, np.abs(zf) / 1e3, "--", color=colour, lw=1.2, label=f"{label} parallel RLC fit")
         axes[0, 1].plot(data.freq_hz, np.degrees(np.angle(z)), marker, ms=4, mfc="none", color=colour)
         axes[0, 1].plot(f, np.degrees(np.angle(zf)), "--", color=colour, lw=1.2)

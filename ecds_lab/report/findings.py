@@ -80,6 +80,7 @@ class Spectrum:
 class Findings:
     inputs: list[ReportInput]
     groups: list[TargetGroup] | Omitted
+    #: a Diagnosis (``ecds_lab.analysis.diagnosis``), Omitted, or None until ``diagnose`` ran
     diagnosis: Any
     heating: CoilHeating | Omitted
     spectra: list[Spectrum] | Omitted
@@ -89,30 +90,39 @@ class Findings:
         return self.groups[0] if isinstance(self.groups, list) and self.groups else None
 
 
-def find(inputs: list[ReportInput], diagnosis: Any = None) -> Findings:
-    """Everything the report shows; ``diagnosis`` (a Diagnosis of the main group) skips running one."""
-    model_inputs = [i for i in inputs if not i.is_spectroscopy]
+def find(inputs: list[ReportInput]) -> Findings:
+    """Everything the report shows except the diagnosis (``diagnose`` adds it: it takes longest)."""
+    model_inputs = [i for i in inputs if len(i.data) and not i.is_spectroscopy]
     groups = target_groups(model_inputs)
     heating = coil_heating(model_inputs)
     if isinstance(groups, list):
         for group in groups:
             calibrations(group, heating)
-    main = groups[0] if isinstance(groups, list) and groups else None
-    if diagnosis is None:
-        diagnosis = run_diagnosis_of(main) if main is not None else Omitted(groups.reason)
-    return Findings(inputs, groups, diagnosis, heating, spectra_of(inputs))
+    return Findings(inputs, groups, None, heating, spectra_of(inputs))
+
+
+def diagnose(findings: Findings, given: Any = None) -> None:
+    """Set ``findings.diagnosis``: ``given`` (a Diagnosis of the main group's readings), else run one."""
+    main = findings.main
+    if given is not None:
+        findings.diagnosis = given
+    elif main is None:
+        reason = findings.groups.reason if isinstance(findings.groups, Omitted) else "no data for the model"
+        findings.diagnosis = Omitted(reason)
+    else:
+        findings.diagnosis = run_diagnosis_of(main)
 
 
 def target_groups(inputs: list[ReportInput]) -> list[TargetGroup] | Omitted:
     """One fitted group per target material, the main one (copper if present, else the largest) first."""
     if not inputs:
-        return Omitted("no data for the sensor model: every input is a spectroscopy recording")
+        return Omitted("no data for the sensor model: no readings, or only spectroscopy recordings")
     with_target = [i for i in inputs if np.isfinite(i.data.x_m).any()]
     coil_only = [i for i in inputs if i not in with_target]
     materials = sorted({i.target for i in with_target}) or [DEFAULT_TARGET]
     groups = []
     for material in materials:
-        members = [i for i in with_target if i.target == material] + coil_only
+        members = [i for i in inputs if i in coil_only or (i in with_target and i.target == material)]
         data = Measurements.concatenate([i.data for i in members])
         model = SensorModel(SensorConfig(target=material))
         groups.append(TargetGroup(material, [i.name for i in members], data, fit_model(model, data)))
@@ -133,12 +143,12 @@ def calibrations(group: TargetGroup, heating: CoilHeating | Omitted) -> None:
         synthetic = built if len(built) else None
     for freq in data.frequencies_hz:
         at_f = sweep.select(sweep.freq_hz == freq)
-        error_mm = noise_limited_error_mm(group.fit, at_f)
         fs_mm = float(np.ptp(at_f.x_mm)) if len(at_f) else 0.0
-        if len(at_f) and error_mm > MAX_NOISE_ERROR_FS * fs_mm:
+        error_mm = noise_limited_error_mm(group.fit, at_f) if fs_mm > 0 else 0.0
+        if fs_mm > 0 and error_mm > MAX_NOISE_ERROR_FS * fs_mm:
             group.skipped[float(freq)] = (f"{group.material} target at {freq:g} Hz not calibrated: L hardly depends "
-                                          f"on x there (bridge noise alone would mean a {error_mm:.2g} mm position "
-                                          f"error at a typical position, {error_mm / fs_mm:.1%} of FS)")
+                                          f"on x there (bridge noise alone would mean a {error_mm:.3g} mm position "
+                                          f"error at a typical position, {error_mm / fs_mm:.0%} of FS)")
             continue
         found = calibration_cases(data, group.fit.model, group.fit, float(freq), coil_heated=synthetic)
         if found:
@@ -174,7 +184,7 @@ def coil_heating(inputs: list[ReportInput]) -> CoilHeating | Omitted:
 
 def spectra_of(inputs: list[ReportInput]) -> list[Spectrum] | Omitted:
     """Parallel RLC fits of every spectrum in the spectroscopy inputs."""
-    spectra = []
+    spectra, failures = [], []
     for item in inputs:
         if not item.is_spectroscopy:
             continue
@@ -183,11 +193,16 @@ def spectra_of(inputs: list[ReportInput]) -> list[Spectrum] | Omitted:
             part = air.select(rows)
             if len(np.unique(part.freq_hz)) < SPECTROSCOPY_MIN_FREQUENCIES:
                 continue
-            fit = fit_parallel_rlc(part.freq_hz, part.ls_h, part.rs_ohm)
+            try:
+                fit = fit_parallel_rlc(part.freq_hz, part.ls_h, part.rs_ohm)
+            except (ValueError, np.linalg.LinAlgError) as exc:
+                failures.append(f"{item.name}: {exc}")
+                continue
             fit.t_coil_c = float(np.mean(part.t_coil_c))
             spectra.append(Spectrum(item.name, part, fit))
     if not spectra:
-        return Omitted(f"no spectroscopy data: no input has coil-in-air readings at "
+        return Omitted(f"the parallel RLC fit failed ({'; '.join(failures)})" if failures else
+                       f"no spectroscopy data: no input has coil-in-air readings at "
                        f"{SPECTROSCOPY_MIN_FREQUENCIES} or more frequencies")
     return spectra
 

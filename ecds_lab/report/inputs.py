@@ -16,6 +16,7 @@ import numpy as np
 import yaml
 
 from ecds_lab.analysis.dataset import Measurements, load_measurements
+from ecds_lab.errors import RunFileError
 
 #: Coil-in-air readings at this many frequencies or more make an input a spectroscopy recording.
 SPECTROSCOPY_MIN_FREQUENCIES = 4
@@ -48,7 +49,7 @@ class RunInfo:
             return None
 
 
-@dataclass
+@dataclass(eq=False)
 class ReportInput:
     """One DATA argument: its readings, its run metadata (None for CSV) and its use in the report."""
 
@@ -77,9 +78,28 @@ class ReportInput:
 
 
 def load_inputs(paths: list[Path]) -> list[ReportInput]:
-    """Load every DATA path (run file or CSV); errors name the file."""
-    return [ReportInput(Path(p), load_measurements(p), read_run_info(Path(p)) if _is_run_file(Path(p)) else None)
-            for p in paths]
+    """Load every DATA path (run file or CSV); errors name the file.
+
+    A run file without a single reading (a run that failed at once) is still listed, with no data.
+    """
+    inputs = []
+    for path in map(Path, paths):
+        if not _is_run_file(path):
+            inputs.append(ReportInput(path, load_measurements(path), None))
+            continue
+        info = read_run_info(path)
+        try:
+            data = load_measurements(path)
+        except RunFileError as exc:
+            data = _no_readings(str(path))
+            info.faults.append(str(exc))
+        inputs.append(ReportInput(path, data, info))
+    return inputs
+
+
+def _no_readings(source: str) -> Measurements:
+    empty = np.zeros(0)
+    return Measurements(empty, empty, empty, empty, empty, empty, empty, source=source)
 
 
 def read_run_info(path: Path) -> RunInfo:

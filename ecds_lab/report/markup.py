@@ -57,10 +57,12 @@ def lines(items: Iterable[object]) -> Html:
 
 
 def figure(png: Png, caption: str) -> Html:
-    """The PNG embedded in the page (data URI), with its size and a caption."""
+    """The PNG embedded in the page (data URI), with its size and a caption (none: the next figure continues it)."""
     data = base64.b64encode(png.data).decode("ascii")
-    return Html(f'<figure><img src="data:image/png;base64,{data}" width="{png.width}" height="{png.height}" '
-                f'alt="{html.escape(png.alt)}"><figcaption>{text(caption)}</figcaption></figure>')
+    below = f"<figcaption>{text(caption)}</figcaption>" if caption else ""
+    css = "" if caption else ' class="continued"'
+    return Html(f'<figure{css}><img src="data:image/png;base64,{data}" width="{png.width}" height="{png.height}" '
+                f'alt="{html.escape(png.alt)}">{below}</figure>')
 
 
 def side_by_side(*blocks: Html) -> Html:

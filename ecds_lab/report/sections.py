@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from datetime import datetime
-from typing import Any, Callable
+from typing import Any, Callable, Sequence
 
 import numpy as np
 
@@ -22,7 +22,6 @@ from ecds_lab.report.inputs import ReportInput
 from ecds_lab.report.markup import (
     Html,
     badge,
-    figure,
     lines,
     note,
     number,
@@ -31,6 +30,7 @@ from ecds_lab.report.markup import (
     table,
     value_error,
 )
+from ecds_lab.report.render import Plot
 
 #: TS is quoted over the readings of the highest temperature step: rises above this share of the largest.
 TOP_STEP_SHARE = 0.8
@@ -44,7 +44,8 @@ PAPER_TABLE_1 = (
     ("Gruber et al. 2024, target heated", "100 mm", "20 … 130 °C", "−11 … 18"),
 )
 #: The paper's Table 2: parallel RLC fits of the moist fired-clay coil.
-PAPER_TABLE_2 = (("20 °C", "61", "62.5", "92"), ("65 °C", "60.4", "47.46", "212"), ("120 °C", "58.4", "47.53", "984"))
+PAPER_TABLE_2 = (("20 °C", "61", "62.5", "92"), ("65 °C", "60.4", "47.46", "212"),
+                 ("120 °C", "58.4", "47.53", "984"))
 
 
 #: Parameters shown in friendlier units: name -> (factor, unit).
@@ -52,25 +53,32 @@ DISPLAY_UNITS = {"L0": (1e3, "mH"), "alpha": (1e6, "ppm/K"), "beta": (1e6, "ppm/
                  "p1": (1e3, "mm"), "C_p": (1e12, "pF"), "R_p": (1e-3, "kΩ")}
 
 
+#: A section's content: HTML and the figures to draw in place (see ``render``).
+Parts = list[Html | Plot]
+
+
 @dataclass
 class Section:
     anchor: str
     title: str
-    body: Html
+    body: Parts
+
+    def plots(self) -> list[Plot]:
+        return [part for part in self.body if isinstance(part, Plot)]
 
 
-def build_sections(findings: Findings) -> list[Section]:
-    """Every section in report order."""
-    builders: list[tuple[str, str, Callable[[Findings], Html]]] = [
-        ("runs", "Runs and files", runs_section),
-        ("fit", "Inductance against distance and the model fit", fit_section),
-        ("residuals", "Residual maps", residual_section),
-        ("diagnosis", "Diagnosis", diagnosis_section),
-        ("position", "Position error and temperature stability", position_section),
-        ("heating", "Coil heating characterisation", heating_section),
-        ("spectroscopy", "Impedance spectroscopy", spectroscopy_section),
-    ]
-    return [Section(anchor, title, build(findings)) for anchor, title, build in builders]
+DIAGNOSIS = "diagnosis"
+
+
+def build_sections(findings: Findings, anchors: Sequence[str] | None = None) -> list[Section]:
+    """The sections with the given anchors (default: all), in report order."""
+    return [Section(anchor, title, build(findings)) for anchor, title, build in SECTIONS
+            if anchors is None or anchor in anchors]
+
+
+def anchors() -> list[str]:
+    """Every section's anchor in report order."""
+    return [anchor for anchor, _, _ in SECTIONS]
 
 
 # -- runs ----------------------------------------------------------------------------------------
@@ -101,7 +109,7 @@ def _started(run_start: str) -> str:
         return run_start or "—"
 
 
-def runs_section(findings: Findings) -> Html:
+def runs_section(findings: Findings) -> Parts:
     runs = [i for i in findings.inputs if i.run is not None]
     csvs = [i for i in findings.inputs if i.run is None]
     parts = []
@@ -135,13 +143,13 @@ def runs_section(findings: Findings) -> Html:
                            [(i.name, str(len(i.data)), _use_of(i, findings)) for i in csvs], css="runs"))
         parts.append(paragraph("A CSV holds readings only (no run metadata); its target is taken to be copper, "
                                "the paper's prototype.", "small"))
-    return Html("".join(parts))
+    return parts
 
 
 # -- model fit -----------------------------------------------------------------------------------
-def _groups_or_note(findings: Findings) -> list[TargetGroup] | Html:
+def _groups_or_note(findings: Findings) -> list[TargetGroup] | Parts:
     if isinstance(findings.groups, Omitted):
-        return note(findings.groups.reason)
+        return [note(findings.groups.reason)]
     return findings.groups
 
 
@@ -159,56 +167,63 @@ def _params_table(group: TargetGroup) -> Html:
     return table(("parameter", "value", "unit", "status"), rows, caption=caption, css="params")
 
 
-def fit_section(findings: Findings) -> Html:
+def fit_section(findings: Findings) -> Parts:
     groups = _groups_or_note(findings)
-    if isinstance(groups, Html):
-        return groups
-    parts = [paragraph("Baseline model, the paper's Eq. (2) with Eq. (4) and the calibrated coupling Eq. (5), "
+    if not isinstance(findings.groups, list):
+        return groups  # type: ignore[return-value]
+    parts: Parts = [paragraph("Baseline model, the paper's Eq. (2) with Eq. (4) and the calibrated coupling Eq. (5), "
                        "fitted to all readings of each target material.")]
     with_target = [g for g in groups if g.has_target]
     if with_target:
         curves = [(g.material, g.fit, g.data) for g in with_target]
-        parts.append(figure(fm.inductance_vs_distance(curves),
+        parts.append(Plot(fm.inductance_vs_distance, (curves,),
                             "Measured inductance L(x) per frequency (like the paper's Fig. 6): markers are readings, "
                             "one colour per thermal state (target temperature); lines are the fitted model at that "
                             "state. Grey: readings of states with fewer than five positions (ramps)."))
-        parts.append(figure(fm.sensitivity(curves),
-                            "Sensitivity S = dL/dx at room temperature (like the paper's Fig. 7): the fitted model "
-                            "(lines) and finite differences of the measured sweep (markers)."))
+        if max(fm.room_sweep_positions(g.data) for g in with_target) >= fm.MIN_SENSITIVITY_POSITIONS:
+            parts.append(Plot(fm.sensitivity, (curves,),
+                              "Sensitivity S = dL/dx at room temperature (like the paper's Fig. 7): the fitted model "
+                              "(lines) and finite differences of the measured sweep (markers)."))
+        else:
+            parts.append(note(f"no sensitivity plot: no room-temperature sweep over "
+                              f"{fm.MIN_SENSITIVITY_POSITIONS} or more positions"))
     else:
         parts.append(note("no L(x) or sensitivity plot: no readings with the target present (all coil in air)"))
     parts.append(Html('<div class="tables">' + "".join(_params_table(g) for g in groups) + "</div>"))
-    return Html("".join(parts))
+    return parts
 
 
-def residual_section(findings: Findings) -> Html:
+def residual_section(findings: Findings) -> Parts:
     main = findings.main
     if main is None:
-        return note(findings.groups.reason if isinstance(findings.groups, Omitted) else "no model fit")
+        return [note(findings.groups.reason if isinstance(findings.groups, Omitted) else "no model fit")]
     fit = main.fit
     air = int(main.data.in_air.sum())
     caption = (f"Residual of the baseline fit ({main.material} target, {fit.n} readings, RMS {fit.rms_ppm:.1f} ppm) "
-               "against each variable (rows), coloured by each other variable (columns); grey band: ± the "
-               "repeat noise. Structure in a row shows where the model fails; the colours show what it goes "
-               "with." + (f" The {air} coil-in-air readings have no distance and are grey where x is the colour."
-                         if air else ""))
-    return figure(fm.residual_maps(main.data, fit.residuals_ppm, fit.noise_ppm), caption)
+               "against each variable (rows), coloured by each variable (columns; the panel whose colour is its "
+               "own axis is grey); band: ± the repeat noise. Structure in a row shows where the model fails; the "
+               "colours show what it goes with."
+               + (f" The {air} coil-in-air readings have no distance and are light grey where x is the colour."
+                  if air else ""))
+    rows = fm.MAP_AXES
+    return [Plot(fm.residual_map_row, (main.data, fit.residuals_ppm, fit.noise_ppm, name, i == 0),
+                 caption if i == len(rows) - 1 else "") for i, name in enumerate(rows)]
 
 
 # -- diagnosis -----------------------------------------------------------------------------------
-def diagnosis_section(findings: Findings) -> Html:
+def diagnosis_section(findings: Findings) -> Parts:
     diagnosis = findings.diagnosis
     if isinstance(diagnosis, Omitted):
-        return note(diagnosis.reason)
+        return [note(diagnosis.reason)]
     main = findings.main
     verdict = str(diagnosis.verdict)
-    parts = [Html(f'<p>{badge(verdict.replace("_", " "), "good" if verdict == "adequate" else "bad")} '
+    parts: Parts = [Html(f'<p>{badge(verdict.replace("_", " "), "good" if verdict == "adequate" else "bad")} '
                   f"noise {diagnosis.noise_ppm:.1f} ppm, baseline residual {diagnosis.baseline.rms_ppm:.1f} ppm "
                   f"of L ({main.material if main else ''} target data)</p>"),
              paragraph(diagnosis.explanation, "explanation")]
     candidates = list(diagnosis.candidates)
     if candidates:
-        parts.append(figure(fm.candidate_ranking([c.effect for c in candidates], [c.rmse_ppm for c in candidates],
+        parts.append(Plot(fm.candidate_ranking, ([c.effect for c in candidates], [c.rmse_ppm for c in candidates],
                                                  [c.delta_bic for c in candidates], diagnosis.baseline.rms_ppm,
                                                  diagnosis.noise_ppm),
                             "Each library effect added to the baseline in turn: residual RMS (left; dashed: "
@@ -224,10 +239,10 @@ def diagnosis_section(findings: Findings) -> Html:
         parts.append(_before_after(diagnosis, main))
     else:
         parts.append(note("no candidate ranking: the diagnosis tried no effects"))
-    return Html("".join(parts))
+    return parts
 
 
-def _before_after(diagnosis: Any, main: TargetGroup | None) -> Html:
+def _before_after(diagnosis: Any, main: TargetGroup | None) -> Html | Plot:
     best = diagnosis.candidates[0]
     data = getattr(diagnosis, "data", None) or (main.data if main else None)
     before, after = np.asarray(diagnosis.baseline.residuals_ppm), np.asarray(best.fit.residuals_ppm)
@@ -239,7 +254,7 @@ def _before_after(diagnosis: Any, main: TargetGroup | None) -> Html:
     caption = (f"Residuals before (baseline, red) and after adding the best candidate, {best.effect} (blue), "
                f"against the variables the residual is most associated with: RMS {diagnosis.baseline.rms_ppm:.1f} → "
                f"{best.rmse_ppm:.1f} ppm.")
-    return figure(fm.before_after(data, before, after, best.effect, variables, diagnosis.noise_ppm), caption)
+    return Plot(fm.before_after, (data, before, after, best.effect, variables, diagnosis.noise_ppm), caption)
 
 
 # -- position error ------------------------------------------------------------------------------
@@ -251,7 +266,8 @@ def _ts_top_step(heated: HeatedErrors) -> tuple[float, float, float]:
 
 
 #: The paper's figure to compare each case with (Table 1 and Section 5).
-PAPER_TS = {"target heated": "−11 … 18", "coil heated, Eq. (4)": "< 22 (500 Hz)", "coil heated, uncompensated": "—"}
+PAPER_TS = {"target heated": "−11 … 18", "coil heated, Eq. (4)": "< 22 (500 Hz)",
+            "coil heated, uncompensated": "—"}
 
 
 def _ts_rows(group: TargetGroup, with_coil: bool) -> list[tuple[str, ...]]:
@@ -266,7 +282,7 @@ def _ts_rows(group: TargetGroup, with_coil: bool) -> list[tuple[str, ...]]:
             found = [(case, pick(case)) for case in cases if pick(case) is not None]
             if not found:
                 continue
-            cells = [what, group.material, f"{freq:g} Hz", f"{_ts_top_step(found[0][1])[0]:.0f} K"]
+            cells = [lines([what, f"{group.material} target, {freq:g} Hz"]), f"{_ts_top_step(found[0][1])[0]:.0f} K"]
             for case, heated in found:
                 _, low, high = _ts_top_step(heated)
                 fs = float(np.max(np.abs(heated.errors.error_fs_percent)))
@@ -276,16 +292,16 @@ def _ts_rows(group: TargetGroup, with_coil: bool) -> list[tuple[str, ...]]:
     return rows
 
 
-def position_section(findings: Findings) -> Html:
+def position_section(findings: Findings) -> Parts:
     groups = _groups_or_note(findings)
-    if isinstance(groups, Html):
-        return groups
-    parts: list[Html] = []
+    if not isinstance(findings.groups, list):
+        return groups  # type: ignore[return-value]
+    parts: Parts = []
     with_cases = [g for g in groups if g.cases]
     skipped = [note(reason) for g in groups for reason in g.skipped.values()]
     if not with_cases:
-        return Html("".join(skipped) or note("no calibration: no room-temperature sweep with five or more "
-                                             "positions at one frequency"))
+        return list(skipped) or [note("no calibration: no room-temperature sweep with five or more positions "
+                                      "at one frequency")]
     parts.append(paragraph("Each frequency is calibrated on its room-temperature sweep (Eq. 5) with all positions "
                            "and with the paper's n = 4 points in the sensitive near range; the heated readings are "
                            "then turned into positions and compared with the slide's."))
@@ -293,7 +309,7 @@ def position_section(findings: Findings) -> Html:
     target_panels = [(g.material, f, cases) for g in with_cases for f, cases in g.cases.items()
                      if any(c.target_heated is not None for c in cases)]
     if target_panels:
-        parts.append(figure(ft.target_heating_errors(target_panels),
+        parts.append(Plot(ft.target_heating_errors, (target_panels,),
                             "Position error of the readings with the target heated and the coil at room "
                             "temperature (like the paper's Fig. 14 and 22), mean per position and temperature step; "
                             "solid: calibrated with all positions, dashed: with n = 4."))
@@ -306,7 +322,7 @@ def position_section(findings: Findings) -> Html:
         how = ("built the paper's way (Section 5) from the room-temperature sweep scaled by the coil-in-air "
                "inductance at each steady coil temperature" if main.coil_from_air
                else "measured with the coil heated and the target present")
-        parts.append(figure(ft.coil_heating_errors(coil_panels),
+        parts.append(Plot(ft.coil_heating_errors, (coil_panels,),
                             f"Position error of coil-heated readings ({how}), without (left) and with (right) the "
                             f"Eq. (4) temperature compensation (like the paper's Fig. 20 and 23); {main.material} "
                             "target; solid: all positions, dashed: n = 4."))
@@ -315,24 +331,24 @@ def position_section(findings: Findings) -> Html:
                           "present, and no coil-in-air heating run to build them from"))
     rows = [row for group in with_cases for row in _ts_rows(group, group is main)]
     if rows:
-        ours = table(("case", "target", "frequency", "Δϑ max", "all positions", "n = 4", "paper"), rows,
+        ours = table(("case", "Δϑ max", "calibrated on all positions", "on n = 4", "paper"), rows,
                      caption="These data: max |e_pos| and TS = e_pos / (FS · Δϑ) in ppm FS/K over the readings "
                              "of the highest temperature step", css="ts")
         paper = table(("sensor", "range", "temperature", "TS (ppm FS/K)"), PAPER_TABLE_1,
                       caption="The paper's Table 1: commercial sensors and the paper's demonstrator", css="ts")
         parts.append(side_by_side(ours, paper))
-    return Html("".join(parts))
+    return parts
 
 
 # -- coil heating --------------------------------------------------------------------------------
-def heating_section(findings: Findings) -> Html:
+def heating_section(findings: Findings) -> Parts:
     heating = findings.heating
     if isinstance(heating, Omitted):
-        return note(heating.reason)
+        return [note(heating.reason)]
     assert isinstance(heating, CoilHeating)
     comp = heating.compensation
     fit = comp.fit
-    parts = [figure(ft.coil_heating(heating.data, comp),
+    parts: Parts = [Plot(ft.coil_heating, (heating.data, comp),
                     "Change of the coil-in-air inductance with coil temperature (like the paper's Fig. 17 at "
                     "15 kHz and Fig. 19 at 500 Hz) with the fit of Eq. (4), L_coil = L0 (1 + α Δϑ + β Δϑ²); "
                     "red: heating ramps, blue: cooling, black: steady. Below: what Eq. (4) leaves (ppm).")]
@@ -350,15 +366,15 @@ def heating_section(findings: Findings) -> Html:
                        caption=f"Fit of Eq. (4) to the coil in air (reference {comp.reference_c:g} °C); the former's "
                                f"expansion alone ({fit.model.sensor.former}, {expansion * 1e6:g} ppm/K, ΔL ∝ area) "
                                f"gives α ≈ {2 * expansion * 1e6:g} ppm/K", css="params"))
-    return Html("".join(parts))
+    return parts
 
 
 # -- spectroscopy --------------------------------------------------------------------------------
-def spectroscopy_section(findings: Findings) -> Html:
+def spectroscopy_section(findings: Findings) -> Parts:
     spectra = findings.spectra
     if isinstance(spectra, Omitted):
-        return note(spectra.reason)
-    parts = [figure(ft.spectra([(s.data, s.fit) for s in spectra]),
+        return [note(spectra.reason)]
+    parts: Parts = [Plot(ft.spectra, ([(s.data, s.fit) for s in spectra],),
                     "Impedance of the coil in air against frequency at each coil temperature (like the paper's "
                     "Fig. 18): readings (markers) and the fitted parallel RLC circuit, (R_s + jωL) ‖ C ‖ R_p "
                     "(dashed).")]
@@ -372,4 +388,16 @@ def spectroscopy_section(findings: Findings) -> Html:
     paper = table(("ϑ_coil", "L_p (mH)", "C_p (pF)", "R_p (kΩ)"), PAPER_TABLE_2,
                   caption="The paper's Table 2 (moist fired-clay former)", css="ts")
     parts.append(side_by_side(ours, paper))
-    return Html("".join(parts))
+    return parts
+
+
+#: (anchor, title, builder) of every section, in report order.
+SECTIONS: tuple[tuple[str, str, Callable[[Findings], Parts]], ...] = (
+    ("runs", "Runs and files", runs_section),
+    ("fit", "Inductance against distance and the model fit", fit_section),
+    ("residuals", "Residual maps", residual_section),
+    (DIAGNOSIS, "Diagnosis", diagnosis_section),
+    ("position", "Position error and temperature stability", position_section),
+    ("heating", "Coil heating characterisation", heating_section),
+    ("spectroscopy", "Impedance spectroscopy", spectroscopy_section),
+)

@@ -1,0 +1,90 @@
+"""Benchmark: time ``write_report`` on a ~1,000-reading simulated campaign; print the figures.
+
+Run: ``python benchmarks/bench_report.py [--source csv|runs] [--repeat N]``. Not a timed test;
+the target is a report in under 15 s. Printed per campaign: the whole report as
+``ecds-lab report`` writes it (diagnosis included), the diagnosis alone, and the report with a
+ready diagnosis passed in (loading, analysis, figures, page).
+
+Campaigns: ``csv`` is the paper's experiments in one simulated recording (``paper_campaign``,
+1,144 readings) as a CSV import; ``runs`` is every shipped experiment run through the real
+drivers into run files (what ``ecds-lab demo`` reports on: sweep, coil heating, spectroscopy,
+copper and steel target heating).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+from ecds_lab.report.findings import target_groups
+from ecds_lab.report.html import write_report
+from ecds_lab.report.inputs import load_inputs
+
+EXPERIMENTS = Path(__file__).resolve().parent.parent / "experiments"
+RUNS = (("displacement_sweep.yaml", "simulated_lab.yaml"), ("coil_heating.yaml", "simulated_lab_in_air.yaml"),
+        ("spectroscopy.yaml", "simulated_lab_in_air.yaml"), ("target_heating_copper.yaml", "simulated_lab.yaml"),
+        ("target_heating_steel.yaml", "simulated_lab_steel.yaml"))
+
+
+def csv_campaign(folder: Path) -> list[Path]:
+    from ecds_lab.simulators.campaign import paper_campaign
+
+    path = folder / "paper_campaign.csv"
+    paper_campaign(seed=0).to_csv(path)
+    return [path]
+
+
+def run_campaign(folder: Path) -> list[Path]:
+    from ecds_lab.runner.session import run_experiment
+
+    paths = []
+    for experiment, station in RUNS:
+        output = folder / experiment.replace(".yaml", ".h5")
+        run_experiment(EXPERIMENTS / experiment, EXPERIMENTS / "stations" / station, output, progress=False)
+        paths.append(output)
+    return paths
+
+
+def timed(action, repeat: int) -> tuple[float, object]:  # noqa: ANN001
+    times, result = [], None
+    for _ in range(repeat):
+        began = time.perf_counter()
+        result = action()
+        times.append(time.perf_counter() - began)
+    return statistics.median(times), result
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--source", choices=("csv", "runs", "both"), default="both")
+    parser.add_argument("--repeat", type=int, default=1, help="reports to time (median)")
+    args = parser.parse_args()
+    from ecds_lab.analysis.diagnosis import run_diagnosis
+
+    cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    print(f"{cpus} CPU(s) available")
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        for source in (("csv", "runs") if args.source == "both" else (args.source,)):
+            paths = csv_campaign(folder) if source == "csv" else run_campaign(folder)
+            inputs = load_inputs(paths)
+            readings = sum(len(i.data) for i in inputs)
+            main_group = target_groups([i for i in inputs if not i.is_spectroscopy])[0]
+            output = folder / f"report-{source}.html"
+            whole, _ = timed(lambda: write_report(paths, output), args.repeat)
+            diagnosis_s, diagnosis = timed(lambda: run_diagnosis(main_group.data, sensor=main_group.fit.model.sensor),
+                                           args.repeat)
+            rest, _ = timed(lambda: write_report(paths, output, diagnosis=diagnosis), args.repeat)
+            print(f"{source}: {readings} readings in {len(paths)} file(s) -> {output.stat().st_size / 1e6:.1f} MB")
+            print(f"  report as `ecds-lab report` writes it: {whole:.1f} s  (target: under 15 s)")
+            print(f"  of which the diagnosis alone takes:    {diagnosis_s:.1f} s "
+                  f"({len(main_group.data)} readings of the {main_group.material} target)")
+            print(f"  report with the diagnosis given:       {rest:.1f} s")
+
+
+if __name__ == "__main__":
+    main()

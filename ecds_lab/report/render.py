@@ -1,0 +1,97 @@
+"""Render the report's figures, in worker processes where the platform can fork.
+
+Drawing with matplotlib is most of the time a report takes besides the diagnosis, and the
+figures do not depend on each other. A section asks for a figure with ``Plot`` (the drawing
+function, its arguments and a caption); ``start`` forks workers that inherit the plots (so
+nothing but the finished PNG bytes crosses a process boundary) and returns at once, so the
+caller can run the diagnosis meanwhile. Where ``fork`` is not available, or one worker is
+asked for, the figures are drawn in this process when their results are collected.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+from ecds_lab.report.canvas import Png, styled, warm_up
+
+_PENDING: list["Plot"] = []
+
+
+@dataclass
+class Plot:
+    """A figure to draw: ``draw(*args, **kwargs)`` returns its PNG; ``caption`` goes below it."""
+
+    draw: Callable[..., Png]
+    args: tuple[Any, ...]
+    caption: str
+    kwargs: dict[str, Any] = field(default_factory=dict)
+
+    def render(self) -> Png:
+        return self.draw(*self.args, **self.kwargs)
+
+
+def _render_pending(index: int) -> Png:
+    return _PENDING[index].render()
+
+
+def default_workers(busy: int = 0) -> int:
+    """Processes to draw with: the CPUs this process may use, less ``busy`` kept for other work, at least 1."""
+    try:
+        cpus = len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        cpus = os.cpu_count() or 1
+    return max(1, cpus - busy)
+
+
+class Rendering:
+    """Figures being drawn; ``results`` waits for them and returns the PNGs in order.
+
+    Use it as a context manager, so the workers are stopped whatever happens meanwhile.
+    """
+
+    def __init__(self, plots: list[Plot], workers: int) -> None:
+        global _PENDING
+        self.plots = plots
+        self._pool = None
+        self._async = None
+        if workers > 1 and len(plots) > 1 and "fork" in multiprocessing.get_all_start_methods():
+            styled(warm_up)()
+            _PENDING = plots  # the forked workers inherit this list
+            try:
+                self._pool = multiprocessing.get_context("fork").Pool(min(workers, len(plots)))
+                self._async = self._pool.map_async(_render_pending, range(len(plots)), chunksize=1)
+            except OSError:  # no processes to be had: draw here instead
+                self.close()
+            finally:
+                _PENDING = []
+
+    def results(self) -> list[Png]:
+        if self._pool is None or self._async is None:
+            return [plot.render() for plot in self.plots]
+        try:
+            return self._async.get()
+        finally:
+            self._pool.close()
+            self._pool.join()
+            self._pool = None
+
+    def close(self) -> None:
+        """Stop the workers (if still drawing, their figures are dropped)."""
+        if self._pool is not None:
+            self._pool.terminate()
+            self._pool.join()
+            self._pool = None
+
+    def __enter__(self) -> "Rendering":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def start(plots: list[Plot], workers: int | None = None) -> Rendering:
+    """Begin drawing ``plots`` with ``workers`` processes (default: every CPU)."""
+    return Rendering(plots, default_workers() if workers is None else workers)
