@@ -11,36 +11,15 @@ residual within each frequency.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable
-
 import numpy as np
 
 from ecds_lab.analysis.dataset import Measurements
+from ecds_lab.analysis.variables import VARIABLES, Variable
 
 MAX_BINS = 10
 #: Time is confounded with every phase of a campaign, so it ranks first only when it explains
 #: clearly more than every physical variable (by this factor).
 TIME_MARGIN = 1.25
-
-
-@dataclass(frozen=True)
-class Variable:
-    name: str
-    unit: str
-    values: Callable[[Measurements], np.ndarray]
-    categorical: bool = False
-
-
-VARIABLES: tuple[Variable, ...] = (
-    Variable("x_mm", "mm", lambda d: np.where(np.isfinite(d.x_m), d.x_mm, np.nan)),
-    Variable("freq_hz", "Hz", lambda d: d.freq_hz, categorical=True),
-    Variable("t_coil_c", "C", lambda d: d.t_coil_c),
-    Variable("t_target_c", "C", lambda d: d.t_target_c),
-    Variable("time_s", "s", lambda d: d.time_s),
-    Variable("direction", "", lambda d: np.where(np.isfinite(d.x_m), d.direction, np.nan).astype(float),
-             categorical=True),
-    Variable("coil_rate_k_per_min", "K/min", lambda d: d.coil_temperature_rate_k_per_s() * 60.0),
-)
 
 
 @dataclass(frozen=True)
@@ -113,7 +92,7 @@ def residual_associations(data: Measurements, residuals_ppm: np.ndarray, noise_p
     total = float(np.sum((r - r.mean()) ** 2)) or 1.0
     within = sum(float(np.sum((r[g] - r[g].mean()) ** 2)) for g in (data.freq_hz == f for f in np.unique(data.freq_hz)))
     out = []
-    for variable in VARIABLES:
+    for variable in VARIABLES.values():
         values = variable.values(data)
         explained = 0.0
         groups = [np.ones(len(r), bool)] if variable.name == "freq_hz" else \

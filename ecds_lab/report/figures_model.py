@@ -3,8 +3,7 @@ and the diagnosis (candidate ranking, residuals before and after the best effect
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Callable, Sequence
+from typing import Sequence
 
 import numpy as np
 from matplotlib.axes import Axes
@@ -13,6 +12,7 @@ from matplotlib.figure import Figure
 
 from ecds_lab.analysis.dataset import Measurements
 from ecds_lab.analysis.fitting import FitResult
+from ecds_lab.analysis.variables import VARIABLES, Variable
 from ecds_lab.report.canvas import Png, colormap, colour_scale, styled, subplots, to_png
 
 #: Readings of one state are within this many kelvin (target and coil) of each other.
@@ -31,27 +31,6 @@ def category_colour(index: int) -> str:
     return CATEGORY_COLOURS[index % len(CATEGORY_COLOURS)]
 
 
-@dataclass(frozen=True)
-class Variable:
-    """A recorded variable as the residual plots show it."""
-
-    name: str
-    label: str
-    values: Callable[[Measurements], np.ndarray]
-    categorical: bool = False
-
-
-VARIABLES: dict[str, Variable] = {v.name: v for v in (
-    Variable("x_mm", "distance x (mm)", lambda d: np.where(np.isfinite(d.x_m), d.x_mm, np.nan)),
-    Variable("t_coil_c", "coil temperature (°C)", lambda d: d.t_coil_c),
-    Variable("t_target_c", "target temperature (°C)", lambda d: d.t_target_c),
-    Variable("time_s", "time in run (h)", lambda d: d.time_s / 3600.0),
-    Variable("direction", "direction of approach", lambda d: np.where(np.isfinite(d.x_m), d.direction, np.nan),
-             categorical=True),
-    Variable("freq_hz", "frequency (Hz)", lambda d: d.freq_hz, categorical=True),
-    Variable("coil_rate_k_per_min", "coil temperature rate (K/min)",
-             lambda d: d.coil_temperature_rate_k_per_s() * 60.0),
-)}
 #: Abscissae of the residual maps; each is coloured by every other variable (and frequency).
 MAP_AXES = ("x_mm", "t_coil_c", "t_target_c", "time_s", "direction")
 MAP_COLOURS = ("x_mm", "t_coil_c", "t_target_c", "time_s", "direction", "freq_hz")
@@ -169,7 +148,7 @@ def residual_map_row(data: Measurements, residuals_ppm: np.ndarray, noise_ppm: f
                          gridspec_kw={"left": 0.055, "right": 0.99, "bottom": ROW_BOTTOM_IN / height,
                                       "top": 1 - (KEYS_IN if keys else ROW_TOP_IN) / height, "wspace": 0.12})
     r = np.asarray(residuals_ppm, float)
-    values = {name: VARIABLES[name].values(data) for name in MAP_COLOURS}
+    values = {name: VARIABLES[name].display(data) for name in MAP_COLOURS}
     scales = _colour_scales(values)
     cmap = colormap("viridis")
     jitter = np.random.default_rng(0).uniform(-0.18, 0.18, len(data))
@@ -280,7 +259,7 @@ def before_after(data: Measurements, before_ppm: np.ndarray, after_ppm: np.ndarr
     jitter = np.random.default_rng(1).uniform(-0.18, 0.18, len(data))
     for ax, name in zip(axes[0], names):
         variable = VARIABLES[name]
-        x = variable.values(data) + (jitter if variable.categorical else 0.0)
+        x = variable.display(data) + (jitter if variable.categorical else 0.0)
         if noise_ppm:
             ax.axhspan(-noise_ppm, noise_ppm, color="0.88", zorder=0, lw=0, label="± noise")
         ax.scatter(x, before_ppm, s=5, color="tab:red", alpha=0.45, lw=0, label="baseline")

@@ -14,7 +14,7 @@ import threading
 import time
 from collections import deque
 from contextlib import contextmanager
-from typing import Iterator
+from typing import Callable, Iterator
 
 from tqdm import tqdm
 
@@ -236,28 +236,18 @@ class Runner:
 
     def _wait_steady(self, step: WaitSteady) -> None:
         window: deque[tuple[float, float]] = deque()
-        start = last_log = self.clock.now()
-        last_log -= step.log_interval_s
-        while True:
-            now = self.clock.now()
-            temperatures = self._temperatures(fresh=True)
-            self._control(step.interval_s, temperatures)
+
+        def steady(now: float, temperatures: dict[str, float]) -> bool:
             value = temperatures[step.heater]
             window.append((now, value))
             while len(window) > 1 and window[1][0] <= now - step.window_s:
                 window.popleft()  # keep one reading at or before the window's start: it spans the window
             if self._bar is not None:
                 self._bar.set_postfix_str(f"{step.heater} {value:.1f} C -> {step.setpoint_c:g} C")
-            if now - last_log >= step.log_interval_s:
-                self._log_readings(step.log_frequencies_hz)
-                last_log = now
-            if self._steady(window, step) and abs(value - step.setpoint_c) <= step.tolerance_k:
-                log.info("%s steady at %.2f C after %.0f s", step.heater, value, now - start)
-                return
-            if now - start > step.timeout_s:
-                raise EcdsLabError(f"{step.heater} not steady at {step.setpoint_c:g} C after {step.timeout_s:g} s "
-                                   f"(now {value:.1f} C)")
-            self.clock.sleep(step.interval_s)
+            return self._steady(window, step) and abs(value - step.setpoint_c) <= step.tolerance_k
+
+        self._regulate(step.heater, step.interval_s, step.timeout_s, step.log_interval_s, step.log_frequencies_hz,
+                       steady, f"not steady at {step.setpoint_c:g} C")
 
     @staticmethod
     def _steady(window: deque[tuple[float, float]], step: WaitSteady) -> bool:
@@ -272,21 +262,30 @@ class Runner:
         return abs(slope) * 60.0 <= step.slope_k_per_min
 
     def _cool_down(self, step: CoolDown) -> None:
+        self._regulate(step.heater, step.interval_s, step.timeout_s, step.log_interval_s, step.log_frequencies_hz,
+                       lambda now, temperatures: temperatures[step.heater] < step.below_c,
+                       f"still at or above {step.below_c:g} C")
+
+    def _regulate(self, heater: str, interval_s: float, timeout_s: float, log_interval_s: float,
+                  log_frequencies_hz: tuple[float, ...], finished: Callable[[float, dict[str, float]], bool],
+                  failure: str) -> None:
+        """Every interval: read temperatures, control the heaters, log the bridge when due, until ``finished``."""
         start = last_log = self.clock.now()
-        last_log -= step.log_interval_s
+        last_log -= log_interval_s
         while True:
             now = self.clock.now()
             temperatures = self._temperatures(fresh=True)
-            self._control(step.interval_s, temperatures)
-            if now - last_log >= step.log_interval_s:
-                self._log_readings(step.log_frequencies_hz)
+            self._control(interval_s, temperatures)
+            done = finished(now, temperatures)
+            if now - last_log >= log_interval_s:
+                self._log_readings(log_frequencies_hz)
                 last_log = now
-            if temperatures[step.heater] < step.below_c:
+            if done:
+                log.info("%s: %.2f C after %.0f s", heater, temperatures[heater], now - start)
                 return
-            if now - start > step.timeout_s:
-                raise EcdsLabError(f"{step.heater} still at {temperatures[step.heater]:.1f} C after "
-                                   f"{step.timeout_s:g} s of cooling (goal < {step.below_c:g} C)")
-            self.clock.sleep(step.interval_s)
+            if now - start > timeout_s:
+                raise EcdsLabError(f"{heater} {failure} after {timeout_s:g} s (now {temperatures[heater]:.1f} C)")
+            self.clock.sleep(interval_s)
 
     def _log_readings(self, frequencies: tuple[float, ...]) -> None:
         for freq in frequencies:
