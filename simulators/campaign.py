@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Iterable, Sequence
+from typing import Any, Iterable, Sequence
 
 import numpy as np
 
@@ -164,31 +164,30 @@ def coil_heating(lab: SimulatedLab, setpoints_c: Sequence[float] = (40, 60, 80, 
     return rec.measurements("coil heating")
 
 
-def target_heating(lab: SimulatedLab, setpoints_c: Sequence[float] = (75, 130),
-                   positions_mm: Sequence[float] = PAPER_POSITIONS_MM,
-                   frequencies_hz: Sequence[float] = PAPER_FREQUENCIES_HZ,
-                   directions: Sequence[str] = ("forward", "backward"), repeats: int = 1) -> Measurements:
+def heated_sweeps(lab: SimulatedLab, output: int, setpoints_c: Sequence[float],
+                  positions_mm: Sequence[float] = PAPER_POSITIONS_MM,
+                  frequencies_hz: Sequence[float] = PAPER_FREQUENCIES_HZ,
+                  directions: Sequence[str] = ("forward", "backward"), repeats: int = 1,
+                  label: str = "heated sweeps") -> Measurements:
+    """A heater output brought to each set point (steady state), a sweep at each."""
+    rec = Recorder(lab)
+    for setpoint in setpoints_c:
+        set_heater(lab, output, setpoint)
+        lab.clock.sleep(settle_time_s(lab, output))
+        sweep(rec, positions_mm, frequencies_hz, directions, repeats)
+    return rec.measurements(label)
+
+
+def target_heating(lab: SimulatedLab, setpoints_c: Sequence[float] = (75, 130), **sweep_options: Any) -> Measurements:
     """Target heated to each set point (steady state), a sweep at each; heater off at the end."""
-    rec = Recorder(lab)
-    for setpoint in setpoints_c:
-        set_heater(lab, TARGET_HEATER_OUTPUT, setpoint)
-        lab.clock.sleep(settle_time_s(lab, TARGET_HEATER_OUTPUT))
-        sweep(rec, positions_mm, frequencies_hz, directions, repeats)
+    data = heated_sweeps(lab, TARGET_HEATER_OUTPUT, setpoints_c, label="target heating", **sweep_options)
     set_heater(lab, TARGET_HEATER_OUTPUT, None)
-    return rec.measurements("target heating")
+    return data
 
 
-def coil_heated_sweeps(lab: SimulatedLab, setpoints_c: Sequence[float] = (120,),
-                       positions_mm: Sequence[float] = PAPER_POSITIONS_MM,
-                       frequencies_hz: Sequence[float] = PAPER_FREQUENCIES_HZ,
-                       directions: Sequence[str] = ("forward", "backward"), repeats: int = 1) -> Measurements:
+def coil_heated_sweeps(lab: SimulatedLab, setpoints_c: Sequence[float] = (120,), **sweep_options: Any) -> Measurements:
     """Coil heated to each set point (steady state) with the target present, a sweep at each."""
-    rec = Recorder(lab)
-    for setpoint in setpoints_c:
-        set_heater(lab, BOX_HEATER_OUTPUT, setpoint)
-        lab.clock.sleep(settle_time_s(lab, BOX_HEATER_OUTPUT))
-        sweep(rec, positions_mm, frequencies_hz, directions, repeats)
-    return rec.measurements("coil-heated sweeps")
+    return heated_sweeps(lab, BOX_HEATER_OUTPUT, setpoints_c, label="coil-heated sweeps", **sweep_options)
 
 
 def spectroscopy(lab: SimulatedLab, frequencies_hz: Sequence[float], repeats: int = 1) -> Measurements:

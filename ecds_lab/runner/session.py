@@ -112,7 +112,7 @@ def _carry_over(previous, writer: RunWriter) -> tuple[set[int], float]:  # noqa:
     """Copy the predecessor's rows and transcripts; return its measured points and where time continues."""
     writer.append_rows(previous.points)
     for role, events in previous.transcripts.items():
-        if role in writer._written_events:
+        if role in writer.roles:
             writer.add_transcript_events(role, [(e.clock_s, e.wall_s, e.kind, e.text) for e in events])
     times = previous.points[:, INDEX["time_s"]]
     walls = previous.points[:, INDEX["wall_time_s"]]

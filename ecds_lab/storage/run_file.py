@@ -121,6 +121,11 @@ class RunWriter:
         table.flush()
         self.rows = n + count
 
+    @property
+    def roles(self) -> tuple[str, ...]:
+        """The instruments whose transcripts this file records."""
+        return tuple(self._transcripts)
+
     def add_transcript_events(self, role: str, events: Sequence[tuple[float, float, str, str]]) -> None:
         """Append earlier transcript events (a resumed run keeps its predecessor's traffic)."""
         self._append_events(role, events)
