@@ -29,7 +29,10 @@ from ecds_lab.errors import RunFileError
 from ecds_lab.storage.columns import COLUMN_NAMES, COLUMNS, INDEX
 from ecds_lab.transports.transcript import KINDS, Transcript
 
-_CHUNK_ROWS = 512
+#: The points table is flushed every row, and a flush writes its whole dirty chunk: small chunks
+#: (32 rows, 5 KB) keep that cheap. Columns written once at close use large chunks.
+_TABLE_CHUNK_ROWS = 32
+_COLUMN_CHUNK = 4096
 _TRANSCRIPT_BATCH_S = 2.0
 
 
@@ -63,14 +66,14 @@ class RunWriter:
         for key, value in metadata.items():
             entry.attrs[key] = value
         table = entry.create_dataset("points", shape=(0, len(COLUMNS)), maxshape=(None, len(COLUMNS)),
-                                     dtype="f8", chunks=(_CHUNK_ROWS, len(COLUMNS)))
+                                     dtype="f8", chunks=(_TABLE_CHUNK_ROWS, len(COLUMNS)))
         table.attrs["columns"] = list(COLUMN_NAMES)
         table.attrs["units"] = [c.unit for c in COLUMNS]
         self._table = table
         data = entry.create_group("data")
         data.attrs.update({"NX_class": "NXdata", "signal": "ls_h", "axes": ["x_commanded_mm"]})
         for column in COLUMNS:
-            ds = data.create_dataset(column.name, shape=(0,), maxshape=(None,), dtype="f8", chunks=(_CHUNK_ROWS,))
+            ds = data.create_dataset(column.name, shape=(0,), maxshape=(None,), dtype="f8", chunks=(_COLUMN_CHUNK,))
             ds.attrs.update({"units": column.unit, "long_name": column.description})
         instrument = entry.create_group("instrument")
         instrument.attrs["NX_class"] = "NXinstrument"
@@ -84,7 +87,7 @@ class RunWriter:
             log.attrs["NX_class"] = "NXlog"
             for field, unit in (("time", "s"), ("value", "degC")):
                 log.create_dataset(field, shape=(0,), maxshape=(None,), dtype="f8",
-                                   chunks=(_CHUNK_ROWS,)).attrs["units"] = unit
+                                   chunks=(_COLUMN_CHUNK,)).attrs["units"] = unit
         records = entry.create_group("transcripts")
         records.attrs.update({"NX_class": "NXcollection", "kinds": list(KINDS)})
         for role in self._transcripts:
@@ -145,14 +148,14 @@ class RunWriter:
             return
         group = self._file["entry/transcripts"][role]
         text_ds, events_ds = group["text"], group["events"]
-        blob = bytearray()
-        table = np.empty((len(events), 4))
+        clock_s, wall_s, kinds, texts = zip(*events)
+        encoded = [t.encode("utf-8", errors="replace") for t in texts]
         base = text_ds.shape[0]
-        for i, (clock_s, wall_s, kind, text) in enumerate(events):
-            blob += text.encode("utf-8", errors="replace")
-            table[i] = (clock_s, wall_s, KINDS.index(kind), base + len(blob))
+        ends = base + np.cumsum([len(e) for e in encoded])
+        table = np.column_stack([clock_s, wall_s, [KINDS.index(k) for k in kinds], ends]).astype(float)
+        blob = b"".join(encoded)
         text_ds.resize((base + len(blob),))
-        text_ds[base:] = np.frombuffer(bytes(blob), dtype="u1")
+        text_ds[base:] = np.frombuffer(blob, dtype="u1")
         n = events_ds.shape[0]
         events_ds.resize((n + len(events), 4))
         events_ds[n:] = table
