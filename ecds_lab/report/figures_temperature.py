@@ -76,12 +76,7 @@ def target_heating_errors(panels: Sequence[tuple[str, float, list[CalibrationCas
         for case in cases:
             if case.target_heated is not None:
                 _error_lines(ax, case, case.target_heated, norm, cmap)
-        ax.axhline(0.0, color="0.4", lw=0.6)
-        ax.set_title(f"{material} target, {freq:g} Hz")
-        ax.set_xlabel("reference position x (mm)")
-        ax.set_ylabel("position error e_pos (mm)")
-        _fs_axis(ax, cases[0].calibration.fs_m)
-        _style_key(ax, cases)
+        _error_axes(ax, f"{material} target, {freq:g} Hz", cases)
     fig.colorbar(colour_scale(norm, cmap), cax=key, label="target temperature rise Δϑ_T (K)")
     return to_png(fig, "Position error of target-heated readings against distance")
 
@@ -99,14 +94,19 @@ def coil_heating_errors(panels: Sequence[tuple[float, list[CalibrationCase]]]) -
             for case in cases:
                 if pick(case) is not None:
                     _error_lines(ax, case, pick(case), norm, cmap)
-            ax.axhline(0.0, color="0.4", lw=0.6)
-            ax.set_title(f"{freq:g} Hz, {title}")
-            ax.set_xlabel("reference position x (mm)")
-            ax.set_ylabel("position error e_pos (mm)")
-            _fs_axis(ax, cases[0].calibration.fs_m)
-            _style_key(ax, cases)
+            _error_axes(ax, f"{freq:g} Hz, {title}", cases)
     fig.colorbar(colour_scale(norm, cmap), cax=key, label="coil temperature rise Δϑ_coil (K)")
     return to_png(fig, "Position error of coil-heated readings, uncompensated and compensated")
+
+
+def _error_axes(ax: Axes, title: str, cases: Sequence[CalibrationCase]) -> None:
+    """Zero line, title, labels, the % FS axis and the calibration key of a position-error panel."""
+    ax.axhline(0.0, color="0.4", lw=0.6)
+    ax.set_title(title)
+    ax.set_xlabel("reference position x (mm)")
+    ax.set_ylabel("position error e_pos (mm)")
+    _fs_axis(ax, cases[0].calibration.fs_m)
+    _style_key(ax, cases)
 
 
 def _air_grid(freq_hz: float, t_coil_c: np.ndarray) -> Measurements:
