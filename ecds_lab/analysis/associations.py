@@ -24,9 +24,14 @@ TIME_MARGIN = 1.25
 
 @dataclass(frozen=True)
 class Association:
+    """How much of the residual a variable explains (``score``), how far beyond chance that is
+    (``significance``: standard deviations of the bin-means statistic above its value for pure
+    noise of the estimated size), and in words (``detail``)."""
+
     variable: str
     score: float
     detail: str
+    significance: float = 0.0
 
 
 def _bin_index(values: np.ndarray, categorical: bool) -> tuple[np.ndarray, int]:
@@ -43,14 +48,12 @@ def _bin_index(values: np.ndarray, categorical: bool) -> tuple[np.ndarray, int]:
     return index, len(edges) - 1
 
 
-def _explained(r: np.ndarray, index: np.ndarray, bins: int, noise_ppm: float) -> tuple[float, np.ndarray]:
-    """Energy explained by bin means beyond chance, and the bin means."""
+def _between(r: np.ndarray, index: np.ndarray, bins: int) -> tuple[float, int]:
+    """Energy of the bin means about the mean, and the degrees of freedom it has under pure noise."""
     counts = np.bincount(index, minlength=bins)
     sums = np.bincount(index, weights=r, minlength=bins)
     means = np.divide(sums, counts, out=np.zeros(bins), where=counts > 0)
-    occupied = int((counts > 0).sum())
-    between = float(np.sum(counts * (means - r.mean()) ** 2))
-    return max(0.0, between - (occupied - 1) * noise_ppm**2), means
+    return float(np.sum(counts * (means - r.mean()) ** 2)), int((counts > 0).sum()) - 1
 
 
 def _trend(v: np.ndarray, r: np.ndarray) -> float:
@@ -94,7 +97,7 @@ def residual_associations(data: Measurements, residuals_ppm: np.ndarray, noise_p
     out = []
     for variable in VARIABLES.values():
         values = variable.values(data)
-        explained = 0.0
+        between, dof = 0.0, 0
         groups = [np.ones(len(r), bool)] if variable.name == "freq_hz" else \
             [data.freq_hz == f for f in np.unique(data.freq_hz)]
         for group in groups:
@@ -104,9 +107,14 @@ def residual_associations(data: Measurements, residuals_ppm: np.ndarray, noise_p
             index, bins = _bin_index(values[rows], variable.categorical)
             if bins < 2:
                 continue
-            explained += _explained(r[rows], index, bins, noise_ppm)[0]
+            energy, groups_dof = _between(r[rows], index, bins)
+            between, dof = between + energy, dof + groups_dof
+        # Under pure noise, between / noise^2 is chi-square with dof degrees of freedom.
+        explained = max(0.0, between - dof * noise_ppm**2)
+        significance = (between / noise_ppm**2 - dof) / np.sqrt(2 * dof) if dof and noise_ppm > 0 else 0.0
         # Frequency is scored against all the residual, every other variable against what is
         # left within each frequency (an offset between frequencies is the frequency's to explain).
         score = min(1.0, explained / (total if variable.name == "freq_hz" else (within or 1.0)))
-        out.append(Association(variable.name, round(score, 4), _describe(variable, data, values, r)))
+        out.append(Association(variable.name, round(score, 4), _describe(variable, data, values, r),
+                               round(float(significance), 1)))
     return sorted(out, key=lambda a: -(a.score / TIME_MARGIN if a.variable == "time_s" else a.score))

@@ -29,6 +29,10 @@ from ecds_lab.model.sensor_model import SensorModel
 ADEQUATE_RATIO = 1.2
 #: A residual above this multiple of the noise is a missing effect whatever the candidates say.
 FAILING_RATIO = 1.5
+#: Residual structure this many standard deviations beyond chance (for pure noise of the estimated
+#: size) marks a missing effect once the residual is at least a little above the noise.
+STRUCTURE_SIGNIFICANCE = 8.0
+STRUCTURE_RATIO = 1.03
 #: BIC improvement (negative) that counts as decisive evidence for an effect.
 DECISIVE_DELTA_BIC = -20.0
 #: Candidates (best by BIC) whose held-out error is measured.
@@ -96,8 +100,8 @@ class Diagnosis:
             "ranking": [{"effect": c.effect, "rmse_ppm": round(c.rmse_ppm, 3), "delta_bic": round(c.delta_bic, 2),
                          "cv_rmse_ppm": _rounded(c.cv_rmse_ppm), "params": c.effect_params()}
                         for c in self.candidates],
-            "associations": [{"variable": a.variable, "score": a.score, "detail": a.detail}
-                             for a in self.associations],
+            "associations": [{"variable": a.variable, "score": a.score, "detail": a.detail,
+                              "significance": a.significance} for a in self.associations],
             "explanation": self.explanation,
         }
         if self.follow_up is not None:
@@ -127,7 +131,7 @@ def run_diagnosis(data: Measurements, effects: Sequence[str] = (), sensor: Senso
     for candidate in ranked[:CROSS_VALIDATED]:
         if folds is not None:
             candidate.cv_rmse_ppm = _cv_rmse(data, effects + [candidate.effect], candidate.fit, sensor, folds)
-    verdict = _verdict(base, noise, ranked)
+    verdict = _verdict(base, noise, ranked, associations)
     result = Diagnosis(data, effects, noise, base, base_cv, ranked, associations, verdict, "",
                        residual_mm=_residual_mm(base, data))
     if follow_up and verdict == "missing_effect" and ranked and ranked[0].delta_bic < DECISIVE_DELTA_BIC:
@@ -205,11 +209,13 @@ def _residual_mm(result: FitResult, data: Measurements) -> np.ndarray:
 
 
 # -- verdict and words ----------------------------------------------------------------------
-def _verdict(base: FitResult, noise: NoiseEstimate, ranked: list[Candidate]) -> str:
-    """Missing effect if the residual is well above the noise, or above it and one effect decisively helps."""
+def _verdict(base: FitResult, noise: NoiseEstimate, ranked: list[Candidate], associations: list[Association]) -> str:
+    """Missing effect if the residual is well above the noise; or above it and one effect decisively
+    helps; or a little above it with structure in some variable far beyond chance."""
     ratio = base.rms_ppm / noise.ppm if noise.ppm > 0 else math.inf
     decisive = bool(ranked) and ranked[0].delta_bic < DECISIVE_DELTA_BIC
-    if ratio > FAILING_RATIO or (decisive and ratio > ADEQUATE_RATIO):
+    structured = any(a.significance > STRUCTURE_SIGNIFICANCE for a in associations)
+    if ratio > FAILING_RATIO or (decisive and ratio > ADEQUATE_RATIO) or (structured and ratio > STRUCTURE_RATIO):
         return "missing_effect"
     return "adequate"
 

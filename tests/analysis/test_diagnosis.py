@@ -85,3 +85,36 @@ def test_unknown_effect_is_a_clear_error(campaign_with, tmp_path, capsys):
     campaign_with().to_csv(path)
     assert main(["diagnose", str(path), "--effects", "warp_drive"]) == 2
     assert "unknown effect(s) warp_drive" in capsys.readouterr().err
+
+
+def _with_outside_effect(data, kind: str):
+    """The campaign with an effect the library lacks, applied to the recorded inductance."""
+    import dataclasses
+
+    import numpy as np
+
+    from ecds_lab.analysis.fitting import fit
+
+    if kind == "leadscrew":  # a periodic lead-screw error: the carriage is off by 30 um sin(2 pi x / 17 mm)
+        model = fit(data, [])
+        step = 1e-5
+        slope = (model.model.predict(data, model.values, x_m=data.x_m + step)
+                 - model.model.predict(data, model.values, x_m=data.x_m - step)) / (2 * step)
+        shift = 30e-6 * np.sin(2 * np.pi * np.where(np.isfinite(data.x_m), data.x_m, 0.0) / 0.0173)
+        factor = np.where(np.isfinite(data.x_m), 1 + slope * shift / data.ls_h, 1.0)
+    else:  # a cubic term in the coil temperature that Eq. (4) lacks: 400 ppm at +110 K
+        factor = 1 + 3e-10 * (data.t_coil_c - 20.0) ** 3
+    return dataclasses.replace(data, ls_h=data.ls_h * factor)
+
+
+@pytest.mark.parametrize("kind, variable", [("leadscrew", "x_mm"), ("cubic coil temperature", "t_coil_c")])
+def test_other_effects_outside_the_library_are_found_where_they_live(campaign_with, kind, variable):
+    report = diagnose(_with_outside_effect(campaign_with(), kind))
+    assert report["verdict"] == "missing_effect", report["explanation"]
+    assert report["associations"][0]["variable"] == variable
+    assert report["associations"][0]["significance"] > 8
+
+
+def test_pure_noise_shows_no_significant_structure(campaign_with):
+    report = diagnose(campaign_with())
+    assert max(a["significance"] for a in report["associations"]) < 5
