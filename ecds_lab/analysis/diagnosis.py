@@ -35,7 +35,8 @@ STRUCTURE_SIGNIFICANCE = 8.0
 STRUCTURE_RATIO = 1.03
 #: BIC improvement (negative) that counts as decisive evidence for an effect.
 DECISIVE_DELTA_BIC = -20.0
-#: Candidates (best by BIC) whose held-out error is measured.
+#: Candidates (best by BIC) refitted from their alternative starts, and at most cross-validated.
+LEADING = 3
 CROSS_VALIDATED = 3
 FOLDS = 4
 
@@ -118,7 +119,8 @@ def run_diagnosis(data: Measurements, effects: Sequence[str] = (), sensor: Senso
                   cross_validate: bool = True) -> Diagnosis:
     """Diagnose ``data`` against the baseline plus ``effects``; see the module docstring.
 
-    ``follow_up`` adds the best effect and diagnoses once more (without cross-validation).
+    ``follow_up`` adds the best effect and diagnoses once more (a screening round: no alternative
+    starts, no cross-validation).
     """
     effects = list(effects)
     base = fit(data, effects, sensor)
@@ -126,9 +128,13 @@ def run_diagnosis(data: Measurements, effects: Sequence[str] = (), sensor: Senso
     associations = residual_associations(data, base.residuals_ppm, noise.ppm)
     names = [n for n in (candidates or library()) if n not in effects]
     ranked = sorted((_candidate(data, effects, name, base, sensor) for name in names), key=lambda c: c.delta_bic)
+    if cross_validate:  # the first round; a follow-up round only screens what is left
+        ranked[:LEADING] = [c if c.rmse_ppm <= ADEQUATE_RATIO * noise.ppm else _refined(data, c, base, sensor)
+                            for c in ranked[:LEADING]]
+    ranked.sort(key=lambda c: c.delta_bic)
     folds = _folds(data) if cross_validate else None
     base_cv = _cv_rmse(data, effects, base, sensor, folds) if folds is not None else None
-    for candidate in ranked[:CROSS_VALIDATED]:
+    for candidate in _competitive(ranked)[:CROSS_VALIDATED]:
         if folds is not None:
             candidate.cv_rmse_ppm = _cv_rmse(data, effects + [candidate.effect], candidate.fit, sensor, folds)
     verdict = _verdict(base, noise, ranked, associations)
@@ -152,15 +158,28 @@ def diagnose(data: Measurements, effects: Sequence[str] = (), sensor: SensorConf
 # -- candidates -----------------------------------------------------------------------------
 def _candidate(data: Measurements, effects: list[str], name: str, base: FitResult,
                sensor: SensorConfig | None) -> Candidate:
-    """Fit model + effect from the current fit's values, and from the effect's alternative starts."""
+    """Fit model + effect, starting from the current fit's values and the effect's defaults."""
     model = SensorModel(sensor, effects + [name])
-    start = {k: v for k, v in base.values.items()}
-    best = fit_model(model, data, start=start, multistart=False)
+    fitted = fit_model(model, data, start=dict(base.values), multistart=False, screening=True)
+    return Candidate(name, fitted, fitted.bic - base.bic)
+
+
+def _refined(data: Measurements, candidate: Candidate, base: FitResult, sensor: SensorConfig | None) -> Candidate:
+    """A leading candidate not yet at the noise level, refitted from its effect's alternative starts."""
+    model = candidate.fit.model
+    best = candidate.fit
     for alternative in model.effects[-1].alternative_starts:
-        trial = fit_model(model, data, start={**start, **alternative}, multistart=False)
+        trial = fit_model(model, data, start={**base.values, **alternative}, multistart=False, screening=True)
         if trial.rms_ppm < best.rms_ppm:
             best = trial
-    return Candidate(name, best, best.bic - base.bic)
+    return Candidate(candidate.effect, best, best.bic - base.bic)
+
+
+def _competitive(ranked: list[Candidate]) -> list[Candidate]:
+    """Candidates whose BIC gain is at least a tenth of the best one's (the rest cannot win)."""
+    if not ranked or ranked[0].delta_bic >= 0:
+        return ranked[:1]
+    return [c for c in ranked if c.delta_bic <= 0.1 * ranked[0].delta_bic]
 
 
 def _folds(data: Measurements) -> np.ndarray | None:
@@ -189,7 +208,7 @@ def _cv_rmse(data: Measurements, effects: list[str], full: FitResult, sensor: Se
     squares, count = 0.0, 0
     for k in np.unique(folds):
         held = folds == k
-        trained = fit_model(model, data, start=full.values, multistart=False, rows=~held)
+        trained = fit_model(model, data, start=full.values, multistart=False, rows=~held, screening=True)
         r = (data.ls_h[held] / trained.predict(data)[held] - 1) * 1e6
         squares += float(r @ r)
         count += int(held.sum())

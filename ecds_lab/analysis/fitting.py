@@ -100,12 +100,14 @@ def fit(data: Measurements, effects: Sequence[str | Effect] = (), sensor: Sensor
 
 def fit_model(model: SensorModel, data: Measurements, *, start: Mapping[str, float] | None = None,
               fixed: Mapping[str, float] | None = None, multistart: bool | None = None,
-              rows: np.ndarray | None = None) -> FitResult:
+              rows: np.ndarray | None = None, screening: bool = False) -> FitResult:
     """Fit a model: parameters the data cannot determine and those in ``fixed`` are held constant.
 
     ``start`` overrides start values; ``multistart`` None tries more starts only when needed.
     ``rows`` (a boolean mask) fits only those rows while the model still runs over every row,
     so effects with a memory see the whole history (held-out validation uses this).
+    ``screening`` stops at a relative cost change of 1e-8 and a smaller evaluation budget: enough
+    to compare candidate models, without polishing a model that does not fit to the last digit.
     """
     if len(data) == 0:
         raise ValueError("no measurements to fit")
@@ -119,10 +121,10 @@ def fit_model(model: SensorModel, data: Measurements, *, start: Mapping[str, flo
     if start:
         params = update(params, values={k: v for k, v in start.items() if k not in reasons})
     noise = noise_ppm(data)
-    best, starts = _solve(model, data, params, rows), 1
+    best, starts = _solve(model, data, params, rows, screening), 1
     if multistart or (multistart is None and _needs_restart(best, noise)):
         for candidate in _alternative_starts(model, data, params):
-            result = _solve(model, data, candidate, rows)
+            result = _solve(model, data, candidate, rows, screening)
             starts += 1
             if result[0].cost < best[0].cost:
                 best = result
@@ -189,7 +191,7 @@ def _residual_function(model: SensorModel, data: Measurements, scaling: Scaling,
 
 
 def _solve(model: SensorModel, data: Measurements, params: Sequence[Parameter],
-           rows: np.ndarray | None = None) -> tuple[Any, Scaling]:
+           rows: np.ndarray | None = None, screening: bool = False) -> tuple[Any, Scaling]:
     """One local least-squares fit from the parameters' current values (theta = 0)."""
     scaling = Scaling(params)
     residuals = _residual_function(model, data, scaling, rows)
@@ -198,8 +200,9 @@ def _solve(model: SensorModel, data: Measurements, params: Sequence[Parameter],
         return _Trivial(r), scaling
     lower, upper = scaling.bounds()
     theta0 = np.clip(np.zeros(len(scaling.names)), lower + 1e-9, upper - 1e-9)
+    tolerance, budget = (1e-8, 30) if screening else (1e-12, 200)
     result = least_squares(residuals, theta0, bounds=(lower, upper), method="trf", x_scale=1.0,
-                           ftol=1e-12, xtol=1e-12, gtol=1e-12, max_nfev=200 * (len(theta0) + 1))
+                           ftol=tolerance, xtol=tolerance, gtol=tolerance, max_nfev=budget * (len(theta0) + 1))
     return result, scaling
 
 

@@ -1,7 +1,12 @@
 """parasitic_capacitance: moisture in the former adds capacitance and loss; heating drives it out.
 
 A porous former holds moisture m (1 at the start of a recording, when it has sat in the lab).
-Heat dries it: dm/dt = -m r(T), r(T) = r100 * 2^((T - 100 C) / doubling), T the coil thermocouple.
+Heat dries it: dm/dt = -r(T) m^n with r(T) = r_hot / (1 + exp(-(T - T_onset) / width)), T the coil
+thermocouple: exponential in T well below the onset (evaporation), and with a small width a plain
+threshold ("time spent hot" above T_onset);
+the order n spans drying at a constant pace (n = 0: m falls linearly with the drying dose until dry)
+to drying in proportion to what is left (n = 1: exponential). With the dose D = int r dt,
+m = (1 - (1 - n) D)^(1 / (1 - n)), or exp(-D) for n = 1.
 The coil's parallel capacitance is C_p + dC m and its loss conductance 1/R_p + dG m (Table 2:
 62.5 pF / 92 kOhm moist, 47.5 pF / 984 kOhm dry). Seen through L || C, the apparent L changes
 like 1/(1 - w^2 L C): strongly at 15 kHz, hardly at 500 Hz, and with hysteresis on cooling.
@@ -12,6 +17,7 @@ from __future__ import annotations
 from typing import Mapping
 
 import numpy as np
+from scipy.special import expit
 
 from ecds_lab.model.effects import Effect, Inputs, register
 from ecds_lab.model.library.history import segment_rows
@@ -22,36 +28,41 @@ from ecds_lab.model.parameters import Parameter
 class ParasiticCapacitance(Effect):
     name = "parasitic_capacitance"
     explains = "moisture in the former changes the coil's parallel capacitance as heating dries it"
-    alternative_starts = ({"drying_rate": 1e-4}, {"drying_rate": 1e-2})
+    alternative_starts = ({"drying_rate": 1e-4}, {"drying_rate": 1e-2},
+                          {"drying_order": 0.0, "drying_rate": 3e-4, "drying_onset": 60.0, "drying_width": 2.0},
+                          {"drying_order": 0.0, "drying_rate": 3e-4, "drying_onset": 90.0, "drying_width": 2.0})
 
     def parameters(self) -> list[Parameter]:
         return [
             Parameter("moist_dC", 1e-12, -1e-10, 1e-10, "F", "extra parallel capacitance of the moist former", 5e-12),
             Parameter("moist_dG", 1e-6, 0.0, 1e-4, "S", "extra loss conductance of the moist former", 3e-6),
-            Parameter("drying_rate", 1.0 / 600, 1e-6, 1.0, "1/s", "drying rate of the former at 100 C", 1e-3),
-            Parameter("drying_doubling", 12.0, 3.0, 60.0, "K", "temperature rise that doubles the drying rate", 5.0),
+            Parameter("drying_rate", 1.0 / 300, 1e-7, 1.0, "1/s", "drying rate of the hot former (r_hot)", 1e-3),
+            Parameter("drying_onset", 100.0, 20.0, 250.0, "C", "temperature at which drying reaches half its rate", 10.0),
+            Parameter("drying_width", 17.0, 0.5, 60.0, "K", "width of the drying onset (small: a threshold)", 5.0),
+            Parameter("drying_order", 1.0, 0.0, 2.0, "1", "order n of dm/dt = -r m^n (0 linear, 1 exponential)", 0.2),
         ]
 
     def unidentifiable(self, data) -> dict[str, str]:  # noqa: ANN001
         span = float(np.ptp(data.t_coil_c)) if len(data) else 0.0
         if span < 10.0:
             return {n: f"coil temperature span {span:.1f} K < 10 K"
-                    for n in ("moist_dC", "moist_dG", "drying_rate", "drying_doubling")}
+                    for n in ("moist_dC", "moist_dG", "drying_rate", "drying_onset", "drying_width", "drying_order")}
         if float(data.freq_hz.max()) < 2000:
             return {"moist_dG": "low frequencies only: the loss hardly changes L"}
         return {}
 
     def moisture(self, data, p: Mapping[str, float]) -> np.ndarray:  # noqa: ANN001
         """m(t) per recording, integrated with the drying rate at the mean temperature of each interval."""
-        key = (id(data), p["drying_rate"], p["drying_doubling"])
+        key = (id(data), p["drying_rate"], p["drying_onset"], p["drying_width"], p["drying_order"])
         if getattr(self, "_memo_key", None) == key:
             return self._memo
         out = np.ones(len(data))
         for rows in segment_rows(data):
             t, temp = data.time_s[rows], data.t_coil_c[rows]
             mid = 0.5 * (temp[1:] + temp[:-1])
-            rate = p["drying_rate"] * np.exp2((mid - 100.0) / p["drying_doubling"])
-            out[rows] = np.exp(-np.concatenate([[0.0], np.cumsum(rate * np.maximum(np.diff(t), 0.0))]))
+            rate = p["drying_rate"] * expit((mid - p["drying_onset"]) / p["drying_width"])
+            dose = np.concatenate([[0.0], np.cumsum(rate * np.maximum(np.diff(t), 0.0))])
+            out[rows] = _remaining(dose, p["drying_order"])
         self._memo_key, self._memo = key, out
         return out
 
@@ -60,3 +71,12 @@ class ParasiticCapacitance(Effect):
 
     def parallel_conductance(self, g_s: np.ndarray, inputs: Inputs, data, p: Mapping[str, float]) -> np.ndarray:  # noqa: ANN001
         return g_s + p["moist_dG"] * self.moisture(data, p)
+
+
+def _remaining(dose: np.ndarray, order: float) -> np.ndarray:
+    """Moisture left after a drying dose, starting from 1: the closed form of dm/dD = -m^order."""
+    if abs(order - 1.0) < 1e-6:
+        return np.exp(-dose)
+    base = np.clip(1.0 - (1.0 - order) * dose, 0.0, None)
+    with np.errstate(divide="ignore"):
+        return np.where(base > 0, base ** (1.0 / (1.0 - order)), 0.0) if order < 1 else base ** (1.0 / (1.0 - order))

@@ -1,7 +1,9 @@
 """target_bending: the hot target bends, so the effective distance shifts with target temperature.
 
-A plate heated from behind bows (its edges move toward or away from the coil); the coil sees
-an effective distance x - b dT, b in m/K (positive: the plate comes closer as it heats).
+A plate heated from behind bows (its centre or edges move toward or away from the coil). The
+coil senses a weighted average of the plate under its winding, and the weights change with
+distance, so the effective distance is x - d(dT) w(x): d = b1 dT + b2 dT^2 (m), and
+w = 1 + c (x - 60 mm) / 40 mm. b1 > 0: the plate comes closer as it heats.
 """
 
 from __future__ import annotations
@@ -20,13 +22,22 @@ class TargetBending(Effect):
     explains = "the hot target bends, shifting the effective distance"
 
     def parameters(self) -> list[Parameter]:
-        return [Parameter("bending", 0.0, -1e-4, 1e-4, "m/K", "shift of the effective distance per kelvin of target",
-                          2e-6)]
+        return [
+            Parameter("bending", 0.0, -1e-4, 1e-4, "m/K", "shift of the effective distance per kelvin of target", 2e-6),
+            Parameter("bending_quadratic", 0.0, -1e-6, 1e-6, "m/K^2", "curvature of the shift in target temperature",
+                      2e-8),
+            Parameter("bending_x", 0.0, -0.9, 0.9, "1", "change of the shift from 60 mm to 100 mm (relative)", 0.1),
+        ]
 
     def unidentifiable(self, data) -> dict[str, str]:  # noqa: ANN001
         finite = np.isfinite(data.x_m)
         span = float(np.ptp(data.t_target_c[finite])) if finite.any() else 0.0
-        return {"bending": f"target temperature span {span:.1f} K < 5 K with the target present"} if span < 5 else {}
+        if span < 5:
+            return {n: f"target temperature span {span:.1f} K < 5 K with the target present"
+                    for n in ("bending", "bending_quadratic", "bending_x")}
+        return {"bending_quadratic": f"target temperature span {span:.1f} K < 30 K"} if span < 30 else {}
 
     def effective_distance(self, x_m: np.ndarray, data, p: Mapping[str, float]) -> np.ndarray:  # noqa: ANN001
-        return x_m - p["bending"] * (data.t_target_c - self.sensor.reference_temperature_c)
+        d_t = data.t_target_c - self.sensor.reference_temperature_c
+        weight = 1 + p["bending_x"] * np.where(np.isfinite(x_m), (x_m - 0.060) / 0.040, 0.0)
+        return x_m - (p["bending"] * d_t + p["bending_quadratic"] * d_t**2) * weight
