@@ -41,8 +41,8 @@ CROSS_VALIDATED = 3
 FOLDS = 4
 
 #: Friendlier display units for parameters in explanations: name -> (unit, factor).
-DISPLAY_UNITS = {"bending": ("um/K", 1e6), "backlash": ("um", 1e6), "moist_dC": ("pF", 1e12),
-                 "moist_dG": ("uS", 1e6), "tau_tempco": ("%/K", 100.0), "tau_x_slope": ("% per 40 mm", 100.0),
+DISPLAY_UNITS = {"bending": ("um/K", 1e6), "bending_quadratic": ("um/K^2", 1e6), "backlash": ("um", 1e6),
+                 "moist_dC": ("pF", 1e12), "moist_dG": ("uS", 1e6), "tau_tempco": ("%/K", 100.0),
                  "lag_tau": ("s", 1.0), "drying_rate": ("1/h", 3600.0), "tau_t": ("us", 1e6)}
 
 
