@@ -106,7 +106,7 @@ def fit_model(model: SensorModel, data: Measurements, *, start: Mapping[str, flo
     ``start`` overrides start values; ``multistart`` None tries more starts only when needed.
     ``rows`` (a boolean mask) fits only those rows while the model still runs over every row,
     so effects with a memory see the whole history (held-out validation uses this).
-    ``screening`` stops at a relative cost change of 1e-8 and a smaller evaluation budget: enough
+    ``screening`` stops at a relative cost change of 1e-10 and a smaller evaluation budget: enough
     to compare candidate models, without polishing a model that does not fit to the last digit.
     """
     if len(data) == 0:
@@ -200,7 +200,7 @@ def _solve(model: SensorModel, data: Measurements, params: Sequence[Parameter],
         return _Trivial(r), scaling
     lower, upper = scaling.bounds()
     theta0 = np.clip(np.zeros(len(scaling.names)), lower + 1e-9, upper - 1e-9)
-    tolerance, budget = (1e-8, 30) if screening else (1e-12, 200)
+    tolerance, budget = (1e-10, 30) if screening else (1e-12, 200)
     result = least_squares(residuals, theta0, bounds=(lower, upper), method="trf", x_scale=1.0,
                            ftol=tolerance, xtol=tolerance, gtol=tolerance, max_nfev=budget * (len(theta0) + 1))
     return result, scaling

@@ -29,8 +29,8 @@ class ParasiticCapacitance(Effect):
     name = "parasitic_capacitance"
     explains = "moisture in the former changes the coil's parallel capacitance as heating dries it"
     alternative_starts = ({"drying_rate": 1e-4}, {"drying_rate": 1e-2},
-                          {"drying_order": 0.0, "drying_rate": 3e-4, "drying_onset": 60.0, "drying_width": 2.0},
-                          {"drying_order": 0.0, "drying_rate": 3e-4, "drying_onset": 90.0, "drying_width": 2.0})
+                          *({"drying_order": 0.0, "drying_rate": 3e-4, "drying_onset": onset, "drying_width": 1.0}
+                            for onset in (60.0, 90.0)))
 
     def parameters(self) -> list[Parameter]:
         return [
@@ -38,7 +38,7 @@ class ParasiticCapacitance(Effect):
             Parameter("moist_dG", 1e-6, 0.0, 1e-4, "S", "extra loss conductance of the moist former", 3e-6),
             Parameter("drying_rate", 1.0 / 300, 1e-7, 1.0, "1/s", "drying rate of the hot former (r_hot)", 1e-3),
             Parameter("drying_onset", 100.0, 20.0, 250.0, "C", "temperature at which drying reaches half its rate", 10.0),
-            Parameter("drying_width", 17.0, 0.5, 60.0, "K", "width of the drying onset (small: a threshold)", 5.0),
+            Parameter("drying_width", 17.0, 0.2, 60.0, "K", "width of the drying onset (small: a threshold)", 5.0),
             Parameter("drying_order", 1.0, 0.0, 2.0, "1", "order n of dm/dt = -r m^n (0 linear, 1 exponential)", 0.2),
         ]
 
