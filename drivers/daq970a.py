@@ -35,10 +35,10 @@ OVERLOAD_THRESHOLD = 9.0e37
 MODELS: tuple[str, ...] = ("DAQ970A", "DAQ973A", "34970A", "34972A")
 
 #: RS-232 of the 34970A: 9600 8N1 and LF as public scripts use; replies end in CR LF, which the
-#: transport strips [dvg]. The factory flow control is XON/XOFF [3497x-UG-KS pp.192-193]: set the
-#: instrument to None or RTS/CTS (SerialTransport has no XON/XOFF option). READ? needs >= 5 s [dvg].
+#: transport strips [dvg]. The factory flow control is XON/XOFF [3497x-UG-KS pp.192-193], set only
+#: from the front panel, so the link uses it too. READ? needs >= 5 s [dvg].
 SERIAL_SETTINGS: dict[str, Any] = {
-    "baudrate": 9600, "bytesize": 8, "parity": "N", "stopbits": 1,
+    "baudrate": 9600, "bytesize": 8, "parity": "N", "stopbits": 1, "xonxoff": True,
     "write_termination": "\n", "read_termination": "\n", "timeout_s": 5.0,
 }
 #: GPIB / LAN / USB through VISA: LF both ways [dvg].

@@ -64,7 +64,7 @@ def link_settings(driver: str, link: SerialLink | VisaLink) -> dict[str, Any]:
     if isinstance(link, SerialLink) and link.baudrate is not None:
         settings["baudrate"] = link.baudrate
     if isinstance(link, VisaLink):
-        for serial_only in ("bytesize", "parity", "stopbits", "rtscts", "baudrate"):
+        for serial_only in ("bytesize", "parity", "stopbits", "rtscts", "xonxoff", "baudrate"):
             settings.pop(serial_only, None)
     return settings
 

@@ -34,6 +34,7 @@ class SerialTransport(Transport):
         parity: str = "N",
         stopbits: float = 1,
         rtscts: bool = False,
+        xonxoff: bool = False,
         **options: object,
     ) -> None:
         super().__init__(name, **options)  # type: ignore[arg-type]
@@ -46,6 +47,7 @@ class SerialTransport(Transport):
                 parity=_PARITY[parity],
                 stopbits=stopbits,
                 rtscts=rtscts,
+                xonxoff=xonxoff,
                 timeout=self.timeout_s,
                 write_timeout=self.timeout_s,
             )
