@@ -40,12 +40,30 @@ def _cmd_export(args: argparse.Namespace) -> int:
     return 0
 
 
+def _sensor(data: Path, sensor: Path | None):  # noqa: ANN202 - SensorConfig, imported late
+    """The sensor of DATA: ``--sensor`` if given, else a run file's simulated lab's, else the paper's prototype."""
+    from ecds_lab.model.sensor import SensorConfig, load_sensor
+
+    if sensor is not None:
+        return load_sensor(sensor)
+    if data.suffix.lower() in (".h5", ".hdf5", ".nxs"):
+        import yaml
+
+        from ecds_lab.storage.reader import read_run
+
+        station = yaml.safe_load(read_run(data, transcripts=False).metadata.get("station_yaml") or "{}") or {}
+        block = ((station.get("simulated") or {}).get("lab") or {}).get("sensor")
+        if isinstance(block, dict):
+            return SensorConfig(**block)
+    return SensorConfig()
+
+
 def _cmd_fit(args: argparse.Namespace) -> int:
     from ecds_lab.analysis.dataset import load_measurements
     from ecds_lab.analysis.summary import fit_summary, format_fit_summary
 
     effects = [e.strip() for e in (args.effects or "").split(",") if e.strip()]
-    summary = fit_summary(load_measurements(args.data), effects)
+    summary = fit_summary(load_measurements(args.data), effects, _sensor(args.data, args.sensor))
     print(json.dumps(summary, indent=2) if args.json else format_fit_summary(summary))
     return 0
 
@@ -55,7 +73,7 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
     from ecds_lab.analysis.diagnosis import diagnose, format_diagnosis
 
     effects = [e.strip() for e in (args.effects or "").split(",") if e.strip()]
-    result = diagnose(load_measurements(args.data), effects)
+    result = diagnose(load_measurements(args.data), effects, _sensor(args.data, args.sensor))
     print(json.dumps(result, indent=2) if args.json else format_diagnosis(result))
     return 0
 
@@ -111,11 +129,13 @@ def build_parser() -> argparse.ArgumentParser:
     p = command("fit", _cmd_fit, "fit the model (baseline plus named effects) to DATA (.h5 run file or CSV)")
     p.add_argument("data", type=Path)
     p.add_argument("--effects", help="comma-separated effect names to add to the baseline")
+    p.add_argument("--sensor", type=Path, help="sensor YAML (default: the paper's prototype, copper target)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
 
     p = command("diagnose", _cmd_diagnose, "where the model fails on DATA and which effect is missing")
     p.add_argument("data", type=Path)
     p.add_argument("--effects", help="effects already added to the baseline (diagnose what is still missing)")
+    p.add_argument("--sensor", type=Path, help="sensor YAML (default: the paper's prototype, copper target)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
 
     p = command("report", _cmd_report, "write a self-contained HTML report with plots")
