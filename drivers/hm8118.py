@@ -13,6 +13,7 @@ command it refuses [M23], so every setting is read back to confirm it [KAK does 
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 from ecds_lab.drivers.instrument import Control, Instrument, choice, in_range, integer_in_range, one_of
@@ -84,7 +85,11 @@ class HM8118(Instrument):
         self.check_reply(command, reply)
         expected = control.encode(self, value)
         actual = control.parse(reply)
-        if (abs(actual - expected) > 1e-6 * max(1.0, abs(expected))) if isinstance(expected, float) else actual != expected:
+        if isinstance(expected, float):
+            changed = not math.isclose(actual, expected, rel_tol=1e-6, abs_tol=1e-6)
+        else:
+            changed = actual != expected
+        if changed:
             raise self.fail(command, reply, f"read back {reply!r} after setting {value!r}")
 
     # -- LCRBridge interface -------------------------------------------------------------

@@ -1,21 +1,11 @@
-"""Integrating a quantity along time within each segment (for effects with a memory)."""
+"""Integrating a quantity along time (for effects with a memory; they restart at every segment)."""
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
-
-if TYPE_CHECKING:
-    from ecds_lab.analysis.dataset import Measurements
 
 #: Largest decay (in e-folds) handled in one vectorised block; keeps exp() far from overflow.
 _BLOCK_EFOLDS = 300.0
-
-
-def segment_rows(data: "Measurements") -> list[np.ndarray]:
-    """Row indices of each segment, in time order (history restarts at every segment)."""
-    return data.segment_rows
 
 
 def first_order_lag(time_s: np.ndarray, u: np.ndarray, tau_s: float) -> np.ndarray:

@@ -20,7 +20,6 @@ import numpy as np
 from scipy.special import expit
 
 from ecds_lab.model.effects import Effect, Inputs, register
-from ecds_lab.model.library.history import segment_rows
 from ecds_lab.model.parameters import Parameter
 
 
@@ -57,7 +56,7 @@ class ParasiticCapacitance(Effect):
         if getattr(self, "_memo_key", None) == key:
             return self._memo
         out = np.ones(len(data))
-        for rows in segment_rows(data):
+        for rows in data.segment_rows:
             t, temp = data.time_s[rows], data.t_coil_c[rows]
             mid = 0.5 * (temp[1:] + temp[:-1])
             rate = p["drying_rate"] * expit((mid - p["drying_onset"]) / p["drying_width"])
@@ -77,6 +76,5 @@ def _remaining(dose: np.ndarray, order: float) -> np.ndarray:
     """Moisture left after a drying dose, starting from 1: the closed form of dm/dD = -m^order."""
     if abs(order - 1.0) < 1e-6:
         return np.exp(-dose)
-    base = np.clip(1.0 - (1.0 - order) * dose, 0.0, None)
-    with np.errstate(divide="ignore"):
-        return np.where(base > 0, base ** (1.0 / (1.0 - order)), 0.0) if order < 1 else base ** (1.0 / (1.0 - order))
+    # order < 1: dry (0) once the dose reaches 1/(1 - order); order > 1: the base stays >= 1.
+    return np.clip(1.0 - (1.0 - order) * dose, 0.0, None) ** (1.0 / (1.0 - order))

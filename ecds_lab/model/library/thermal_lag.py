@@ -11,7 +11,7 @@ from typing import Mapping
 import numpy as np
 
 from ecds_lab.model.effects import Effect, register
-from ecds_lab.model.library.history import first_order_lag, segment_rows
+from ecds_lab.model.library.history import first_order_lag
 from ecds_lab.model.parameters import Parameter
 
 
@@ -31,6 +31,6 @@ class ThermalLag(Effect):
 
     def winding_temperature(self, t_c: np.ndarray, data, p: Mapping[str, float]) -> np.ndarray:  # noqa: ANN001
         out = np.array(t_c, dtype=float)
-        for rows in segment_rows(data):
+        for rows in data.segment_rows:
             out[rows] = first_order_lag(data.time_s[rows], out[rows], p["lag_tau"])
         return out
