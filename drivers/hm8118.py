@@ -130,8 +130,7 @@ class HM8118(Instrument):
             self._frequency_hz = float(self.frequency_hz)
         self.write("*TRG")
         self.write("*WAI")
-        with self.transport.timeout_at_least(self.transport.timeout_s + self._averages * SLOWEST_READING_S):
-            reply = self.ask("XALL?")
+        reply = self.ask("XALL?", timeout_s=self.transport.timeout_s + self._averages * SLOWEST_READING_S)
         fields = reply.split(",")
         try:
             main, secondary = float(fields[0]), float(fields[1])
@@ -149,7 +148,6 @@ class HM8118(Instrument):
 
     def _compensate(self, command: str, all_frequencies: bool) -> None:
         self.write(f"CALL {1 if all_frequencies else 0}")
-        with self.transport.timeout_at_least(COMPENSATION_TIMEOUT_S):
-            reply = self.ask(command)
+        reply = self.ask(command, timeout_s=max(self.transport.timeout_s, COMPENSATION_TIMEOUT_S))
         if reply.strip() != "0":
             raise self.fail(command, reply, "compensation failed")

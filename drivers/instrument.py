@@ -153,8 +153,8 @@ class Instrument:
     def write(self, command: str) -> None:
         self.transport.write(command)
 
-    def ask(self, command: str) -> str:
-        reply = self.transport.query(command)
+    def ask(self, command: str, timeout_s: float | None = None) -> str:
+        reply = self.transport.query(command, timeout_s)
         self.check_reply(command, reply)
         return reply
 

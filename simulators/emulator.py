@@ -1,7 +1,7 @@
 """Base of the protocol emulators: bytes in, command lines parsed, reply bytes out.
 
 An emulator is the instrument's firmware as seen from its port. It is reached only
-through transports (the ``ecdssim://`` pyserial scheme or a loopback TCP server),
+through transports (the ``ecdssim://`` pyserial scheme, which pyvisa-py also opens for ``ASRL`` resources),
 never called by drivers directly. Replies can be scheduled for a later simulated
 time (a measurement in progress), and the port hands them out when the host has
 waited long enough on the shared clock.
@@ -10,6 +10,7 @@ waited long enough on the shared clock.
 from __future__ import annotations
 
 import heapq
+import re
 import itertools
 import threading
 from abc import ABC, abstractmethod
@@ -33,6 +34,7 @@ class LineEmulator(ABC):
         self.lab = lab
         self.lock = threading.RLock()
         self._line = bytearray()
+        self._line_end = re.compile(b"[" + re.escape(self.line_endings) + b"]")
         self._scheduled: list[tuple[float, int, bytes]] = []
         self._order = itertools.count()
         #: Set to a bytearray to capture every byte the host sends (protocol tests assert on it).
@@ -52,12 +54,11 @@ class LineEmulator(ABC):
                         self.handle_realtime(bytes((byte,)))
                 data = data.translate(None, self.realtime_bytes)
             self._line += data
-            start = 0
-            for end, byte in enumerate(self._line):
-                if byte in self.line_endings:
-                    self.handle_line(self._line[start:end].decode("ascii", errors="replace"))
-                    start = end + 1
-            del self._line[:start]
+            *lines, rest = self._line_end.split(self._line)
+            if lines:
+                self._line = bytearray(rest)
+                for line in lines:
+                    self.handle_line(line.decode("ascii", errors="replace"))
 
     def next_reply_time(self) -> float | None:
         """Simulated time at which the earliest pending reply is ready, or None."""

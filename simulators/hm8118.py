@@ -64,7 +64,8 @@ class HM8118Emulator(LineEmulator):
         mnemonic = mnemonic.upper()
         argument = argument.strip()
         refused = self.lab.faults.bridge_error_commands
-        if (mnemonic.rstrip("?") in refused or command.upper() in refused) and mnemonic not in ("CROP", "CRSH"):
+        if refused and mnemonic not in ("CROP", "CRSH") and (
+                mnemonic.rstrip("?") in refused or command.upper() in refused):
             self._answer("ERROR")
             return
         handler = self._commands.get(mnemonic)
@@ -138,27 +139,24 @@ class HM8118Emulator(LineEmulator):
         omega = 2 * math.pi * frequency
         averages = self.settings["NAVG"] if self.settings["AVGM"] else 1
         z = self.lab.measured_impedance(frequency, _SPEED_NAMES[self.settings["RATE"]], self.settings["VOLT"], averages)
-        y = 1 / z
+        function = self.settings["PMOD"]
+        if function in (6, 7, 8):  # Z-theta, Y-theta, R-X: no equivalent circuit involved
+            theta = math.degrees(cmath.phase(z))
+            return {6: (abs(z), theta), 7: (1 / abs(z), -theta), 8: (z.real, z.imag)}[function]
         circuit = self.settings["CIRC"]
         parallel = circuit == 1 or (circuit == 2 and abs(z) > 1e3)
-        ls, rs = z.imag / omega, z.real
-        lp = -1 / (omega * y.imag) if y.imag else math.inf
-        rp = 1 / y.real if y.real else math.inf
-        cs = -1 / (omega * z.imag) if z.imag else math.inf
-        cp = y.imag / omega
+        y = 1 / z
+        if function == 9:  # G-B
+            return y.real, y.imag
         q = abs(z.imag) / z.real if z.real else math.inf
-        theta = math.degrees(cmath.phase(z))
-        return {
-            1: ((lp if parallel else ls), q),
-            2: ((lp, rp) if parallel else (ls, rs)),
-            3: ((cp if parallel else cs), 1 / q if q else math.inf),
-            4: ((cp, rp) if parallel else (cs, rs)),
-            5: ((rp if parallel else rs), q),
-            6: (abs(z), theta),
-            7: (abs(y), -theta),
-            8: (z.real, z.imag),
-            9: (y.real, y.imag),
-        }[self.settings["PMOD"]]
+        if function in (1, 2, 5):  # L-Q, L-R, R-Q
+            inductance = (-1 / (omega * y.imag) if y.imag else math.inf) if parallel else z.imag / omega
+            resistance = (1 / y.real if y.real else math.inf) if parallel else z.real
+            return {1: (inductance, q), 2: (inductance, resistance), 5: (resistance, q)}[function]
+        capacitance = y.imag / omega if parallel else (-1 / (omega * z.imag) if z.imag else math.inf)
+        if function == 3:  # C-D
+            return capacitance, (1 / q if q else math.inf)
+        return capacitance, ((1 / y.real if y.real else math.inf) if parallel else z.real)  # C-R
 
     def _compensate(self, command: str) -> None:
         frequencies = len(FREQUENCIES_HZ) if self.settings["CALL"] == 1 else 1

@@ -102,6 +102,7 @@ class SCPIEmulator(LineEmulator):
         self.errors: deque[int] = deque()
         self.busy_until = lab.clock.now()
         self._table = [(header_pattern(spec), name) for spec, name in {**self._COMMON, **self.commands}.items()]
+        self._handlers: dict[str, str] = {}
 
     def reset(self) -> None:
         """``*RST``: the instrument's factory state (subclasses)."""
@@ -126,15 +127,18 @@ class SCPIEmulator(LineEmulator):
 
     def execute(self, header: str, argument: str) -> str | None:
         """Run one command; errors go to the queue and yield no reply."""
-        for pattern, name in self._table:
-            if pattern.fullmatch(header):
-                try:
-                    return getattr(self, name)(argument)
-                except SCPIError as error:
-                    self.push_error(error.code)
-                    return None
-        self.push_error(-113)
-        return None
+        name = self._handlers.get(header)
+        if name is None:
+            name = next((name for pattern, name in self._table if pattern.fullmatch(header)), None)
+            if name is None:
+                self.push_error(-113)
+                return None
+            self._handlers[header] = name  # a header as sent, resolved once
+        try:
+            return getattr(self, name)(argument)
+        except SCPIError as error:
+            self.push_error(error.code)
+            return None
 
     def push_error(self, code: int) -> None:
         if len(self.errors) < self.error_queue_size:

@@ -123,7 +123,8 @@ class Runner:
             yield i, step
 
     def _execute(self, step: Step) -> None:
-        log.info("%s", step.describe())
+        if log.isEnabledFor(logging.INFO):  # describe a step only for a listener: runs have many thousand
+            log.info("%s", step.describe())
         if isinstance(step, ConfigureBridge):
             b = step.bridge
             self.station.bridge.configure(BridgeSettings(b.function, b.circuit, b.voltage_v, b.speed, b.averages))

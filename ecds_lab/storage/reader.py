@@ -67,6 +67,7 @@ def read_run(path: str | Path, *, transcripts: bool = True) -> RunFile:
                 raise RunFileError(f"{path}: written with other columns ({', '.join(names)}); "
                                    f"this ecds-lab reads {', '.join(COLUMN_NAMES)}")
             points = table[()]
+            points = points[~np.isnan(points[:, INDEX["time_s"]])]  # a row grown but never written (killed)
             events = _read_transcripts(entry) if transcripts and "transcripts" in entry else {}
             identities = _read_identities(entry)
     except RunFileError:

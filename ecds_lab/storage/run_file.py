@@ -16,6 +16,7 @@ The table is the source of truth; NXdata, NXlogs and the status are completed at
 from __future__ import annotations
 
 import json
+import math
 import time
 from datetime import datetime, timezone
 from pathlib import Path
@@ -29,11 +30,12 @@ from ecds_lab.errors import RunFileError
 from ecds_lab.storage.columns import COLUMN_NAMES, COLUMNS, INDEX
 from ecds_lab.transports.transcript import KINDS, Transcript
 
-#: The points table is flushed every row, and a flush writes its whole dirty chunk: small chunks
+#: The points table is flushed every row, and each row rewrites its whole chunk: small chunks
 #: (32 rows, 5 KB) keep that cheap. Columns written once at close use large chunks.
 _TABLE_CHUNK_ROWS = 32
 _COLUMN_CHUNK = 4096
 _TRANSCRIPT_BATCH_S = 2.0
+_KIND_CODES = {kind: float(code) for code, kind in enumerate(KINDS)}
 
 
 def _now_iso() -> str:
@@ -57,7 +59,7 @@ class RunWriter:
         self._create_layout(metadata, identities or {})
         self._file.swmr_mode = True
         self._row = np.empty((1, len(COLUMNS)))
-        self._row_space = h5py.h5s.create_simple((1, len(COLUMNS)))
+        self._tail = np.full((_TABLE_CHUNK_ROWS, len(COLUMNS)), np.nan, dtype="<f8")
 
     def _create_layout(self, metadata: Mapping[str, str], identities: Mapping[str, str]) -> None:
         entry = self._file.create_group("entry")
@@ -66,7 +68,7 @@ class RunWriter:
         for key, value in metadata.items():
             entry.attrs[key] = value
         table = entry.create_dataset("points", shape=(0, len(COLUMNS)), maxshape=(None, len(COLUMNS)),
-                                     dtype="f8", chunks=(_TABLE_CHUNK_ROWS, len(COLUMNS)))
+                                     dtype="<f8", chunks=(_TABLE_CHUNK_ROWS, len(COLUMNS)), fillvalue=np.nan)
         table.attrs["columns"] = list(COLUMN_NAMES)
         table.attrs["units"] = [c.unit for c in COLUMNS]
         self._table = table
@@ -98,12 +100,12 @@ class RunWriter:
 
     # -- per point ------------------------------------------------------------------------
     def append(self, values: Mapping[str, float]) -> None:
-        """Append one reading and flush it to disk before returning."""
-        row = self._row
-        row.fill(np.nan)
-        for name, value in values.items():
-            row[0, INDEX[name]] = value
-        self._write_rows(row)
+        """Append one reading and flush it to disk before returning; columns not given are NaN."""
+        unknown = values.keys() - INDEX.keys()
+        if unknown:
+            raise RunFileError(f"unknown run file column(s): {', '.join(sorted(unknown))}")
+        self._row[0] = [values.get(name, math.nan) for name in COLUMN_NAMES]
+        self._write_rows(self._row)
         if time.monotonic() - self._last_transcript_write > _TRANSCRIPT_BATCH_S:
             self.write_transcripts()
 
@@ -113,16 +115,27 @@ class RunWriter:
             self._write_rows(np.asarray(rows, float).reshape(-1, len(COLUMNS)))
 
     def _write_rows(self, rows: np.ndarray) -> None:
-        """Grow the table, write the rows and flush (h5py's low-level calls: ~5x less overhead per point)."""
-        n, count = self.rows, len(rows)
+        """Grow the table, write the chunks the rows fall in, and flush.
+
+        The table's last chunk is kept in memory (``_tail``) and written whole with
+        H5Dwrite_chunk: no selection or chunk-cache machinery, about 3x cheaper per point than a
+        one-row hyperslab write. Rows past the end of the table stay NaN, its fill value.
+        """
         table = self._table.id
-        table.set_extent((n + count, len(COLUMNS)))
-        file_space = table.get_space()
-        file_space.select_hyperslab((n, 0), (count, len(COLUMNS)))
-        memory_space = self._row_space if count == 1 else h5py.h5s.create_simple((count, len(COLUMNS)))
-        table.write(memory_space, file_space, np.ascontiguousarray(rows))
+        first, count = self.rows, len(rows)
+        table.set_extent((first + count, len(COLUMNS)))
+        done = 0
+        while done < count:
+            row = first + done
+            offset = row % _TABLE_CHUNK_ROWS
+            take = min(_TABLE_CHUNK_ROWS - offset, count - done)
+            if offset == 0:
+                self._tail.fill(np.nan)
+            self._tail[offset:offset + take] = rows[done:done + take]
+            table.write_direct_chunk((row - offset, 0), self._tail.tobytes())
+            done += take
         table.flush()
-        self.rows = n + count
+        self.rows = first + count
 
     @property
     def roles(self) -> tuple[str, ...]:
@@ -139,20 +152,24 @@ class RunWriter:
             start = self._written_events[role]
             new = transcript.events[start:]
             if new:
-                self._append_events(role, [(e.clock_s, e.wall_s, e.kind, e.text) for e in new])
+                self._append_events(role, new)
                 self._written_events[role] = start + len(new)
         self._last_transcript_write = time.monotonic()
 
     def _append_events(self, role: str, events: Sequence[tuple[float, float, str, str]]) -> None:
+        """Append (clock_s, wall_s, kind, text) events: a numeric table and the texts as one byte blob."""
         if not events:
             return
         group = self._file["entry/transcripts"][role]
         text_ds, events_ds = group["text"], group["events"]
         clock_s, wall_s, kinds, texts = zip(*events)
-        encoded = [t.encode("utf-8", errors="replace") for t in texts]
+        encoded = [text.encode("utf-8", errors="replace") for text in texts]
         base = text_ds.shape[0]
-        ends = base + np.cumsum([len(e) for e in encoded])
-        table = np.column_stack([clock_s, wall_s, [KINDS.index(k) for k in kinds], ends]).astype(float)
+        table = np.empty((len(events), 4))
+        table[:, 0] = clock_s
+        table[:, 1] = wall_s
+        table[:, 2] = [_KIND_CODES[kind] for kind in kinds]
+        table[:, 3] = base + np.cumsum(list(map(len, encoded)))
         blob = b"".join(encoded)
         text_ds.resize((base + len(blob),))
         text_ds[base:] = np.frombuffer(blob, dtype="u1")

@@ -8,8 +8,6 @@ replay) implement three primitives: send bytes, receive one line, close.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from contextlib import contextmanager
-from typing import Iterator
 
 from ecds_lab.clock import Clock, WallClock
 from ecds_lab.errors import EcdsLabError, TransportError, TransportTimeout
@@ -51,8 +49,8 @@ class Transport(ABC):
         """Put bytes on the wire."""
 
     @abstractmethod
-    def _receive_line(self) -> str | None:
-        """One line without its termination, or None when the timeout passed first."""
+    def _receive_line(self, timeout_s: float) -> str | None:
+        """One line without its termination, or None when ``timeout_s`` passed first."""
 
     @abstractmethod
     def _close(self) -> None:
@@ -68,30 +66,24 @@ class Transport(ABC):
         """Send raw bytes without termination or pacing (real-time commands such as GRBL's ``?``)."""
         self._send_logged(data.decode("latin-1"), data)
 
-    def read_line(self) -> str:
-        """The next line from the instrument; raises TransportTimeout if none arrives in time."""
+    def read_line(self, timeout_s: float | None = None) -> str:
+        """The next line from the instrument; raises TransportTimeout if none arrives in time.
+
+        ``timeout_s`` replaces the link's timeout for this read (a slow measurement, a compensation run).
+        """
         self._check_open()
-        line = self._receive_line()
+        timeout = self.timeout_s if timeout_s is None else timeout_s
+        line = self._receive_line(timeout)
         if line is None:
             self._log(ERROR, "timeout")
-            raise TransportTimeout(f"{self.name}: no reply within {self.timeout_s:g} s")
+            raise TransportTimeout(f"{self.name}: no reply within {timeout:g} s")
         self._log(RECEIVED, line)
         return line
 
-    def query(self, command: str) -> str:
-        """Send a command and return the one-line reply."""
+    def query(self, command: str, timeout_s: float | None = None) -> str:
+        """Send a command and return the one-line reply (waiting up to ``timeout_s`` if given)."""
         self.write(command)
-        return self.read_line()
-
-    @contextmanager
-    def timeout_at_least(self, seconds: float) -> Iterator[None]:
-        """Wait longer for replies inside the block (slow measurements, compensation runs)."""
-        saved = self.timeout_s
-        self.timeout_s = max(saved, seconds)
-        try:
-            yield
-        finally:
-            self.timeout_s = saved
+        return self.read_line(timeout_s)
 
     def close(self) -> None:
         if not self._closed:

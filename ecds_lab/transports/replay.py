@@ -95,7 +95,7 @@ class ReplayTransport(Transport):
             self._next()
             raise TransportError(f"{self.name}: sending {text!r} failed: {following.text} (recorded)")
 
-    def _receive_line(self) -> str | None:
+    def _receive_line(self, timeout_s: float) -> str | None:
         self._check_not_stopped()
         event = self._next()
         if event is None:

@@ -65,22 +65,28 @@ class SerialTransport(Transport):
     def _send(self, data: bytes) -> None:
         self._port.write(data)
 
-    def _receive_line(self) -> str | None:
+    def _receive_line(self, timeout_s: float) -> str | None:
+        line = self._pop_line() if self._buffer else None
+        if line is not None:
+            return line
         # The deadline runs on the transport's clock: wall time for hardware, simulated time
         # for the in-process simulators (whose port lets that time pass while it waits).
-        if self._port.timeout != self.timeout_s:
-            self._port.timeout = self.timeout_s
-        deadline = self.clock.now() + self.timeout_s
+        if self._port.timeout != timeout_s:
+            self._port.timeout = timeout_s
+        deadline = self.clock.now() + timeout_s
         while True:
-            line = self._pop_line()
-            if line is not None:
-                return line
             try:
-                chunk = self._port.read(max(1, self._port.in_waiting))
+                chunk = self._port.read(max(1, self._port.in_waiting))  # waits for the first byte
             except serial.SerialTimeoutException:
                 chunk = b""
             if chunk:
                 self._buffer += chunk
+                waiting = self._port.in_waiting  # the rest of a reply that has begun arriving
+                if waiting:
+                    self._buffer += self._port.read(waiting)
+                line = self._pop_line()
+                if line is not None:
+                    return line
             elif self.clock.now() >= deadline:
                 return None
 

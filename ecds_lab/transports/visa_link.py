@@ -35,18 +35,22 @@ class VisaTransport(Transport):
                 resource,
                 read_termination=self.read_termination,
                 write_termination="",
-                timeout=int(self.timeout_s * 1000),
+                timeout=round(self.timeout_s * 1000),
             )
             if baudrate is not None and hasattr(self._resource, "baud_rate"):
                 self._resource.baud_rate = baudrate
         except (pyvisa.Error, ValueError, OSError) as exc:
             raise TransportError(f"{name}: cannot open VISA resource {resource!r}: {exc}") from exc
         self.resource_name = resource
+        self._timeout_ms = round(self.timeout_s * 1000)
 
     def _send(self, data: bytes) -> None:
         self._resource.write_raw(data)
 
-    def _receive_line(self) -> str | None:
+    def _receive_line(self, timeout_s: float) -> str | None:
+        timeout_ms = round(timeout_s * 1000)
+        if self._timeout_ms != timeout_ms:
+            self._resource.timeout = self._timeout_ms = timeout_ms
         try:
             return self._resource.read().strip("\r\n")
         except pyvisa.errors.VisaIOError as exc:

@@ -62,14 +62,15 @@ class Serial(SerialBase):
         """
         if not self.is_open:
             raise PortNotOpenError()
-        if not self._rx:
+        rx = self._rx
+        if not rx:
             self._collect()
-        if not self._rx:
-            self._wait_for_reply()
-            if not self._rx:
-                raise SerialTimeoutException(f"{self._port}: no reply within {self._timeout} s (simulated)")
-        data = bytes(self._rx[:size])
-        del self._rx[:size]
+            if not rx:
+                self._wait_for_reply()
+                if not rx:
+                    raise SerialTimeoutException(f"{self._port}: no reply within {self._timeout} s (simulated)")
+        data = bytes(rx[:size])
+        del rx[:size]
         return data
 
     def write(self, data: bytes) -> int:

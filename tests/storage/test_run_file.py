@@ -109,6 +109,46 @@ def test_every_point_is_on_disk_before_the_file_is_closed(tmp_path):
         RunWriter(path, metadata={}, transcripts={})
 
 
+def _writer(path, **transcripts):
+    return RunWriter(path, metadata=metadata_for("kind: x\n", "name: s\n", "t", "displacement_sweep"),
+                     transcripts=transcripts)
+
+
+def test_rows_across_chunk_boundaries_read_back_exactly_and_missing_columns_are_nan(tmp_path):
+    path = tmp_path / "blocks.h5"
+    writer = _writer(path)
+    block = np.arange(45 * len(COLUMNS), dtype=float).reshape(45, len(COLUMNS))
+    writer.append_rows(block[:7])  # a resumed run's copy: blocks that start, end and span chunks
+    for row in block[7:40]:
+        writer.append(dict(zip(COLUMN_NAMES, row)))
+    writer.append_rows(block[40:])
+    writer.append({"time_s": 99.0, "ls_h": 1e-4})
+    live = read_run(path).points
+    np.testing.assert_array_equal(live[:45], block)
+    assert live[45, INDEX["time_s"]] == 99.0 and live[45, INDEX["ls_h"]] == 1e-4
+    assert np.isnan(np.delete(live[45], [INDEX["time_s"], INDEX["ls_h"]])).all()
+    writer.close("completed")
+    np.testing.assert_array_equal(read_run(path).points, live)
+
+
+def test_an_unknown_column_is_refused_by_name_and_nothing_is_written(tmp_path):
+    writer = _writer(tmp_path / "bad.h5")
+    with pytest.raises(RunFileError, match="ls_mh"):
+        writer.append({"time_s": 1.0, "ls_mh": 0.1})
+    assert writer.rows == 0
+    writer.close("failed")
+
+
+def test_a_row_grown_but_never_written_is_not_a_point(tmp_path):
+    """A kill between growing the table and writing the row leaves a fill-value (NaN) row behind."""
+    path = tmp_path / "killed.h5"
+    writer = _writer(path)
+    writer.append({name: 1.0 for name in COLUMN_NAMES})
+    writer._table.id.set_extent((2, len(COLUMNS)))
+    writer._table.id.flush()
+    assert read_run(path).points.shape == (1, len(COLUMNS))
+
+
 def test_reader_api(sweep_file):
     run = read_run(sweep_file)
     assert run.status == "completed"
