@@ -12,7 +12,6 @@ from __future__ import annotations
 import heapq
 import re
 import itertools
-import threading
 from abc import ABC, abstractmethod
 
 from ecds_lab.simulators.lab import SimulatedLab
@@ -32,7 +31,6 @@ class LineEmulator(ABC):
 
     def __init__(self, lab: SimulatedLab) -> None:
         self.lab = lab
-        self.lock = threading.RLock()
         self._line = bytearray()
         self._line_end = re.compile(b"[" + re.escape(self.line_endings) + b"]")
         self._scheduled: list[tuple[float, int, bytes]] = []
@@ -43,37 +41,34 @@ class LineEmulator(ABC):
     # -- the port side ------------------------------------------------------------------------
     def receive(self, data: bytes) -> None:
         """Bytes from the host: real-time bytes act at once, complete lines are handled in order."""
-        with self.lock:
-            if self.name in self.lab.faults.silent_instruments:
-                return
-            if self.wire is not None:
-                self.wire += data
-            if self.realtime_bytes:
-                for byte in data:
-                    if byte in self.realtime_bytes:
-                        self.handle_realtime(bytes((byte,)))
-                data = data.translate(None, self.realtime_bytes)
-            self._line += data
-            *lines, rest = self._line_end.split(self._line)
-            if lines:
-                self._line = bytearray(rest)
-                for line in lines:
-                    self.handle_line(line.decode("ascii", errors="replace"))
+        if self.name in self.lab.faults.silent_instruments:
+            return
+        if self.wire is not None:
+            self.wire += data
+        if self.realtime_bytes:
+            for byte in data:
+                if byte in self.realtime_bytes:
+                    self.handle_realtime(bytes((byte,)))
+            data = data.translate(None, self.realtime_bytes)
+        self._line += data
+        *lines, rest = self._line_end.split(self._line)
+        if lines:
+            self._line = bytearray(rest)
+            for line in lines:
+                self.handle_line(line.decode("ascii", errors="replace"))
 
     def next_reply_time(self) -> float | None:
         """Simulated time at which the earliest pending reply is ready, or None."""
-        with self.lock:
-            return self._scheduled[0][0] if self._scheduled else None
+        return self._scheduled[0][0] if self._scheduled else None
 
     def take_ready(self) -> bytes:
         """All reply bytes whose time has come."""
-        if not self._scheduled:
-            return b""
         now = self.lab.clock.now()
+        if not self._scheduled or self._scheduled[0][0] > now:
+            return b""
         out = bytearray()
-        with self.lock:
-            while self._scheduled and self._scheduled[0][0] <= now:
-                out += heapq.heappop(self._scheduled)[2]
+        while self._scheduled and self._scheduled[0][0] <= now:
+            out += heapq.heappop(self._scheduled)[2]
         return bytes(out)
 
     def on_open(self) -> None:
@@ -94,6 +89,5 @@ class LineEmulator(ABC):
 
     def drop_pending(self) -> None:
         """Forget queued replies (a reset empties the output buffer)."""
-        with self.lock:
-            self._scheduled.clear()
-            self._line.clear()
+        self._scheduled.clear()
+        self._line.clear()

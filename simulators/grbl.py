@@ -68,15 +68,14 @@ class GrblEmulator(LineEmulator):
     # -- power-up and reset ------------------------------------------------------------
     def on_open(self) -> None:
         """Power-up: MPos restarts at 0 where the slide stands; locked until homed if $22=1 [G-PROT]."""
-        with self.lock:
-            self.lab.halt_slide()
-            self.drop_pending()
-            self.offset_mm = self.lab.slide.position(self.lab.clock.now())
-            self.lab.slide.homed = False
-            self.alarm = bool(self.settings[22])
-            self.critical = False
-            self._reset_runtime()
-            self._banner()
+        self.lab.halt_slide()
+        self.drop_pending()
+        self.offset_mm = self.lab.slide.position(self.lab.clock.now())
+        self.lab.slide.homed = False
+        self.alarm = bool(self.settings[22])
+        self.critical = False
+        self._reset_runtime()
+        self._banner()
 
     def _banner(self, delay_s: float = 0.0) -> None:
         self.reply("", delay_s)

@@ -76,12 +76,12 @@ class SerialTransport(Transport):
         deadline = self.clock.now() + timeout_s
         while True:
             try:
-                chunk = self._port.read(max(1, self._port.in_waiting))  # waits for the first byte
+                chunk = self._port.read(1)  # waits up to the port timeout for a reply to begin
             except serial.SerialTimeoutException:
                 chunk = b""
             if chunk:
                 self._buffer += chunk
-                waiting = self._port.in_waiting  # the rest of a reply that has begun arriving
+                waiting = self._port.in_waiting  # then take whatever of it has arrived in one read
                 if waiting:
                     self._buffer += self._port.read(waiting)
                 line = self._pop_line()
