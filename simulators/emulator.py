@@ -10,8 +10,8 @@ waited long enough on the shared clock.
 from __future__ import annotations
 
 import heapq
-import re
 import itertools
+import re
 from abc import ABC, abstractmethod
 
 from ecds_lab.simulators.lab import SimulatedLab

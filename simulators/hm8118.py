@@ -142,21 +142,19 @@ class HM8118Emulator(LineEmulator):
         function = self.settings["PMOD"]
         if function in (6, 7, 8):  # Z-theta, Y-theta, R-X: no equivalent circuit involved
             theta = math.degrees(cmath.phase(z))
-            return {6: (abs(z), theta), 7: (1 / abs(z), -theta), 8: (z.real, z.imag)}[function]
+            return {6: (abs(z), theta), 7: (abs(1 / z), -theta), 8: (z.real, z.imag)}[function]
         circuit = self.settings["CIRC"]
         parallel = circuit == 1 or (circuit == 2 and abs(z) > 1e3)
         y = 1 / z
         if function == 9:  # G-B
             return y.real, y.imag
+        resistance = (1 / y.real if y.real else math.inf) if parallel else z.real
         q = abs(z.imag) / z.real if z.real else math.inf
         if function in (1, 2, 5):  # L-Q, L-R, R-Q
             inductance = (-1 / (omega * y.imag) if y.imag else math.inf) if parallel else z.imag / omega
-            resistance = (1 / y.real if y.real else math.inf) if parallel else z.real
             return {1: (inductance, q), 2: (inductance, resistance), 5: (resistance, q)}[function]
         capacitance = y.imag / omega if parallel else (-1 / (omega * z.imag) if z.imag else math.inf)
-        if function == 3:  # C-D
-            return capacitance, (1 / q if q else math.inf)
-        return capacitance, ((1 / y.real if y.real else math.inf) if parallel else z.real)  # C-R
+        return (capacitance, 1 / q if q else math.inf) if function == 3 else (capacitance, resistance)  # C-D, C-R
 
     def _compensate(self, command: str) -> None:
         frequencies = len(FREQUENCIES_HZ) if self.settings["CALL"] == 1 else 1
