@@ -354,14 +354,8 @@ class Grbl(Instrument):
 
     def _command(self, command: str, *, collect: list[str] | None = None, timeout_s: float | None = None) -> None:
         """Send one line and wait for its ``ok``; ``error:N`` and ``ALARM:N`` raise with their meaning."""
-        saved = self.transport.timeout_s
-        if timeout_s is not None:
-            self.transport.timeout_s = timeout_s
-        try:
-            self.transport.write(command)
-            self._read_until(command, lambda line: line == "ok", collect=collect)
-        finally:
-            self.transport.timeout_s = saved
+        self.transport.write(command)
+        self._read_until(command, lambda line: line == "ok", collect=collect, timeout_s=timeout_s)
 
     def _read_until(
         self,
@@ -370,11 +364,13 @@ class Grbl(Instrument):
         *,
         collect: list[str] | None = None,
         alarms: list[str] | None = None,
+        timeout_s: float | None = None,
     ) -> str:
-        """Read lines until ``wanted``; skip pushed messages ([MSG:...], empty lines, stray reports)."""
+        """Read lines until ``wanted`` (each within ``timeout_s``, default the link's); skip pushed messages
+        ([MSG:...], empty lines, stray reports)."""
         line = ""
         for _ in range(_MAX_LINES):
-            line = self.transport.read_line().strip()
+            line = self.transport.read_line(timeout_s).strip()
             if wanted(line):
                 return line
             if line.startswith("ALARM:"):

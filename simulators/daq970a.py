@@ -174,7 +174,9 @@ class DAQ970AEmulator(SCPIEmulator):
         if quantity is None or number in self.lab.faults.open_thermocouples:
             return OVERLOAD if config.open_check else -OVERLOAD
         celsius = self.lab.noisy(self.lab.temperature_c(quantity), self.lab.config.noise.thermocouple_k)
-        return {"C": celsius, "F": celsius * 9 / 5 + 32, "K": celsius + 273.15}[config.unit]
+        if config.unit == "F":
+            return celsius * 9 / 5 + 32
+        return celsius + 273.15 if config.unit == "K" else celsius
 
 
 class Keysight34970AEmulator(DAQ970AEmulator):

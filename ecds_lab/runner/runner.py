@@ -82,9 +82,9 @@ class Runner:
     # -- the run ----------------------------------------------------------------------------
     def run(self) -> tuple[str, str]:
         """Execute every step; returns (status, error message). The lab is left safe whatever happens."""
-        todo = [s for s in self.plan.points if s.point not in self.done]
-        self._bar = tqdm(total=len(todo), unit="pt", desc=self.plan.name, disable=not self.progress or None,
-                         dynamic_ncols=True)
+        if self.progress:  # a bar on a terminal; tqdm turns itself off when output is not one
+            todo = sum(1 for s in self.plan.points if s.point not in self.done)
+            self._bar = tqdm(total=todo, unit="pt", desc=self.plan.name, disable=None, dynamic_ncols=True)
         status, error = "completed", ""
         try:
             for index, step in self._steps_to_run():
@@ -97,7 +97,8 @@ class Runner:
         finally:
             with ctrl_c_deferred():
                 self._make_safe(stop_slide=status != "completed")
-                self._bar.close()
+                if self._bar is not None:
+                    self._bar.close()
         if error:
             log.error("run %s: %s", status, error)
         return status, error

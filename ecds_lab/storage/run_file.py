@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import json
 import math
+import operator
 import time
 from datetime import datetime, timezone
 from pathlib import Path
@@ -36,6 +37,7 @@ _TABLE_CHUNK_ROWS = 32
 _COLUMN_CHUNK = 4096
 _TRANSCRIPT_BATCH_S = 2.0
 _KIND_CODES = {kind: float(code) for code, kind in enumerate(KINDS)}
+_IN_COLUMN_ORDER = operator.itemgetter(*COLUMN_NAMES)
 
 
 def _now_iso() -> str:
@@ -58,7 +60,6 @@ class RunWriter:
         self.rows = 0
         self._create_layout(metadata, identities or {})
         self._file.swmr_mode = True
-        self._row = np.empty((1, len(COLUMNS)))
         self._tail = np.full((_TABLE_CHUNK_ROWS, len(COLUMNS)), np.nan, dtype="<f8")
 
     def _create_layout(self, metadata: Mapping[str, str], identities: Mapping[str, str]) -> None:
@@ -101,11 +102,14 @@ class RunWriter:
     # -- per point ------------------------------------------------------------------------
     def append(self, values: Mapping[str, float]) -> None:
         """Append one reading and flush it to disk before returning; columns not given are NaN."""
-        unknown = values.keys() - INDEX.keys()
-        if unknown:
-            raise RunFileError(f"unknown run file column(s): {', '.join(sorted(unknown))}")
-        self._row[0] = [values.get(name, math.nan) for name in COLUMN_NAMES]
-        self._write_rows(self._row)
+        if values.keys() == INDEX.keys():  # the runner gives every column
+            row = _IN_COLUMN_ORDER(values)
+        else:
+            unknown = values.keys() - INDEX.keys()
+            if unknown:
+                raise RunFileError(f"unknown run file column(s): {', '.join(sorted(unknown))}")
+            row = tuple(values.get(name, math.nan) for name in COLUMN_NAMES)
+        self._write_rows((row,))
         if time.monotonic() - self._last_transcript_write > _TRANSCRIPT_BATCH_S:
             self.write_transcripts()
 
@@ -114,7 +118,7 @@ class RunWriter:
         if len(rows):
             self._write_rows(np.asarray(rows, float).reshape(-1, len(COLUMNS)))
 
-    def _write_rows(self, rows: np.ndarray) -> None:
+    def _write_rows(self, rows: Sequence[Sequence[float]]) -> None:
         """Grow the table, write the chunks the rows fall in, and flush.
 
         The table's last chunk is kept in memory (``_tail``) and written whole with

@@ -54,6 +54,7 @@ class SerialTransport(Transport):
         except (serial.SerialException, ValueError) as exc:
             raise TransportError(f"{name}: cannot open serial port {url!r}: {exc}") from exc
         self.url = url
+        self._port_timeout_s = self.timeout_s  # what the port waits for now (pyserial's property is slow to read)
         self._buffer = b""
         self._terminator = self.read_termination.encode("ascii")
 
@@ -71,8 +72,8 @@ class SerialTransport(Transport):
             return line
         # The deadline runs on the transport's clock: wall time for hardware, simulated time
         # for the in-process simulators (whose port lets that time pass while it waits).
-        if self._port.timeout != timeout_s:
-            self._port.timeout = timeout_s
+        if self._port_timeout_s != timeout_s:
+            self._port.timeout = self._port_timeout_s = timeout_s
         deadline = self.clock.now() + timeout_s
         while True:
             try:

@@ -30,7 +30,7 @@ class Serial(SerialBase):
             self._emulator = emulator(parts.netloc, parts.path.strip("/"))
         except KeyError as exc:
             raise SerialException(str(exc.args[0])) from exc
-        self._rx = bytearray()
+        self._rx = b""  # reply bytes the host has not read yet
         self.is_open = True
         self._emulator.on_open()
 
@@ -62,15 +62,13 @@ class Serial(SerialBase):
         """
         if not self.is_open:
             raise PortNotOpenError()
-        rx = self._rx
-        if not rx:
+        if not self._rx:
             self._collect()
-            if not rx:
+            if not self._rx:
                 self._wait_for_reply()
-                if not rx:
+                if not self._rx:
                     raise SerialTimeoutException(f"{self._port}: no reply within {self._timeout} s (simulated)")
-        data = bytes(rx[:size])
-        del rx[:size]
+        data, self._rx = self._rx[:size], self._rx[size:]
         return data
 
     def write(self, data: bytes) -> int:
@@ -81,7 +79,7 @@ class Serial(SerialBase):
 
     def reset_input_buffer(self) -> None:
         self._collect()
-        self._rx.clear()
+        self._rx = b""
 
     def reset_output_buffer(self) -> None:
         """Nothing is buffered on the way out."""
