@@ -31,51 +31,47 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
-    from ecds_lab.analysis.dataset import load_measurements
+    from ecds_lab.storage.data_file import open_data
 
-    data = load_measurements(args.run)
+    data = open_data(args.run).data
     output = args.output or Path(args.run).with_suffix(".csv")
     data.to_csv(output)
     print(f"{len(data)} rows -> {output}")
     return 0
 
 
-def _sensor(data: Path, sensor: Path | None):  # noqa: ANN202 - SensorConfig, imported late
-    """The sensor of DATA: ``--sensor`` if given, else a run file's simulated lab's, else the paper's prototype."""
-    from ecds_lab.model.sensor import SensorConfig, load_sensor
-
-    if sensor is not None:
-        return load_sensor(sensor)
-    if data.suffix.lower() in (".h5", ".hdf5", ".nxs"):
-        import yaml
-
-        from ecds_lab.storage.reader import read_run
-
-        station = yaml.safe_load(read_run(data, transcripts=False).metadata.get("station_yaml") or "{}") or {}
-        block = ((station.get("simulated") or {}).get("lab") or {}).get("sensor")
-        if isinstance(block, dict):
-            return SensorConfig(**block)
-    return SensorConfig()
+def _effects(text: str | None) -> list[str]:
+    return [e.strip() for e in (text or "").split(",") if e.strip()]
 
 
 def _cmd_fit(args: argparse.Namespace) -> int:
-    from ecds_lab.analysis.dataset import load_measurements
     from ecds_lab.analysis.summary import fit_summary, format_fit_summary
+    from ecds_lab.storage.data_file import open_data
 
-    effects = [e.strip() for e in (args.effects or "").split(",") if e.strip()]
-    summary = fit_summary(load_measurements(args.data), effects, _sensor(args.data, args.sensor))
-    print(json.dumps(summary, indent=2) if args.json else format_fit_summary(summary))
+    opened = open_data(args.data, args.sensor)
+    summary = {"sensor": opened.sensor_summary(), **fit_summary(opened.data, _effects(args.effects), opened.sensor)}
+    _print(summary, opened.sensor_note, args.json, format_fit_summary)
     return 0
 
 
 def _cmd_diagnose(args: argparse.Namespace) -> int:
-    from ecds_lab.analysis.dataset import load_measurements
     from ecds_lab.analysis.diagnosis import diagnose, format_diagnosis
+    from ecds_lab.storage.data_file import open_data
 
-    effects = [e.strip() for e in (args.effects or "").split(",") if e.strip()]
-    result = diagnose(load_measurements(args.data), effects, _sensor(args.data, args.sensor))
-    print(json.dumps(result, indent=2) if args.json else format_diagnosis(result))
+    opened = open_data(args.data, args.sensor)
+    result = {"sensor": opened.sensor_summary(), **diagnose(opened.data, _effects(args.effects), opened.sensor)}
+    _print(result, opened.sensor_note, args.json, format_diagnosis)
     return 0
+
+
+def _print(result: dict, note: str | None, as_json: bool, as_text: Callable[[dict], str]) -> None:
+    """One JSON object (the note under ``notes``), or the text headed by the sensor and the note."""
+    if as_json:
+        print(json.dumps({**result, "notes": [note]} if note else result, indent=2))
+        return
+    sensor = result["sensor"]
+    head = f"sensor: {sensor['name']} ({sensor['target']} target; {sensor['source']})\n"
+    print(head + (f"note: {note}\n" if note else "") + as_text(result))
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
@@ -129,13 +125,15 @@ def build_parser() -> argparse.ArgumentParser:
     p = command("fit", _cmd_fit, "fit the model (baseline plus named effects) to DATA (.h5 run file or CSV)")
     p.add_argument("data", type=Path)
     p.add_argument("--effects", help="comma-separated effect names to add to the baseline")
-    p.add_argument("--sensor", type=Path, help="sensor YAML (default: the paper's prototype, copper target)")
+    p.add_argument("--sensor", help="sensor YAML (a path, or a shipped name such as steel_target); "
+                   "overrides the sensor a run file records (default: the recorded sensor, else the paper's prototype)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
 
     p = command("diagnose", _cmd_diagnose, "where the model fails on DATA and which effect is missing")
     p.add_argument("data", type=Path)
     p.add_argument("--effects", help="effects already added to the baseline (diagnose what is still missing)")
-    p.add_argument("--sensor", type=Path, help="sensor YAML (default: the paper's prototype, copper target)")
+    p.add_argument("--sensor", help="sensor YAML (a path, or a shipped name such as steel_target); "
+                   "overrides the sensor a run file records (default: the recorded sensor, else the paper's prototype)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
 
     p = command("report", _cmd_report, "write a self-contained HTML report with plots")

@@ -41,13 +41,14 @@ def run_demo(output: Path, progress: bool = True) -> list[RunResult]:
 
 def analyse_campaign(run_files: list[Path], output: Path) -> None:
     """Fit and diagnose the copper campaign, then write the HTML report."""
-    from ecds_lab.analysis.dataset import Measurements, load_measurements
     from ecds_lab.analysis.diagnosis import format_diagnosis, run_diagnosis
     from ecds_lab.analysis.summary import fit_summary
+    from ecds_lab.data.measurements import Measurements
     from ecds_lab.report.html import write_report
+    from ecds_lab.storage.data_file import open_data
 
     copper = [p for p in run_files if "steel" not in p.name and "spectroscopy" not in p.name]
-    data = Measurements.concatenate([load_measurements(p) for p in copper])
+    data = Measurements.concatenate([open_data(p).data for p in copper])
     fit = fit_summary(data, [])
     (output / "fit.json").write_text(json.dumps(fit, indent=2))
     diagnosis = run_diagnosis(data)

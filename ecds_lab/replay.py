@@ -21,11 +21,11 @@ from ecds_lab.clock import SimulatedClock
 from ecds_lab.config.experiment import EXPERIMENT_ADAPTER
 from ecds_lab.config.loading import validate
 from ecds_lab.config.station import InstrumentConfig, StationConfig
+from ecds_lab.data.columns import COLUMN_NAMES, INDEX
 from ecds_lab.errors import ReplayDivergence, RunFileError
 from ecds_lab.runner.plan import build_plan
 from ecds_lab.runner.runner import Runner
 from ecds_lab.station import Station, open_station
-from ecds_lab.storage.columns import COLUMN_NAMES, INDEX
 from ecds_lab.storage.reader import RunFile, read_run
 from ecds_lab.storage.run_file import RunWriter, metadata_for
 from ecds_lab.transports.replay import ReplayState, ReplayTransport

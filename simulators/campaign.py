@@ -16,7 +16,7 @@ from typing import Any, Iterable, Sequence
 
 import numpy as np
 
-from ecds_lab.analysis.dataset import Measurements
+from ecds_lab.data.measurements import Measurements
 from ecds_lab.simulators.config import LabConfig
 from ecds_lab.simulators.lab import BOX_HEATER_OUTPUT, TARGET_HEATER_OUTPUT, SimulatedLab
 

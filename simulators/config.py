@@ -10,7 +10,7 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from ecds_lab.model.sensor import SensorConfig
+from ecds_lab.data.sensor import SensorConfig
 
 
 class _Strict(BaseModel):

@@ -14,9 +14,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ecds_lab.clock import SimulatedClock
+from ecds_lab.data.sensor import TARGET_TAU_TEMPCO_PER_K
 from ecds_lab.model import ecm
 from ecds_lab.model.coupling import Coupling, image_method_coupling, table_coupling
-from ecds_lab.model.sensor import TARGET_TAU_TEMPCO_PER_K
 from ecds_lab.simulators.config import LabConfig
 
 #: Longest step of the thermal/moisture integration (s); inputs are constant within a step.

@@ -11,10 +11,11 @@ residual within each frequency.
 from __future__ import annotations
 
 from dataclasses import dataclass
+
 import numpy as np
 
-from ecds_lab.analysis.dataset import Measurements
-from ecds_lab.analysis.variables import VARIABLES, Variable
+from ecds_lab.data.columns import VARIABLES, Variable
+from ecds_lab.data.measurements import Measurements
 
 MAX_BINS = 10
 #: Time is confounded with every phase of a campaign, so it ranks first only when it explains

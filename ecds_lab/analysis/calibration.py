@@ -11,10 +11,10 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from ecds_lab.analysis.dataset import Measurements
 from ecds_lab.analysis.fitting import FitResult, fit_model
+from ecds_lab.data.measurements import Measurements
+from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.model.effects import Effect
-from ecds_lab.model.sensor import SensorConfig
 from ecds_lab.model.sensor_model import SensorModel
 
 #: Grid points of the first, tabulated stage of the position inversion, and Newton steps after it.
@@ -151,10 +151,9 @@ def estimate_positions(model: SensorModel, values: Mapping[str, float], data: Me
     l_lo, l_hi = table[rows, j], table[rows, j + 1]
     fraction = np.clip((measured - l_lo) / np.where(l_hi != l_lo, l_hi - l_lo, 1.0), 0.0, 1.0)
     x = grid[j] + fraction * (grid[j + 1] - grid[j])
-    step = 1e-6
     for _ in range(_NEWTON_STEPS):
         here = model.predict(data, values, x)
-        slope = (model.predict(data, values, x + step) - here) / step
+        slope = model.sensitivity(data, values, x)
         x = np.clip(x - (here - measured) / np.where(slope != 0, slope, np.inf), lo, hi)
     out = (target < signed[:, 0]) | (target > signed[:, -1])
     air = ~np.isfinite(data.x_m)
@@ -177,10 +176,9 @@ def noise_limited_error_m(model: SensorModel, values: Mapping[str, float], data:
 
     The bridge's noise is ``noise_relative`` of |Z| on each component, so sigma(Ls) = noise |Z| / w.
     """
-    step = 1e-6
     z = model.impedance(data, values)
     omega = 2 * np.pi * data.freq_hz
-    slope = (model.predict(data, values, data.x_m + step) - model.predict(data, values, data.x_m - step)) / (2 * step)
+    slope = model.sensitivity(data, values)
     return noise_relative * np.abs(z) / omega / np.abs(slope)
 
 

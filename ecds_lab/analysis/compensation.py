@@ -13,9 +13,9 @@ from typing import Sequence
 import numpy as np
 
 from ecds_lab.analysis.calibration import PositionErrors, calibrate, position_errors
-from ecds_lab.analysis.dataset import Measurements
 from ecds_lab.analysis.fitting import FitResult, fit_model
-from ecds_lab.model.sensor import SensorConfig
+from ecds_lab.data.measurements import Measurements
+from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.model.sensor_model import SensorModel
 
 

@@ -18,11 +18,11 @@ from typing import Any, Sequence
 import numpy as np
 
 from ecds_lab.analysis.associations import Association, residual_associations
-from ecds_lab.analysis.dataset import Measurements
 from ecds_lab.analysis.fitting import FitResult, fit, fit_model
-from ecds_lab.analysis.noise import NoiseEstimate, estimate_noise
+from ecds_lab.analysis.noise import NoiseEstimate
+from ecds_lab.data.measurements import Measurements
+from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.model.effects import library
-from ecds_lab.model.sensor import SensorConfig
 from ecds_lab.model.sensor_model import SensorModel
 
 #: The residual is "at the noise level" below this multiple of the noise.
@@ -124,7 +124,7 @@ def run_diagnosis(data: Measurements, effects: Sequence[str] = (), sensor: Senso
     """
     effects = list(effects)
     base = fit(data, effects, sensor)
-    noise = estimate_noise(data, base.residuals_ppm)
+    noise = base.noise
     associations = residual_associations(data, base.residuals_ppm, noise.ppm)
     names = [n for n in (candidates or library()) if n not in effects]
     ranked = sorted((_candidate(data, effects, name, base, sensor) for name in names), key=lambda c: c.delta_bic)
@@ -217,11 +217,8 @@ def _cv_rmse(data: Measurements, effects: list[str], full: FitResult, sensor: Se
 
 def _residual_mm(result: FitResult, data: Measurements) -> np.ndarray:
     """Residual as a position error (mm): relative residual times L over the sensitivity dL/dx."""
-    step = 1e-4
     predicted = result.predict(data)
-    up = result.model.predict(data, result.values, x_m=data.x_m + step)
-    down = result.model.predict(data, result.values, x_m=data.x_m - step)
-    sensitivity = (up - down) / (2 * step)
+    sensitivity = result.model.sensitivity(data, result.values)
     with np.errstate(all="ignore"):
         out = result.residuals_ppm * 1e-6 * predicted / sensitivity * 1e3
     return np.where(np.isfinite(data.x_m) & (np.abs(sensitivity) > 0), out, np.nan)

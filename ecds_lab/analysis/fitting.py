@@ -4,7 +4,8 @@ Free parameters are scaled by their prior scale; the start comes from an analyti
 guess (L0, alpha, beta by linear least squares on de-embedded readings of the coil in
 air or far away); further starts are tried only when the first fit stays well above
 the noise seen between repeated readings. Standard errors come from the Jacobian,
-scaled by the residual variance.
+scaled by the residual variance. The noise of the readings is estimated once, by
+``analysis.noise.estimate_noise`` on the final residuals, and carried by the result.
 """
 
 from __future__ import annotations
@@ -18,12 +19,13 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 from scipy.optimize import least_squares
 
-from ecds_lab.analysis.dataset import Measurements
+from ecds_lab.analysis.noise import REPEATED, NoiseEstimate, estimate_noise
+from ecds_lab.data.measurements import Measurements
+from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.model import ecm
 from ecds_lab.model.baseline import MIN_SPAN_ALPHA_K, MIN_SPAN_BETA_K
 from ecds_lab.model.effects import Effect
 from ecds_lab.model.parameters import Parameter, Scaling, update, values_of
-from ecds_lab.model.sensor import SensorConfig
 from ecds_lab.model.sensor_model import SensorModel
 
 #: A fit whose RMS exceeds this multiple of the repeat noise (plus a floor in ppm) gets more starts.
@@ -50,7 +52,13 @@ class FitResult:
     nfev: int
     starts: int
     time_s: float
-    noise_ppm: float | None = None
+    #: noise of one reading, estimated from the fitted data and the residuals
+    noise: NoiseEstimate
+
+    @property
+    def noise_ppm(self) -> float:
+        """Noise of one reading (ppm of L) estimated from these data and residuals."""
+        return self.noise.ppm
 
     @property
     def values(self) -> dict[str, float]:
@@ -120,14 +128,15 @@ def fit_model(model: SensorModel, data: Measurements, *, start: Mapping[str, flo
     params = update(params, values=initial_values(model, data, params))
     if start:
         params = update(params, values={k: v for k, v in start.items() if k not in reasons})
-    noise = noise_ppm(data)
+    fitted = data if rows is None else data.select(np.asarray(rows, bool))
     best, starts = _solve(model, data, params, rows, screening), 1
-    if multistart or (multistart is None and _needs_restart(best, noise)):
+    if multistart or (multistart is None and _needs_restart(best, _repeat_noise(fitted, best))):
         for candidate in _alternative_starts(model, data, params):
             result = _solve(model, data, candidate, rows, screening)
             starts += 1
             if result[0].cost < best[0].cost:
                 best = result
+    noise = estimate_noise(fitted, np.asarray(best[0].fun, float))
     return _result(model, data, best, reasons, noise, starts, time.perf_counter() - began)
 
 
@@ -161,21 +170,10 @@ def initial_values(model: SensorModel, data: Measurements, params: Sequence[Para
     return {"L0": float(coef[0]), **{n: float(c / coef[0]) for n, c in zip(names, coef[1:])}}
 
 
-def noise_ppm(data: Measurements, max_gap_s: float = 10.0) -> float | None:
-    """Repeatability of the bridge (ppm of L): robust spread of successive readings of one state.
-
-    Pairs of readings in one segment at the same commanded distance and frequency, at most
-    ``max_gap_s`` apart; None when there are fewer than 10 such pairs.
-    """
-    order = np.lexsort((data.time_s, data.x_commanded_m, data.freq_hz, data.segment))
-    seg, freq, x, t, ls = (a[order] for a in (data.segment, data.freq_hz, data.x_commanded_m, data.time_s, data.ls_h))
-    same = ((seg[1:] == seg[:-1]) & (freq[1:] == freq[:-1]) & (x[1:] == x[:-1])
-            & (np.abs(t[1:] - t[:-1]) <= max_gap_s))
-    if same.sum() < 10:
-        return None
-    diff = (ls[1:] / ls[:-1] - 1)[same] * 1e6
-    mad = np.median(np.abs(diff - np.median(diff)))
-    return float(1.4826 * mad / math.sqrt(2))
+def _repeat_noise(data: Measurements, solved: tuple[Any, Scaling]) -> float | None:
+    """The noise (ppm) repeated readings show in a solution's residuals; None without repeats."""
+    estimate = estimate_noise(data, np.asarray(solved[0].fun, float))
+    return estimate.ppm if estimate.method == REPEATED else None
 
 
 def _residual_function(model: SensorModel, data: Measurements, scaling: Scaling,
@@ -253,7 +251,7 @@ def _alternative_starts(model: SensorModel, data: Measurements, params: Sequence
 
 
 def _result(model: SensorModel, data: Measurements, solved: tuple[Any, Scaling], reasons: dict[str, str],
-            noise: float | None, starts: int, elapsed: float) -> FitResult:
+            noise: NoiseEstimate, starts: int, elapsed: float) -> FitResult:
     """Package the best solution: values, Jacobian standard errors, residuals."""
     result, scaling = solved
     values = scaling.values(result.x)

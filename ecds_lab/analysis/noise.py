@@ -1,4 +1,8 @@
-"""How noisy are the data? Estimated from the data themselves, so structure can be told from noise."""
+"""How noisy are the data? Estimated from the data themselves, so structure can be told from noise.
+
+The one noise estimator: every fit carries its estimate (``FitResult.noise``), so ``fit``,
+``diagnose`` and the report quote the same figure for the same data.
+"""
 
 from __future__ import annotations
 
@@ -7,12 +11,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ecds_lab.analysis.dataset import Measurements
+from ecds_lab.data.measurements import Measurements
 
 #: Successive readings of one state: at most this far apart in time, and this close in temperature.
 MAX_GAP_S = 300.0
 MAX_TEMPERATURE_STEP_K = 0.3
 MIN_PAIRS = 20
+#: ``NoiseEstimate.method`` when repeated readings of one state gave the estimate.
+REPEATED = "repeated readings"
 
 
 @dataclass(frozen=True)
@@ -46,7 +52,7 @@ def estimate_noise(data: Measurements, residuals_ppm: np.ndarray) -> NoiseEstima
     same &= np.abs(np.diff(t)) <= MAX_GAP_S
     same &= (np.abs(np.diff(tc)) <= MAX_TEMPERATURE_STEP_K) & (np.abs(np.diff(tt)) <= MAX_TEMPERATURE_STEP_K)
     if same.sum() >= MIN_PAIRS:
-        return NoiseEstimate(_robust_sigma(np.diff(r)[same]), "repeated readings", int(same.sum()))
+        return NoiseEstimate(_robust_sigma(np.diff(r)[same]), REPEATED, int(same.sum()))
     order = np.lexsort((data.time_s, data.freq_hz, data.segment))
     r, seg, freq = residuals_ppm[order], data.segment[order], data.freq_hz[order]
     same = (seg[1:] == seg[:-1]) & (freq[1:] == freq[:-1])

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import least_squares
 
-from ecds_lab.analysis.dataset import Measurements
+from ecds_lab.data.measurements import Measurements
 from ecds_lab.model.ecm import parallel_rlc_impedance
 
 _NAMES = ("inductance_h", "capacitance_f", "parallel_resistance_ohm", "series_resistance_ohm")

@@ -22,9 +22,9 @@ from ecds_lab.analysis.calibration import (
     room_temperature_rows,
     temperature_stability_ppm_fs_per_k,
 )
-from ecds_lab.analysis.dataset import Measurements
 from ecds_lab.analysis.fitting import FitResult, fit_model
-from ecds_lab.model.sensor import SensorConfig
+from ecds_lab.data.measurements import Measurements
+from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.model.sensor_model import SensorModel
 
 #: Temperature rise (K) above room temperature that makes a reading "heated".
@@ -42,7 +42,8 @@ def fit_summary(data: Measurements, effects: Sequence[str] = (), sensor: SensorC
         "n_points": len(data),
         "effects": model.effect_names,
         "rmse_ppm": result.rms_ppm,
-        "noise_ppm": result.noise_ppm,
+        "noise_ppm": round(result.noise.ppm, 3),
+        "noise_method": result.noise.method,
         "dof": result.dof,
         "bic": result.bic,
         "converged": result.success,
@@ -194,7 +195,7 @@ def format_fit_summary(summary: dict[str, Any]) -> str:
     noise = summary.get("noise_ppm")
     lines = [f"Fit of {summary['n_points']} readings, effects: {effects}",
              f"  residual RMS {summary['rmse_ppm']:.2f} ppm"
-             + (f" (repeat noise {noise:.2f} ppm)" if noise is not None else "")
+             + (f" (noise {noise:.2f} ppm, from {summary.get('noise_method', 'the data')})" if noise is not None else "")
              + f", dof {summary['dof']}, BIC {summary['bic']:.1f}", "  parameters:"]
     for name, p in summary["params"].items():
         err = "fixed" if p["stderr"] is None else f"+/- {p['stderr']:.4g}"

@@ -11,6 +11,8 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator, model_validator
 
+from ecds_lab.data.sensor import SensorConfig, load_sensor
+from ecds_lab.errors import ConfigError
 from ecds_lab.simulators.config import LabConfig
 
 DRIVERS = ("hm8118", "grbl", "daq970a", "34970a", "hmp4040")
@@ -84,6 +86,35 @@ class StationConfig(_Strict):
     heater: InstrumentConfig = InstrumentConfig(driver="hmp4040")
     heaters: HeaterWiring = HeaterWiring()
     safety: SafetyConfig = SafetyConfig()
+    sensor: SensorConfig | None = Field(None, description="the sensor on the slide, recorded in every run file: a "
+                                        "shipped name (steel_target), a sensor YAML path, or the description inline; "
+                                        "a simulated station without one uses its simulated lab's sensor")
+
+    @field_validator("sensor", mode="before")
+    @classmethod
+    def _sensor_by_name(cls, value: Any) -> Any:
+        """A shipped name or a path is loaded here, so errors in the sensor file name it."""
+        if not isinstance(value, str):
+            return value
+        try:
+            return load_sensor(value)
+        except ConfigError as exc:
+            raise ValueError(str(exc)) from None
+
+    @model_validator(mode="after")
+    def _one_sensor(self) -> StationConfig:
+        """A simulated station simulates the sensor it names: one sensor, given once, for the lab and the runs."""
+        if self.simulated is None:
+            return self
+        lab = self.simulated.lab
+        if self.sensor is None:
+            self.sensor = lab.sensor
+        elif "sensor" in lab.model_fields_set and lab.sensor != self.sensor:
+            raise ValueError("simulated.lab.sensor differs from the station's sensor; name the sensor once, "
+                             "as the station's 'sensor'")
+        else:
+            self.simulated = self.simulated.model_copy(update={"lab": lab.model_copy(update={"sensor": self.sensor})})
+        return self
 
     @field_validator(*ROLES)
     @classmethod

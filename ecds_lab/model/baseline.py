@@ -2,15 +2,11 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 
+from ecds_lab.data.measurements import Measurements
+from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.model.parameters import Parameter
-from ecds_lab.model.sensor import SensorConfig
-
-if TYPE_CHECKING:
-    from ecds_lab.analysis.dataset import Measurements
 
 #: Coil temperature span (K) below which alpha and beta of Eq. (4) are fixed at 0, and beta alone.
 MIN_SPAN_ALPHA_K = 5.0

@@ -16,7 +16,7 @@ import numpy as np
 from scipy.interpolate import PchipInterpolator
 from scipy.special import ellipe, ellipk
 
-from ecds_lab.model.sensor import CoilGeometry
+from ecds_lab.data.sensor import CoilGeometry
 
 MU0 = 4e-7 * np.pi
 _X_GRID_M = np.geomspace(1e-4, 2.0, 600)

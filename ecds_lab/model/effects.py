@@ -26,15 +26,13 @@ To add an effect: subclass ``Effect`` and enter it in ``EFFECTS`` with ``@regist
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, ClassVar, Mapping
+from typing import ClassVar, Mapping
 
 import numpy as np
 
+from ecds_lab.data.measurements import Measurements
+from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.model.parameters import Parameter
-from ecds_lab.model.sensor import SensorConfig
-
-if TYPE_CHECKING:
-    from ecds_lab.analysis.dataset import Measurements
 
 #: The effect names DESIGN.md fixes (the contract of ``--effects`` and of the diagnosis).
 EFFECT_NAMES = ("target_tau_temperature", "tau_displacement", "target_bending",

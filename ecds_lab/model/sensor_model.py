@@ -9,19 +9,21 @@ Pipeline (see ``ecds_lab.model.effects`` for the hooks at each stage):
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Mapping, Sequence
+from typing import Mapping, Sequence
 
 import numpy as np
 
+from ecds_lab.data.measurements import Measurements
+from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.model import ecm
 from ecds_lab.model.baseline import baseline_parameters, baseline_unidentifiable
 from ecds_lab.model.coupling import Coupling, image_method_coupling, table_coupling
 from ecds_lab.model.effects import Effect, Inputs, make_effect
 from ecds_lab.model.parameters import Parameter, check_unique
-from ecds_lab.model.sensor import SensorConfig
 
-if TYPE_CHECKING:
-    from ecds_lab.analysis.dataset import Measurements
+#: Half-step (m) of the central difference for dL/dx: small against the coil (~0.1 m), large
+#: against rounding (L changes ~1e-7 relative over it).
+SENSITIVITY_STEP_M = 1e-6
 
 
 def sensor_coupling(sensor: SensorConfig) -> Coupling:
@@ -98,3 +100,14 @@ class SensorModel:
     def predict(self, data: "Measurements", p: Mapping[str, float], x_m: np.ndarray | None = None) -> np.ndarray:
         """Apparent series inductance Ls = Im(Z)/w (H) the bridge reports for every row."""
         return self.impedance(data, p, x_m).imag / (2 * np.pi * data.freq_hz)
+
+    def sensitivity(self, data: Measurements, p: Mapping[str, float], x_m: np.ndarray | None = None) -> np.ndarray:
+        """dLs/dx (H/m) at every row (at ``x_m`` if given): the one central difference used everywhere.
+
+        NaN for the coil in air (no distance to differentiate along).
+        """
+        x = np.asarray(data.x_m if x_m is None else x_m, float)
+        step = SENSITIVITY_STEP_M
+        with np.errstate(invalid="ignore"):
+            slope = (self.predict(data, p, x + step) - self.predict(data, p, x - step)) / (2 * step)
+        return np.where(np.isfinite(x), slope, np.nan)

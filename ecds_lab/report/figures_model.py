@@ -10,9 +10,9 @@ from matplotlib.axes import Axes
 from matplotlib.colors import Colormap, Normalize
 from matplotlib.figure import Figure
 
-from ecds_lab.analysis.dataset import Measurements
 from ecds_lab.analysis.fitting import FitResult
-from ecds_lab.analysis.variables import VARIABLES, Variable
+from ecds_lab.data.columns import VARIABLES, Variable
+from ecds_lab.data.measurements import Measurements
 from ecds_lab.report.canvas import Png, colormap, colour_scale, styled, subplots, to_png
 
 #: Readings of one state are within this many kelvin (target and coil) of each other.
@@ -42,14 +42,24 @@ def states(data: Measurements) -> list[np.ndarray]:
     return [np.flatnonzero(key == k) for k in np.unique(key)]
 
 
+def _grid(freq_hz: float, t_coil_c: float, t_target_c: float, x_mm: np.ndarray) -> Measurements:
+    """Stand-in readings over distances at one frequency and thermal state, for evaluating the model."""
+    n = len(x_mm)
+    return Measurements(time_s=np.arange(n, dtype=float), x_m=np.asarray(x_mm) * 1e-3, freq_hz=np.full(n, freq_hz),
+                        t_coil_c=np.full(n, t_coil_c), t_target_c=np.full(n, t_target_c), ls_h=np.ones(n),
+                        rs_ohm=np.ones(n), source="model grid")
+
+
 def model_grid(fit: FitResult, freq_hz: float, t_coil_c: float, t_target_c: float,
                x_mm: np.ndarray) -> np.ndarray:
     """The fitted model's Ls (H) over distances at one frequency and thermal state."""
-    n = len(x_mm)
-    grid = Measurements(time_s=np.arange(n, dtype=float), x_m=np.asarray(x_mm) * 1e-3, freq_hz=np.full(n, freq_hz),
-                        t_coil_c=np.full(n, t_coil_c), t_target_c=np.full(n, t_target_c), ls_h=np.ones(n),
-                        rs_ohm=np.ones(n), source="model grid")
-    return fit.predict(grid)
+    return fit.predict(_grid(freq_hz, t_coil_c, t_target_c, x_mm))
+
+
+def model_sensitivity_grid(fit: FitResult, freq_hz: float, t_coil_c: float, t_target_c: float,
+                           x_mm: np.ndarray) -> np.ndarray:
+    """The fitted model's dLs/dx (H/m) over distances at one frequency and thermal state."""
+    return fit.model.sensitivity(_grid(freq_hz, t_coil_c, t_target_c, x_mm), fit.values)
 
 
 def _state_label(material: str, rows: Measurements) -> str:
@@ -120,8 +130,9 @@ def sensitivity(groups: Sequence[tuple[str, FitResult, Measurements]]) -> Png:
             ax.plot(positions, measured * 1e3, MATERIAL_MARKERS.get(material, "^"), ms=3.5, mfc="none",
                     color=colour, label=f"{material}: measured (finite differences)")
             x = np.linspace(positions.min(), positions.max(), 200)
-            model = model_grid(fit, float(freq), float(np.mean(room.t_coil_c)), float(np.mean(room.t_target_c)), x)
-            ax.plot(x, np.gradient(model, x * 1e-3) * 1e3, "-", color=colour, lw=1.2, label=f"{material}: model")
+            slope = model_sensitivity_grid(fit, float(freq), float(np.mean(room.t_coil_c)),
+                                           float(np.mean(room.t_target_c)), x)
+            ax.plot(x, slope * 1e3, "-", color=colour, lw=1.2, label=f"{material}: model")
         ax.set_title(f"sensitivity at {freq:g} Hz, room temperature")
         ax.set_xlabel("distance x (mm)")
         ax.set_ylabel("S = dL/dx (µH/mm)")

@@ -10,8 +10,8 @@ from matplotlib.axes import Axes
 from matplotlib.colors import Colormap, Normalize
 
 from ecds_lab.analysis.compensation import TemperatureCompensation
-from ecds_lab.analysis.dataset import Measurements
 from ecds_lab.analysis.summary import CalibrationCase, HeatedErrors
+from ecds_lab.data.measurements import Measurements
 from ecds_lab.model.ecm import parallel_rlc_impedance
 from ecds_lab.report.canvas import Png, colormap, colour_scale, grid, styled, subplots, to_png
 from ecds_lab.report.figures_model import STATE_BIN_K

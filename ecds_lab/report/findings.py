@@ -17,11 +17,12 @@ import numpy as np
 
 from ecds_lab.analysis.calibration import room_temperature_rows
 from ecds_lab.analysis.compensation import TemperatureCompensation, fit_coil_temperature, heated_coil_sweep
-from ecds_lab.analysis.dataset import Measurements
 from ecds_lab.analysis.fitting import FitResult, fit_model
+from ecds_lab.analysis.noise import REPEATED
 from ecds_lab.analysis.spectroscopy import RlcFit, fit_parallel_rlc
 from ecds_lab.analysis.summary import CalibrationCase, HeatedRows, calibration_cases
-from ecds_lab.model.sensor import SensorConfig
+from ecds_lab.data.measurements import Measurements
+from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.model.sensor_model import SensorModel
 from ecds_lab.report.inputs import DEFAULT_TARGET, SPECTROSCOPY_MIN_FREQUENCIES, ReportInput
 
@@ -124,7 +125,7 @@ def target_groups(inputs: list[ReportInput]) -> list[TargetGroup] | Omitted:
     for material in materials:
         members = [i for i in inputs if i in coil_only or (i in with_target and i.target == material)]
         data = Measurements.concatenate([i.data for i in members])
-        model = SensorModel(SensorConfig(target=material))
+        model = SensorModel(next((i.sensor for i in members if i.target == material), SensorConfig(target=material)))
         groups.append(TargetGroup(material, [i.name for i in members], data, fit_model(model, data)))
     groups.sort(key=lambda g: (g.material != DEFAULT_TARGET, -len(g.data)))
     return groups
@@ -157,15 +158,13 @@ def calibrations(group: TargetGroup, heating: CoilHeating | Omitted) -> None:
 
 
 def noise_limited_error_mm(fit: FitResult, sweep: Measurements) -> float:
-    """Median over a sweep's readings of noise * L / |dL/dx| (mm), the fit's repeat noise (or RMS) as noise."""
+    """Median over a sweep's readings of noise * L / |dL/dx| (mm): the noise repeated readings show, else the RMS."""
     if not len(sweep):
         return 0.0
-    noise = fit.noise_ppm if fit.noise_ppm is not None else fit.rms_ppm
-    step = 1e-4
-    values = fit.values
-    slope = (fit.model.predict(sweep, values, sweep.x_m + step) - fit.model.predict(sweep, values, sweep.x_m - step))
+    noise = fit.noise.ppm if fit.noise.method == REPEATED else fit.rms_ppm
+    slope = fit.model.sensitivity(sweep, fit.values)
     with np.errstate(divide="ignore"):
-        error_m = noise * 1e-6 * sweep.ls_h / np.abs(slope / (2 * step))
+        error_m = noise * 1e-6 * sweep.ls_h / np.abs(slope)
     return float(np.median(error_m) * 1e3)
 
 

@@ -1,61 +1,56 @@
-"""What the report was given: each data file's readings and, for run files, what the run was.
+"""What the report was given: each data file's readings, run metadata and sensor, and its use.
 
-A run file (.h5) brings its metadata (experiment, station, instrument identities, status,
-times, point counts, faults); a CSV brings only its name and row count. Each input is also
-sorted by what it can be used for: impedance spectroscopy (coil in air at four or more
-frequencies) or the sensor model (everything else), grouped by target material.
+Files are opened by ``storage.data_file.open_data``, the one place that decides what a file is
+and which sensor measured it: a run file brings its metadata (experiment, station, identities,
+status, times, point counts, faults) and its recorded sensor; a CSV brings only its readings.
+Each input is also sorted by what it can be used for: impedance spectroscopy (coil in air at
+four or more frequencies) or the sensor model (everything else), grouped by target material.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from datetime import datetime
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import yaml
 
-from ecds_lab.analysis.dataset import Measurements, load_measurements
-from ecds_lab.errors import RunFileError
+from ecds_lab.data.measurements import Measurements
+from ecds_lab.data.run_metadata import RunMetadata
+from ecds_lab.data.sensor import SensorConfig
+from ecds_lab.storage.data_file import DataFile, open_data
 
 #: Coil-in-air readings at this many frequencies or more make an input a spectroscopy recording.
 SPECTROSCOPY_MIN_FREQUENCIES = 4
-#: Target material when the input does not say (DESIGN.md: the paper's copper target).
-DEFAULT_TARGET = "copper"
-
-
-@dataclass
-class RunInfo:
-    """A run file's description of itself (strings as recorded; empty when absent)."""
-
-    experiment: str = ""
-    kind: str = ""
-    station: str = ""
-    status: str = ""
-    start_time: str = ""
-    end_time: str = ""
-    points: int | None = None
-    planned_points: int | None = None
-    identities: dict[str, str] = field(default_factory=dict)
-    faults: list[str] = field(default_factory=list)
-    target: str | None = None
-
-    @property
-    def wall_duration_s(self) -> float | None:
-        """End minus start wall time, when both are recorded."""
-        try:
-            return (datetime.fromisoformat(self.end_time) - datetime.fromisoformat(self.start_time)).total_seconds()
-        except ValueError:
-            return None
+#: Target material of the paper's prototype, the sensor assumed when a file records none.
+DEFAULT_TARGET = SensorConfig().target
 
 
 @dataclass(eq=False)
 class ReportInput:
-    """One DATA argument: its readings, its run metadata (None for CSV) and its use in the report."""
+    """One DATA argument: its readings, its run metadata (None for CSV), its sensor and its use in the report."""
 
-    path: Path
-    data: Measurements
-    run: RunInfo | None
+    file: DataFile
+
+    @property
+    def path(self) -> Path:
+        return self.file.path
+
+    @property
+    def data(self) -> Measurements:
+        return self.file.data
+
+    @property
+    def run(self) -> RunMetadata | None:
+        return self.file.run
+
+    @property
+    def sensor(self) -> SensorConfig:
+        return self.file.sensor
+
+    @property
+    def sensor_note(self) -> str | None:
+        """Set when the sensor is assumed (not recorded in the file)."""
+        return self.file.sensor_note
 
     @property
     def name(self) -> str:
@@ -69,7 +64,7 @@ class ReportInput:
 
     @property
     def target(self) -> str:
-        return (self.run.target if self.run is not None and self.run.target else None) or DEFAULT_TARGET
+        return self.sensor.target
 
     @property
     def lab_duration_s(self) -> float:
@@ -78,79 +73,8 @@ class ReportInput:
 
 
 def load_inputs(paths: list[Path]) -> list[ReportInput]:
-    """Load every DATA path (run file or CSV); errors name the file.
+    """Open every DATA path (run file or CSV); errors name the file.
 
     A run file without a single reading (a run that failed at once) is still listed, with no data.
     """
-    inputs = []
-    for path in map(Path, paths):
-        if not _is_run_file(path):
-            inputs.append(ReportInput(path, load_measurements(path), None))
-            continue
-        info = read_run_info(path)
-        try:
-            data = load_measurements(path)
-        except RunFileError as exc:
-            data = _no_readings(str(path))
-            info.faults.append(str(exc))
-        inputs.append(ReportInput(path, data, info))
-    return inputs
-
-
-def _no_readings(source: str) -> Measurements:
-    empty = np.zeros(0)
-    return Measurements(empty, empty, empty, empty, empty, empty, empty, source=source)
-
-
-def read_run_info(path: Path) -> RunInfo:
-    """Metadata of a run file: experiment, station, identities, status, times, points, faults."""
-    from ecds_lab.storage.reader import read_run
-
-    run = read_run(path, transcripts=False)
-    meta = run.metadata
-    station_doc = _yaml_mapping(meta.get("station_yaml", ""))
-    faults = []
-    if meta.get("error"):
-        faults.append(meta["error"])
-    if run.status == "interrupted":
-        faults.append("the run was interrupted: its writer never closed the file (killed or crashed)")
-    elif run.status not in ("completed", "unknown") and not meta.get("error"):
-        faults.append(f"the run ended as {run.status}")
-    planned = _int_or_none(meta.get("planned_points"))
-    done = len(run.completed_points())
-    if planned is not None and done < planned:
-        faults.append(f"{done} of {planned} planned points measured")
-    return RunInfo(
-        experiment=meta.get("experiment", ""), kind=meta.get("kind", ""),
-        station=str(station_doc.get("name", "")) if station_doc else "", status=run.status,
-        start_time=meta.get("start_time", ""), end_time=meta.get("end_time", ""),
-        points=len(run.points), planned_points=planned, identities=dict(run.identities), faults=faults,
-        target=_target_of(station_doc),
-    )
-
-
-def _is_run_file(path: Path) -> bool:
-    return path.suffix.lower() in (".h5", ".hdf5", ".nxs")
-
-
-def _yaml_mapping(text: str) -> dict:
-    try:
-        doc = yaml.safe_load(text) if text else None
-    except yaml.YAMLError:
-        return {}
-    return doc if isinstance(doc, dict) else {}
-
-
-def _target_of(station: dict) -> str | None:
-    """The target material a station names (simulated lab's sensor block or a station-level sensor)."""
-    for sensor in (((station.get("simulated") or {}).get("lab") or {}).get("sensor"), station.get("sensor")):
-        if isinstance(sensor, dict) and sensor.get("target"):
-            return str(sensor["target"])
-    return None
-
-
-def _int_or_none(value: object) -> int | None:
-    try:
-        return int(str(value))
-    except ValueError:
-        return None
+    return [ReportInput(open_data(path, allow_empty=True)) for path in map(Path, paths)]

@@ -15,6 +15,7 @@ import numpy as np
 
 from ecds_lab.analysis.calibration import temperature_stability_ppm_fs_per_k
 from ecds_lab.analysis.summary import HeatedErrors
+from ecds_lab.data.sensor import DEFAULT_SENSOR_NOTE
 from ecds_lab.report import figures_model as fm
 from ecds_lab.report import figures_temperature as ft
 from ecds_lab.report.findings import CoilHeating, Findings, Omitted, TargetGroup
@@ -124,7 +125,7 @@ def runs_section(findings: Findings) -> Parts:
                 points += f" of {run.points} rows; {run.planned_points} planned points"
             status = badge(run.status or "unknown", "good" if run.status == "completed" else "bad")
             row = [item.name, lines([run.experiment or "—", f"kind: {run.kind or '—'}"]),
-                   lines([run.station or "—", f"target: {item.target}"])]
+                   lines([run.station or "—", f"target: {item.target}", item.sensor_note or f"sensor: {item.sensor.name}"])]
             if not shared:
                 row.append(lines([f"{role}: {ident}" for role, ident in sorted(run.identities.items())] or ["—"]))
             row += [status, lines([_started(run.start_time), _duration(item)]), points,
@@ -141,8 +142,8 @@ def runs_section(findings: Findings) -> Parts:
     if csvs:
         parts.append(table(("CSV file", "rows", "used for"),
                            [(i.name, str(len(i.data)), _use_of(i, findings)) for i in csvs], css="runs"))
-        parts.append(paragraph("A CSV holds readings only (no run metadata); its target is taken to be copper, "
-                               "the paper's prototype.", "small"))
+        parts.append(paragraph(f"A CSV holds readings only (no run metadata, no sensor): {DEFAULT_SENSOR_NOTE}.",
+                               "small"))
     return parts
 
 
@@ -161,7 +162,7 @@ def _params_table(group: TargetGroup) -> Html:
         how = fit.fixed.get(p.name, "fixed") if p.fixed else "fitted"
         scale, unit = DISPLAY_UNITS.get(p.name, (1.0, p.unit))
         rows.append((p.name, value_error(p.value, stderr, scale), unit, how))
-    noise = f", repeat noise {fit.noise_ppm:.1f} ppm" if fit.noise_ppm is not None else ""
+    noise = f", noise {fit.noise.ppm:.1f} ppm (from {fit.noise.method})"
     caption = (f"{group.material} target: baseline fit of {fit.n} readings, residual RMS {fit.rms_ppm:.1f} ppm of L"
                f"{noise}")
     return table(("parameter", "value", "unit", "status"), rows, caption=caption, css="params")
@@ -201,7 +202,7 @@ def residual_section(findings: Findings) -> Parts:
     air = int(main.data.in_air.sum())
     caption = (f"Residual of the baseline fit ({main.material} target, {fit.n} readings, RMS {fit.rms_ppm:.1f} ppm) "
                "against each variable (rows), coloured by each variable (columns; the panel whose colour is its "
-               "own axis is grey); band: ± the repeat noise. Structure in a row shows where the model fails; the "
+               "own axis is grey); band: ± the noise. Structure in a row shows where the model fails; the "
                "colours show what it goes with."
                + (f" The {air} coil-in-air readings have no distance and are light grey where x is the colour."
                   if air else ""))
@@ -358,7 +359,7 @@ def heating_section(findings: Findings) -> Parts:
     if not fit.parameter("C_p").fixed:
         rows.append(("C_p", value_error(fit.values["C_p"], fit.stderr.get("C_p"), 1e12, "pF")))
     rows.append(("residual RMS", f"{fit.rms_ppm:.1f} ppm of L"
-                 + (f" (repeat noise {fit.noise_ppm:.1f} ppm)" if fit.noise_ppm is not None else "")))
+                 + f" (noise {fit.noise.ppm:.1f} ppm, from {fit.noise.method})"))
     rows.append(("readings", f"{fit.n}, coil {np.min(heating.data.t_coil_c):.0f} … "
                              f"{np.max(heating.data.t_coil_c):.0f} °C"))
     expansion = fit.model.sensor.former_expansion_per_k

@@ -18,14 +18,23 @@ from typing import Callable, Iterator
 
 from tqdm import tqdm
 
-from ecds_lab.errors import EcdsLabError, SafetyInterlock, TransportError, InstrumentError
+from ecds_lab.data.columns import LOGGED_POINT, PLANNED_POINT
+from ecds_lab.errors import EcdsLabError, InstrumentError, SafetyInterlock, TransportError
 from ecds_lab.instruments.interfaces import BridgeSettings
 from ecds_lab.runner.heater_control import HeaterGoal, PowerLoop, volts_for_power
 from ecds_lab.runner.plan import (
-    ConfigureBridge, ConfigureScanner, CoolDown, Home, MeasurePoint, Park, Plan, SetHeater, Step, WaitSteady,
+    ConfigureBridge,
+    ConfigureScanner,
+    CoolDown,
+    Home,
+    MeasurePoint,
+    Park,
+    Plan,
+    SetHeater,
+    Step,
+    WaitSteady,
 )
 from ecds_lab.station import Station
-from ecds_lab.storage.columns import LOGGED_POINT, PLANNED_POINT
 from ecds_lab.storage.run_file import RunWriter
 
 log = logging.getLogger("ecds_lab.runner")

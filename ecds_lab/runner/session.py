@@ -18,11 +18,11 @@ from ecds_lab.config.checks import check_experiment_fits_station
 from ecds_lab.config.experiment import EXPERIMENT_ADAPTER
 from ecds_lab.config.loading import read_yaml, validate
 from ecds_lab.config.station import StationConfig
+from ecds_lab.data.columns import INDEX
 from ecds_lab.errors import ConfigError, RunFileError
 from ecds_lab.runner.plan import Plan, build_plan
 from ecds_lab.runner.runner import Runner, ctrl_c_deferred
 from ecds_lab.station import DEFAULT_STATION, open_station
-from ecds_lab.storage.columns import INDEX
 from ecds_lab.storage.reader import read_run
 from ecds_lab.storage.run_file import RunWriter, metadata_for
 
@@ -91,7 +91,7 @@ def run_experiment(experiment_path: Path, station_path: Path | None = None, outp
         identities = station.identify()
         writer = RunWriter(output, metadata=metadata_for(
             experiment_text, station_text, plan.name, plan.kind, getattr(experiment, "operator_note", ""),
-            planned_points=str(len(plan.points)), resumed_from=str(resume or "")),
+            planned_points=str(len(plan.points)), resumed_from=str(resume or ""), sensor=station_config.sensor),
             transcripts={role: t.transcript for role, t in station.transports.items() if t.transcript},
             identities=identities, overwrite=overwrite)
         done, offset = set(), 0.0

@@ -12,9 +12,9 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from ecds_lab.analysis.dataset import Measurements
+from ecds_lab.data.columns import COLUMN_NAMES, INDEX, PLANNED_POINT
+from ecds_lab.data.measurements import Measurements
 from ecds_lab.errors import RunFileError
-from ecds_lab.storage.columns import COLUMN_NAMES, INDEX, PLANNED_POINT
 from ecds_lab.transports.transcript import KINDS, TranscriptEvent
 
 
@@ -126,14 +126,19 @@ def _read_transcripts(entry: h5py.Group) -> dict[str, list[TranscriptEvent]]:
     return out
 
 
-def read_measurements(path: str | Path) -> Measurements:
-    """The bridge readings of a run file as Measurements (rows with a reading, in time order)."""
-    run = read_run(path, transcripts=False)
+def read_measurements(run: RunFile | str | Path) -> Measurements:
+    """The bridge readings of a run file (or one already read) as Measurements (rows with a reading)."""
+    if not isinstance(run, RunFile):
+        run = read_run(run, transcripts=False)
+    path = run.path
     ok = np.isfinite(run.column("ls_h")) & ~np.isnan(run.column("x_commanded_mm"))
     if not ok.any():
         raise RunFileError(f"{path}: holds no bridge readings")
     rows = run.points[ok]
-    pick = lambda name: rows[:, INDEX[name]]  # noqa: E731
+
+    def pick(name: str) -> np.ndarray:
+        return rows[:, INDEX[name]]
+
     direction = pick("direction")
     return Measurements(
         time_s=pick("time_s"), x_m=pick("x_commanded_mm") * 1e-3, freq_hz=pick("freq_hz"),

@@ -1,7 +1,8 @@
 """Write a run file: one HDF5 file per run, every point flushed as it is measured.
 
 Layout (NeXus-flavoured, so generic viewers find their way):
-  /entry                     NXentry: status, times, software, experiment and station YAML
+  /entry                     NXentry: status, times, software, experiment and station YAML,
+                             the sensor description (JSON; absent when the station names none)
   /entry/points              (N x C) float64 table, one row per reading, appended and flushed
                              per point (SWMR: a viewer can read it live; a killed run keeps
                              every row written)
@@ -27,8 +28,10 @@ import h5py
 import numpy as np
 
 from ecds_lab import __version__
+from ecds_lab.data.columns import COLUMN_NAMES, COLUMNS, INDEX
+from ecds_lab.data.run_metadata import SENSOR_ATTRIBUTE, sensor_attribute
+from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.errors import RunFileError
-from ecds_lab.storage.columns import COLUMN_NAMES, COLUMNS, INDEX
 from ecds_lab.transports.transcript import KINDS, Transcript
 
 #: The points table is flushed every row, and each row rewrites its whole chunk: small chunks
@@ -212,8 +215,9 @@ class RunWriter:
 
 
 def metadata_for(experiment_yaml: str, station_yaml: str, experiment_name: str, kind: str,
-                 operator_note: str = "", **more: str) -> dict[str, str]:
-    """The metadata every run file carries (the YAML exactly as given)."""
+                 operator_note: str = "", *, sensor: SensorConfig | None = None, **more: str) -> dict[str, str]:
+    """The metadata every run file carries (the YAML exactly as given, the station's sensor if it names one)."""
+    recorded = {SENSOR_ATTRIBUTE: sensor_attribute(sensor)} if sensor is not None else {}
     return {"experiment_yaml": experiment_yaml, "station_yaml": station_yaml, "experiment": experiment_name,
-            "kind": kind, "operator_note": operator_note, **{k: (v if isinstance(v, str) else json.dumps(v))
-                                                               for k, v in more.items()}}
+            "kind": kind, "operator_note": operator_note, **recorded,
+            **{k: (v if isinstance(v, str) else json.dumps(v)) for k, v in more.items()}}

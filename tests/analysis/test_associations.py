@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from ecds_lab.analysis.associations import residual_associations
-from ecds_lab.analysis.dataset import Measurements
+from ecds_lab.data.measurements import Measurements
 
 
 @pytest.fixture

@@ -13,7 +13,7 @@ from ecds_lab.analysis.calibration import (
     select_positions,
     temperature_stability_ppm_fs_per_k,
 )
-from ecds_lab.analysis.dataset import Measurements
+from ecds_lab.data.measurements import Measurements
 from ecds_lab.model.parameters import values_of
 from ecds_lab.model.sensor_model import SensorModel
 from ecds_lab.simulators.campaign import PAPER_POSITIONS_MM, displacement_sweep

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from ecds_lab.analysis.compensation import compare_compensation, fit_coil_temperature
-from ecds_lab.model.sensor import SensorConfig
+from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.simulators.campaign import coil_heated_sweeps, coil_heating, displacement_sweep
 from ecds_lab.simulators.config import LabConfig
 from ecds_lab.simulators.lab import SimulatedLab

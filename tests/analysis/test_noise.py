@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ecds_lab.analysis.dataset import Measurements
 from ecds_lab.analysis.noise import estimate_noise
+from ecds_lab.data.measurements import Measurements
 
 
 def readings(n_positions: int, repeats: int, sigma_ppm: float, structure_ppm: float = 0.0) -> tuple:

@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ecds_lab.analysis.dataset import Measurements
 from ecds_lab.analysis.spectroscopy import fit_parallel_rlc, fit_spectroscopy
+from ecds_lab.data.measurements import Measurements
+from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.drivers.hm8118 import FREQUENCIES_HZ
-from ecds_lab.model.sensor import SensorConfig
 from ecds_lab.simulators.campaign import spectroscopy
 from ecds_lab.simulators.config import LabConfig, Thermal
 from ecds_lab.simulators.lab import SimulatedLab

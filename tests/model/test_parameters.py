@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ecds_lab.analysis.dataset import Measurements
+from ecds_lab.data.measurements import Measurements
+from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.model.baseline import baseline_parameters, baseline_unidentifiable
 from ecds_lab.model.parameters import Parameter, Scaling, update, values_of
-from ecds_lab.model.sensor import SensorConfig
 
 
 def test_parameter_checks_bounds_and_scale():

@@ -7,11 +7,11 @@ import math
 import numpy as np
 import pytest
 
-from ecds_lab.analysis.dataset import Measurements
+from ecds_lab.data.measurements import Measurements
+from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.model import effects as effects_module
 from ecds_lab.model.effects import EFFECT_NAMES, Effect, make_effect
 from ecds_lab.model.parameters import Parameter, values_of
-from ecds_lab.model.sensor import SensorConfig
 from ecds_lab.model.sensor_model import SensorModel
 from ecds_lab.simulators.campaign import move_to
 from ecds_lab.simulators.config import LabConfig

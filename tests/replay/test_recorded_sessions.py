@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 
 from ecds_lab.cli import main
+from ecds_lab.data.columns import INDEX, LOGGED_POINT
 from ecds_lab.errors import ReplayDivergence
 from ecds_lab.instruments import BridgeSettings
 from ecds_lab.replay import replay_run
-from ecds_lab.storage.columns import INDEX, LOGGED_POINT
 from ecds_lab.storage.reader import read_run
 
 ROOT = Path(__file__).resolve().parents[2]

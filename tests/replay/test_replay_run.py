@@ -17,12 +17,12 @@ import h5py
 import pytest
 
 from ecds_lab.cli import main
+from ecds_lab.data.columns import INDEX
 from ecds_lab.drivers.hm8118 import HM8118
 from ecds_lab.drivers.hmp import HMP4040
 from ecds_lab.errors import RunFileError
 from ecds_lab.replay import compare_points, format_replay, replay_run
 from ecds_lab.runner.session import run_experiment
-from ecds_lab.storage.columns import INDEX
 from ecds_lab.storage.reader import read_run
 
 ROOT = Path(__file__).resolve().parents[2]

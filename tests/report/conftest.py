@@ -23,8 +23,8 @@ from typing import Any, Callable, Iterator
 
 import pytest
 
-from ecds_lab.analysis.dataset import Measurements
 from ecds_lab.analysis.fitting import fit
+from ecds_lab.data.measurements import Measurements
 
 #: The shipped campaign, as ``ecds-lab demo`` runs it: (experiment, station).
 CAMPAIGN = (

@@ -9,9 +9,9 @@ from pathlib import Path
 
 import pytest
 
-from ecds_lab.analysis.dataset import load_measurements
 from ecds_lab.cli import main
 from ecds_lab.report.html import write_report
+from ecds_lab.storage.data_file import open_data
 
 SESSIONS = Path(__file__).resolve().parent.parent / "data" / "sessions"
 IMG = re.compile(r'<img src="data:image/png;base64,([A-Za-z0-9+/=]+)" width="(\d+)" height="(\d+)" alt="([^"]*)"')
@@ -80,9 +80,9 @@ def test_diagnosis_section_shows_ranking_explanation_and_before_after(campaign_r
 
 def test_csv_input_shows_file_and_rows_and_notes_what_the_data_cannot_support(campaign_files, stand_in, tmp_path):
     csv = tmp_path / "sweep.csv"
-    load_measurements(campaign_files[0]).to_csv(csv)
+    open_data(campaign_files[0]).data.to_csv(csv)
     output = write_report([csv], tmp_path / "out" / "report.html", workers=1,
-                          diagnosis=stand_in(load_measurements(csv)))
+                          diagnosis=stand_in(open_data(csv).data))
     html = output.read_text()
     runs = section(html, "runs")
     assert "<td>sweep.csv</td><td>248</td>" in runs and "kind:" not in runs

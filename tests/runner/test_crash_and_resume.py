@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 
 from ecds_lab.cli import main
+from ecds_lab.data.columns import INDEX, PLANNED_POINT
 from ecds_lab.errors import RunFileError
 from ecds_lab.runner.plan import build_plan
 from ecds_lab.runner.session import load_experiment
-from ecds_lab.storage.columns import INDEX, PLANNED_POINT
 from ecds_lab.storage.reader import read_run
 
 SWEEP = "displacement_sweep.yaml"

@@ -5,9 +5,9 @@ from __future__ import annotations
 import pytest
 
 from ecds_lab.cli import main
+from ecds_lab.data.columns import PLANNED_POINT
 from ecds_lab.runner.plan import build_plan
 from ecds_lab.runner.session import load_experiment
-from ecds_lab.storage.columns import PLANNED_POINT
 from ecds_lab.storage.reader import read_run
 
 

@@ -8,11 +8,11 @@ import signal
 import numpy as np
 import pytest
 
+from ecds_lab.data.columns import PLANNED_POINT
 from ecds_lab.drivers.hmp import HMP4040
 from ecds_lab.runner.plan import build_plan
 from ecds_lab.runner.session import load_experiment, run_experiment
 from ecds_lab.station import load_station_config
-from ecds_lab.storage.columns import PLANNED_POINT
 from ecds_lab.storage.reader import read_run
 from ecds_lab.storage.run_file import RunWriter
 

@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 
 from ecds_lab import __version__
-from ecds_lab.analysis.dataset import CSV_COLUMNS, Measurements
 from ecds_lab.cli import main
+from ecds_lab.data.columns import COLUMN_NAMES, COLUMNS, INDEX, PLANNED_POINT
+from ecds_lab.data.measurements import CSV_COLUMNS, Measurements
 from ecds_lab.errors import RunFileError
 from ecds_lab.runner.session import run_experiment
 from ecds_lab.station import DEFAULT_STATION, load_station_config, open_station
-from ecds_lab.storage.columns import COLUMN_NAMES, COLUMNS, INDEX, PLANNED_POINT
 from ecds_lab.storage.reader import read_measurements, read_run
 from ecds_lab.storage.run_file import RunWriter, metadata_for
 from ecds_lab.transports.transcript import Transcript

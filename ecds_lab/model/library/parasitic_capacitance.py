@@ -19,6 +19,7 @@ from typing import Mapping
 import numpy as np
 from scipy.special import expit
 
+from ecds_lab.data.measurements import Measurements
 from ecds_lab.model.effects import Effect, Inputs, register
 from ecds_lab.model.parameters import Parameter
 
@@ -41,7 +42,7 @@ class ParasiticCapacitance(Effect):
             Parameter("drying_order", 1.0, 0.0, 2.0, "1", "order n of dm/dt = -r m^n (0 linear, 1 exponential)", 0.2),
         ]
 
-    def unidentifiable(self, data) -> dict[str, str]:  # noqa: ANN001
+    def unidentifiable(self, data: Measurements) -> dict[str, str]:
         span = float(np.ptp(data.t_coil_c)) if len(data) else 0.0
         if span < 10.0:
             return {n: f"coil temperature span {span:.1f} K < 10 K"
@@ -50,7 +51,7 @@ class ParasiticCapacitance(Effect):
             return {"moist_dG": "low frequencies only: the loss hardly changes L"}
         return {}
 
-    def moisture(self, data, p: Mapping[str, float]) -> np.ndarray:  # noqa: ANN001
+    def moisture(self, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
         """m(t) per recording, integrated with the drying rate at the mean temperature of each interval."""
         key = (id(data), p["drying_rate"], p["drying_onset"], p["drying_width"], p["drying_order"])
         if getattr(self, "_memo_key", None) == key:
@@ -65,10 +66,10 @@ class ParasiticCapacitance(Effect):
         self._memo_key, self._memo = key, out
         return out
 
-    def coil_capacitance(self, c_f: np.ndarray, inputs: Inputs, data, p: Mapping[str, float]) -> np.ndarray:  # noqa: ANN001
+    def coil_capacitance(self, c_f: np.ndarray, inputs: Inputs, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
         return c_f + p["moist_dC"] * self.moisture(data, p)
 
-    def parallel_conductance(self, g_s: np.ndarray, inputs: Inputs, data, p: Mapping[str, float]) -> np.ndarray:  # noqa: ANN001
+    def parallel_conductance(self, g_s: np.ndarray, inputs: Inputs, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
         return g_s + p["moist_dG"] * self.moisture(data, p)
 
 

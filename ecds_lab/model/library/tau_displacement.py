@@ -14,6 +14,7 @@ from typing import Mapping
 import numpy as np
 from scipy.interpolate import CubicSpline
 
+from ecds_lab.data.measurements import Measurements
 from ecds_lab.model.effects import Effect, Inputs, register
 from ecds_lab.model.parameters import Parameter
 
@@ -30,11 +31,11 @@ class TauDisplacement(Effect):
         return [Parameter(name, 0.0, -2.0, 2.0, "1", f"ln(tau_T / tau_T at 60 mm) at {name[6:]}", 0.05)
                 for name in FREE_KNOTS]
 
-    def unidentifiable(self, data) -> dict[str, str]:  # noqa: ANN001
+    def unidentifiable(self, data: Measurements) -> dict[str, str]:
         positions = len(np.unique(np.round(data.x_m[np.isfinite(data.x_m)], 6)))
         return {n: f"{positions} distinct positions" for n in FREE_KNOTS} if positions < 8 else {}
 
-    def target_tau(self, tau_s: np.ndarray, inputs: Inputs, data, p: Mapping[str, float]) -> np.ndarray:  # noqa: ANN001
+    def target_tau(self, tau_s: np.ndarray, inputs: Inputs, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
         values = np.zeros(len(KNOTS_M))
         for name, index in FREE_KNOTS.items():
             values[index] = p[name]

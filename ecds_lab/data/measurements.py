@@ -1,6 +1,6 @@
-"""Measurements as the analysis sees them: columns of numbers in SI, from CSV or run files.
+"""Measurements: the bridge readings as columns of numbers in SI, from a run file or a CSV.
 
-The CSV import format is fixed by DESIGN.md:
+The CSV import format:
 ``time_s,x_mm,freq_hz,t_coil_c,t_target_c,ls_h,rs_ohm`` (``x_mm = inf``: coil in air).
 Derived inputs the model parts need (direction of approach, coil temperature rate)
 are computed here from the columns, so CSV imports work as well as run files.
@@ -13,6 +13,7 @@ import math
 from dataclasses import dataclass, field, fields, replace
 from functools import cached_property
 from pathlib import Path
+from typing import TextIO
 
 import numpy as np
 
@@ -77,7 +78,7 @@ class Measurements:
     def frequencies_hz(self) -> np.ndarray:
         return np.unique(self.freq_hz)
 
-    def select(self, mask: np.ndarray) -> "Measurements":
+    def select(self, mask: np.ndarray) -> Measurements:
         """The rows where ``mask`` is true (or the given indices)."""
         return replace(self, **{f.name: getattr(self, f.name)[mask] for f in fields(self)
                                 if isinstance(getattr(self, f.name), np.ndarray)})
@@ -96,7 +97,7 @@ class Measurements:
         return _rate(self.time_s, self.t_coil_c, self.segment)
 
     @classmethod
-    def concatenate(cls, parts: list["Measurements"]) -> "Measurements":
+    def concatenate(cls, parts: list[Measurements]) -> Measurements:
         """Join recordings; each keeps its own segment numbers, offset to stay distinct."""
         if not parts:
             raise DataError("no measurements to join")
@@ -112,34 +113,15 @@ class Measurements:
 
     # -- CSV ---------------------------------------------------------------------------------
     @classmethod
-    def from_csv(cls, path: str | Path) -> "Measurements":
-        """Read the CSV import format; a malformed file fails naming row and column."""
+    def from_csv(cls, path: str | Path) -> Measurements:
+        """Read the CSV import format (UTF-8, with or without a BOM); a malformed file fails naming row and column."""
         path = Path(path)
         try:
-            handle = path.open(newline="")
+            handle = path.open(newline="", encoding="utf-8-sig")  # -sig: Excel's CSV starts with a BOM
         except OSError as exc:
             raise DataError(f"{path}: cannot read: {exc.strerror}") from exc
         with handle:
-            reader = csv.reader(handle)
-            header = [h.strip() for h in next(reader, [])]
-            missing = [c for c in CSV_COLUMNS if c not in header]
-            if missing:
-                raise DataError(f"{path}: header must contain {','.join(CSV_COLUMNS)}; missing {', '.join(missing)}")
-            index = [header.index(c) for c in CSV_COLUMNS]
-            rows = []
-            for line_number, row in enumerate(reader, start=2):
-                if not row or all(not cell.strip() for cell in row):
-                    continue
-                values = []
-                for column, i in zip(CSV_COLUMNS, index):
-                    try:
-                        values.append(float(row[i]))
-                    except (IndexError, ValueError):
-                        cell = row[i] if i < len(row) else "<missing>"
-                        raise DataError(f"{path}: row {line_number}, column {column}: {cell!r} is not a number") from None
-                    if math.isnan(values[-1]) or (math.isinf(values[-1]) and column != "x_mm"):
-                        raise DataError(f"{path}: row {line_number}, column {column}: {row[i]!r} is not allowed")
-                rows.append(values)
+            rows = _csv_rows(path, handle)
         if not rows:
             raise DataError(f"{path}: no data rows")
         data = np.array(rows)
@@ -157,14 +139,32 @@ class Measurements:
                 writer.writerow([repr(float(v)) if math.isfinite(v) else "inf" for v in row])
 
 
-def load_measurements(path: str | Path) -> Measurements:
-    """DATA as the command line takes it: a run file (.h5) or a CSV in the import format."""
-    path = Path(path)
-    if path.suffix.lower() in (".h5", ".hdf5", ".nxs"):
-        from ecds_lab.storage.reader import read_measurements
-
-        return read_measurements(path)
-    return Measurements.from_csv(path)
+def _csv_rows(path: Path, handle: TextIO) -> list[list[float]]:
+    """The import-format columns of every non-empty row, as numbers; errors name row and column."""
+    try:
+        reader = csv.reader(handle)
+        header = [h.strip() for h in next(reader, [])]
+        missing = [c for c in CSV_COLUMNS if c not in header]
+        if missing:
+            raise DataError(f"{path}: header must contain {','.join(CSV_COLUMNS)}; missing {', '.join(missing)}")
+        index = [header.index(c) for c in CSV_COLUMNS]
+        rows = []
+        for line_number, row in enumerate(reader, start=2):
+            if not row or all(not cell.strip() for cell in row):
+                continue
+            values = []
+            for column, i in zip(CSV_COLUMNS, index):
+                try:
+                    values.append(float(row[i]))
+                except (IndexError, ValueError):
+                    cell = row[i] if i < len(row) else "<missing>"
+                    raise DataError(f"{path}: row {line_number}, column {column}: {cell!r} is not a number") from None
+                if math.isnan(values[-1]) or (math.isinf(values[-1]) and column != "x_mm"):
+                    raise DataError(f"{path}: row {line_number}, column {column}: {row[i]!r} is not allowed")
+            rows.append(values)
+    except UnicodeDecodeError as exc:
+        raise DataError(f"{path}: not a text file (byte {exc.start} is not UTF-8): not a CSV in the import format") from None
+    return rows
 
 
 def approach_direction(x_m: np.ndarray, segment: np.ndarray) -> np.ndarray:

@@ -1,0 +1,98 @@
+"""What a run file says about its run: experiment, station, status, times, identities, the sensor.
+
+Run files keep these as string attributes of /entry; the sensor is recorded as the JSON of its
+description (attribute ``sensor``), so analysis knows what was measured without the station file.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from datetime import datetime
+
+import yaml
+from pydantic import ValidationError
+
+from ecds_lab.data.sensor import SensorConfig
+from ecds_lab.errors import RunFileError
+
+#: The /entry attribute holding the sensor description (JSON of SensorConfig).
+SENSOR_ATTRIBUTE = "sensor"
+
+
+def sensor_attribute(sensor: SensorConfig) -> str:
+    """The text a run file records for its sensor."""
+    return sensor.model_dump_json()
+
+
+def recorded_sensor(attributes: Mapping[str, str], source: str = "run file") -> SensorConfig | None:
+    """The sensor a run file records, or None when its station named none (or it predates the field)."""
+    text = attributes.get(SENSOR_ATTRIBUTE, "")
+    if not text.strip():
+        return None
+    try:
+        return SensorConfig.model_validate(json.loads(text))
+    except (ValueError, ValidationError) as exc:
+        raise RunFileError(f"{source}: the recorded sensor description is unreadable: {exc}") from None
+
+
+@dataclass
+class RunMetadata:
+    """A run file's description of itself (strings as recorded; empty when absent)."""
+
+    experiment: str = ""
+    kind: str = ""
+    station: str = ""
+    status: str = ""
+    start_time: str = ""
+    end_time: str = ""
+    points: int | None = None
+    planned_points: int | None = None
+    identities: dict[str, str] = field(default_factory=dict)
+    faults: list[str] = field(default_factory=list)
+    sensor: SensorConfig | None = None
+
+    @property
+    def wall_duration_s(self) -> float | None:
+        """End minus start wall time, when both are recorded."""
+        try:
+            return (datetime.fromisoformat(self.end_time) - datetime.fromisoformat(self.start_time)).total_seconds()
+        except ValueError:
+            return None
+
+    @classmethod
+    def from_attributes(cls, attributes: Mapping[str, str], *, status: str, points: int, completed_points: int,
+                        identities: Mapping[str, str], source: str = "run file") -> RunMetadata:
+        """Build from /entry's attributes; faults list an error, an interruption and missing points."""
+        faults = []
+        if attributes.get("error"):
+            faults.append(attributes["error"])
+        if status == "interrupted":
+            faults.append("the run was interrupted: its writer never closed the file (killed or crashed)")
+        elif status not in ("completed", "unknown") and not attributes.get("error"):
+            faults.append(f"the run ended as {status}")
+        planned = _int_or_none(attributes.get("planned_points"))
+        if planned is not None and completed_points < planned:
+            faults.append(f"{completed_points} of {planned} planned points measured")
+        station = _yaml_mapping(attributes.get("station_yaml", ""))
+        return cls(experiment=attributes.get("experiment", ""), kind=attributes.get("kind", ""),
+                   station=str(station.get("name", "")), status=status,
+                   start_time=attributes.get("start_time", ""), end_time=attributes.get("end_time", ""),
+                   points=points, planned_points=planned, identities=dict(identities), faults=faults,
+                   sensor=recorded_sensor(attributes, source))
+
+
+def _yaml_mapping(text: str) -> dict:
+    try:
+        doc = yaml.safe_load(text) if text else None
+    except yaml.YAMLError:
+        return {}
+    return doc if isinstance(doc, dict) else {}
+
+
+def _int_or_none(value: object) -> int | None:
+    try:
+        return int(str(value))
+    except ValueError:
+        return None
