@@ -8,7 +8,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from ecds_lab.analysis.fitting import fit, fit_model, noise_ppm
+from ecds_lab.analysis.fitting import fit, fit_model
+from ecds_lab.analysis.noise import REPEATED, estimate_noise
 from ecds_lab.model.parameters import values_of
 from ecds_lab.model.sensor_model import SensorModel
 from ecds_lab.simulators.campaign import displacement_sweep, paper_campaign
@@ -66,10 +67,13 @@ def test_only_the_sensor_given_loss_is_fixed_on_a_full_campaign(baseline_fit):
     assert table["L0"]["unit"] == "H" and table["R_p"]["stderr"] is None
 
 
-def test_noise_estimate_from_repeated_readings():
+def test_a_fit_carries_the_noise_its_repeated_readings_show():
     data = displacement_sweep(SimulatedLab(LabConfig(seed=4)), repeats=4)
-    assert abs(noise_ppm(data) / NOISE_PPM - 1) < 0.1
-    assert noise_ppm(data.select(np.arange(5))) is None
+    result = fit(data)
+    assert result.noise.method == REPEATED
+    assert abs(result.noise_ppm / NOISE_PPM - 1) < 0.1
+    assert result.noise == estimate_noise(data, result.residuals_ppm)
+    assert estimate_noise(data.select(np.arange(5)), np.zeros(5)).method != REPEATED
 
 
 def test_single_frequency_room_sweep_fixes_and_reports_what_it_cannot_determine():
