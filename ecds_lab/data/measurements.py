@@ -19,6 +19,9 @@ import numpy as np
 
 from ecds_lab.errors import EcdsLabError
 
+#: Marks a derived column the caller did not give (computed in ``__post_init__``).
+_NOT_GIVEN = np.zeros(0)
+
 CSV_COLUMNS = ("time_s", "x_mm", "freq_hz", "t_coil_c", "t_target_c", "ls_h", "rs_ohm")
 
 
@@ -41,22 +44,25 @@ class Measurements:
     t_target_c: np.ndarray
     ls_h: np.ndarray
     rs_ohm: np.ndarray
-    segment: np.ndarray = field(default=None)  # type: ignore[assignment]
-    x_commanded_m: np.ndarray = field(default=None)  # type: ignore[assignment]
-    direction: np.ndarray = field(default=None)  # type: ignore[assignment]
+    #: derived from the time column (a new segment where time runs backwards) when not given
+    segment: np.ndarray = field(default_factory=lambda: _NOT_GIVEN)
+    #: the distance column when not given
+    x_commanded_m: np.ndarray = field(default_factory=lambda: _NOT_GIVEN)
+    #: derived from the commanded distances when not given
+    direction: np.ndarray = field(default_factory=lambda: _NOT_GIVEN)
     source: str = ""
 
     def __post_init__(self) -> None:
         n = len(self.time_s)
         for f in fields(self):
             value = getattr(self, f.name)
-            if f.name != "source" and value is not None:
+            if f.name != "source" and value is not _NOT_GIVEN:
                 setattr(self, f.name, np.asarray(value, dtype=float if f.name not in ("segment", "direction") else int))
-        if self.segment is None:
+        if self.segment is _NOT_GIVEN:
             self.segment = _segments_from_time(self.time_s)
-        if self.x_commanded_m is None:
+        if self.x_commanded_m is _NOT_GIVEN:
             self.x_commanded_m = self.x_m.copy()
-        if self.direction is None:
+        if self.direction is _NOT_GIVEN:
             self.direction = approach_direction(self.x_commanded_m, self.segment)
         for f in fields(self):
             value = getattr(self, f.name)
@@ -101,7 +107,7 @@ class Measurements:
         """Join recordings; each keeps its own segment numbers, offset to stay distinct."""
         if not parts:
             raise DataError("no measurements to join")
-        offset, columns = 0, {}
+        offset, columns = 0, dict[str, list[np.ndarray]]()
         for part in parts:
             for f in fields(cls):
                 value = getattr(part, f.name)
@@ -163,7 +169,8 @@ def _csv_rows(path: Path, handle: TextIO) -> list[list[float]]:
                     raise DataError(f"{path}: row {line_number}, column {column}: {row[i]!r} is not allowed")
             rows.append(values)
     except UnicodeDecodeError as exc:
-        raise DataError(f"{path}: not a text file (byte {exc.start} is not UTF-8): not a CSV in the import format") from None
+        raise DataError(f"{path}: not a text file (byte {exc.start} is not UTF-8), so not a CSV in the import format"
+                        ) from None
     return rows
 
 

@@ -39,7 +39,7 @@ def baseline_parameters(sensor: SensorConfig) -> list[Parameter]:
     ]
 
 
-def baseline_unidentifiable(data: "Measurements") -> dict[str, str]:
+def baseline_unidentifiable(data: Measurements) -> dict[str, str]:
     """Baseline parameters these data cannot determine, with the reason (they stay at their start)."""
     fixed: dict[str, str] = {"R_p": "fixed from the sensor description"}
     finite = np.isfinite(data.x_m)

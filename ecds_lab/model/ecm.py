@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 
-def eddy_factor(omega: np.ndarray, tau_t: np.ndarray) -> np.ndarray:
+def eddy_factor(omega: np.ndarray, tau_t: np.ndarray | float) -> np.ndarray:
     """f_T = (w tau_T)^2 / (1 + (w tau_T)^2): how fully the target screens the field (Eq. 2)."""
     wt2 = (omega * tau_t) ** 2
     return wt2 / (1.0 + wt2)
@@ -30,7 +30,7 @@ def ecds_resistance(r_coil: np.ndarray, l_coil: np.ndarray, k2: np.ndarray, omeg
     return r_coil + k2 * omega**2 * tau_t * l_coil / (1.0 + (omega * tau_t) ** 2)
 
 
-def with_parallel_elements(z_series: np.ndarray, omega: np.ndarray, capacitance: np.ndarray,
+def with_parallel_elements(z_series: np.ndarray, omega: np.ndarray, capacitance: np.ndarray | float,
                            parallel_resistance: np.ndarray | float = np.inf) -> np.ndarray:
     """Impedance the bridge sees: the series branch in parallel with C_coil (and a loss R_p)."""
     return 1.0 / (1.0 / z_series + 1j * omega * capacitance + 1.0 / parallel_resistance)

@@ -64,28 +64,28 @@ class Effect:
         """The effect's own parameters with starting values, bounds and units."""
         return []
 
-    def unidentifiable(self, data: "Measurements") -> dict[str, str]:
+    def unidentifiable(self, data: Measurements) -> dict[str, str]:
         """Parameters these data cannot determine (name -> reason); they are fixed at their start."""
         return {}
 
-    def effective_distance(self, x_m: np.ndarray, data: "Measurements", p: Mapping[str, float]) -> np.ndarray:
+    def effective_distance(self, x_m: np.ndarray, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
         return x_m
 
-    def winding_temperature(self, t_c: np.ndarray, data: "Measurements", p: Mapping[str, float]) -> np.ndarray:
+    def winding_temperature(self, t_c: np.ndarray, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
         return t_c
 
-    def target_temperature(self, t_c: np.ndarray, data: "Measurements", p: Mapping[str, float]) -> np.ndarray:
+    def target_temperature(self, t_c: np.ndarray, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
         return t_c
 
-    def target_tau(self, tau_s: np.ndarray, inputs: Inputs, data: "Measurements",
+    def target_tau(self, tau_s: np.ndarray, inputs: Inputs, data: Measurements,
                    p: Mapping[str, float]) -> np.ndarray:
         return tau_s
 
-    def coil_capacitance(self, c_f: np.ndarray, inputs: Inputs, data: "Measurements",
+    def coil_capacitance(self, c_f: np.ndarray, inputs: Inputs, data: Measurements,
                          p: Mapping[str, float]) -> np.ndarray:
         return c_f
 
-    def parallel_conductance(self, g_s: np.ndarray, inputs: Inputs, data: "Measurements",
+    def parallel_conductance(self, g_s: np.ndarray, inputs: Inputs, data: Measurements,
                              p: Mapping[str, float]) -> np.ndarray:
         return g_s
 

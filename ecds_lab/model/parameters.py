@@ -32,11 +32,11 @@ class Parameter:
         if not self.prior_scale > 0:
             raise ValueError(f"parameter {self.name}: prior_scale must be > 0, got {self.prior_scale}")
 
-    def with_value(self, value: float) -> "Parameter":
+    def with_value(self, value: float) -> Parameter:
         """The same parameter at another value, clipped into its bounds."""
         return replace(self, value=float(min(max(value, self.lower), self.upper)))
 
-    def fix(self, value: float | None = None) -> "Parameter":
+    def fix(self, value: float | None = None) -> Parameter:
         """The parameter held constant (at ``value`` if given)."""
         return replace(self, value=self.value if value is None else float(value), fixed=True)
 

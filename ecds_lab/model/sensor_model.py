@@ -52,7 +52,7 @@ class SensorModel:
         """Every parameter with its default start, bounds and unit: baseline first, then each effect's."""
         return baseline_parameters(self.sensor) + [p for e in self.effects for p in e.parameters()]
 
-    def unidentifiable(self, data: "Measurements") -> dict[str, str]:
+    def unidentifiable(self, data: Measurements) -> dict[str, str]:
         """Parameters these data cannot determine (name -> reason), from the baseline and every effect."""
         out = baseline_unidentifiable(data)
         for effect in self.effects:
@@ -66,7 +66,7 @@ class SensorModel:
         scaled = np.where(finite, (x - p["p1"]) / p["p2"], np.inf)
         return np.where(finite, p["p3"] * self.coupling(scaled) + p["p4"], 0.0)
 
-    def inputs(self, data: "Measurements", p: Mapping[str, float], x_m: np.ndarray | None = None) -> Inputs:
+    def inputs(self, data: Measurements, p: Mapping[str, float], x_m: np.ndarray | None = None) -> Inputs:
         """Stage 1: effective distance and temperatures after every effect."""
         x = np.asarray(data.x_m if x_m is None else x_m, float)
         t_winding, t_target = data.t_coil_c, data.t_target_c
@@ -76,7 +76,7 @@ class SensorModel:
             t_target = effect.target_temperature(t_target, data, p)
         return Inputs(x, t_winding, t_target)
 
-    def impedance(self, data: "Measurements", p: Mapping[str, float], x_m: np.ndarray | None = None) -> np.ndarray:
+    def impedance(self, data: Measurements, p: Mapping[str, float], x_m: np.ndarray | None = None) -> np.ndarray:
         """Complex impedance at the bridge terminals (Ohm) for every row; ``x_m`` overrides the distance."""
         sensor, n = self.sensor, len(data)
         inputs = self.inputs(data, p, x_m)
@@ -97,7 +97,7 @@ class SensorModel:
             conductance = effect.parallel_conductance(conductance, inputs, data, p)
         return 1.0 / (1.0 / (r_true + 1j * omega * l_true) + 1j * omega * capacitance + conductance)
 
-    def predict(self, data: "Measurements", p: Mapping[str, float], x_m: np.ndarray | None = None) -> np.ndarray:
+    def predict(self, data: Measurements, p: Mapping[str, float], x_m: np.ndarray | None = None) -> np.ndarray:
         """Apparent series inductance Ls = Im(Z)/w (H) the bridge reports for every row."""
         return self.impedance(data, p, x_m).imag / (2 * np.pi * data.freq_hz)
 

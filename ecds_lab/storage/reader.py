@@ -120,7 +120,7 @@ def _read_transcripts(entry: h5py.Group) -> dict[str, list[TranscriptEvent]]:
         # Only events whose text is fully on disk count (a killed writer may have stopped in between).
         complete = table[:, 3] <= len(blob)
         table = table[complete]
-        starts = np.concatenate([[0], table[:-1, 3]]).astype(int) if len(table) else []
+        starts = np.concatenate([[0], table[:-1, 3]]).astype(int) if len(table) else np.zeros(0, int)
         out[role] = [TranscriptEvent(row[0], row[1], KINDS[int(row[2])], blob[int(s):int(row[3])].decode("utf-8"))
                      for row, s in zip(table, starts)]
     return out

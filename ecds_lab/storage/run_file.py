@@ -121,7 +121,7 @@ class RunWriter:
         if len(rows):
             self._write_rows(np.asarray(rows, float).reshape(-1, len(COLUMNS)))
 
-    def _write_rows(self, rows: Sequence[Sequence[float]]) -> None:
+    def _write_rows(self, rows: Sequence[Sequence[float]] | np.ndarray) -> None:
         """Grow the table, write the chunks the rows fall in, and flush.
 
         The table's last chunk is kept in memory (``_tail``) and written whole with

@@ -31,6 +31,9 @@ class ParasiticCapacitance(Effect):
     alternative_starts = ({"drying_rate": 1e-4}, {"drying_rate": 1e-2},
                           *({"drying_order": 0.0, "drying_rate": 3e-4, "drying_onset": onset, "drying_width": 1.0}
                             for onset in (60.0, 90.0)))
+    #: the last moisture computed and what it was computed for (data identity and drying parameters)
+    _memo_key: tuple[int, float, float, float, float] | None = None
+    _memo: np.ndarray = np.ones(0)
 
     def parameters(self) -> list[Parameter]:
         return [
@@ -54,7 +57,7 @@ class ParasiticCapacitance(Effect):
     def moisture(self, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
         """m(t) per recording, integrated with the drying rate at the mean temperature of each interval."""
         key = (id(data), p["drying_rate"], p["drying_onset"], p["drying_width"], p["drying_order"])
-        if getattr(self, "_memo_key", None) == key:
+        if self._memo_key == key:
             return self._memo
         out = np.ones(len(data))
         for rows in data.segment_rows:
@@ -66,10 +69,12 @@ class ParasiticCapacitance(Effect):
         self._memo_key, self._memo = key, out
         return out
 
-    def coil_capacitance(self, c_f: np.ndarray, inputs: Inputs, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
+    def coil_capacitance(self, c_f: np.ndarray, inputs: Inputs, data: Measurements,
+                         p: Mapping[str, float]) -> np.ndarray:
         return c_f + p["moist_dC"] * self.moisture(data, p)
 
-    def parallel_conductance(self, g_s: np.ndarray, inputs: Inputs, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
+    def parallel_conductance(self, g_s: np.ndarray, inputs: Inputs, data: Measurements,
+                             p: Mapping[str, float]) -> np.ndarray:
         return g_s + p["moist_dG"] * self.moisture(data, p)
 
 
