@@ -11,10 +11,11 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator, model_validator
 
+from ecds_lab.instruments.kinds import KINDS, ROLE_NAMES, drivers_for_role
 from ecds_lab.simulators.config import LabConfig
 
-DRIVERS = ("hm8118", "grbl", "daq970a", "34970a", "hmp4040")
-ROLES = {"bridge": ("hm8118",), "slide": ("grbl",), "scanner": ("daq970a", "34970a"), "heater": ("hmp4040",)}
+#: Role -> the drivers that can serve it, read from the instrument table.
+ROLES: dict[str, tuple[str, ...]] = {role: drivers_for_role(role) for role in ROLE_NAMES}
 
 
 class _Strict(BaseModel):
@@ -42,10 +43,24 @@ class VisaLink(_Strict):
 class InstrumentConfig(_Strict):
     """One instrument of the station: driver, link, and driver options."""
 
-    driver: Literal["hm8118", "grbl", "daq970a", "34970a", "hmp4040"]
+    driver: str = Field(description="an instrument kind of ecds_lab.instruments.kinds (hm8118, grbl, ...)")
     link: SerialLink | VisaLink | None = Field(None, discriminator="kind")
     options: dict[str, Any] = {}
     min_interval_s: float | None = Field(None, ge=0, description="pause between commands; default per driver")
+
+    @field_validator("driver")
+    @classmethod
+    def _known_driver(cls, driver: str) -> str:
+        if driver not in KINDS:
+            raise ValueError(f"unknown driver {driver!r}; allowed: {', '.join(repr(name) for name in KINDS)}")
+        return driver
+
+    @model_validator(mode="after")
+    def _link_fits_driver(self) -> "InstrumentConfig":
+        links = KINDS[self.driver].links
+        if self.link is not None and self.link.kind not in links:
+            raise ValueError(f"driver {self.driver!r} has no {self.link.kind} link; allowed: {', '.join(links)}")
+        return self
 
 
 class SafetyConfig(_Strict):

@@ -14,7 +14,8 @@ import yaml
 
 from ecds_lab.cli import main
 from ecds_lab.config.experiment import SweepConfig
-from ecds_lab.config.station import DRIVERS, ROLES
+from ecds_lab.config.station import ROLES
+from ecds_lab.instruments.kinds import KINDS
 from ecds_lab.drivers.hm8118 import FREQUENCIES_HZ
 from ecds_lab.simulators.config import TargetBending
 from ecds_lab.errors import ConfigError
@@ -121,7 +122,7 @@ def driver_in_the_wrong_role(copy, tmp_path, experiments) -> BadConfig:  # noqa:
 def unknown_driver(copy, tmp_path, experiments) -> BadConfig:  # noqa: ANN001
     station = copy("stations/simulated_lab.yaml", lambda d: d["bridge"].update(driver="hm9999"))
     return BadConfig(experiments / "displacement_sweep.yaml", station, station,
-                     ["field 'bridge.driver'", "'hm9999'", *(f"'{d}'" for d in DRIVERS)])
+                     ["field 'bridge.driver'", "'hm9999'", *(f"'{d}'" for d in KINDS)])
 
 
 def malformed_experiment(copy, tmp_path, experiments) -> BadConfig:  # noqa: ANN001
