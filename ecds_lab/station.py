@@ -8,9 +8,10 @@ resources for the VISA ones. Replay swaps only the transports (``transport_facto
 from __future__ import annotations
 
 import itertools
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import yaml
 

@@ -7,9 +7,10 @@ Written from the manuals, not from the driver (its tables are the emulator's own
                 [SENSe:]TEMPerature:TRANsducer:TCouple:RJUNction:TYPE
   [dvg]         Dennis-van-Gils/python-dvg-devices, Keysight_3497xA_protocol_SCPI.py (*OPC? reply)
 Speaks ``CONF:TEMP``, ``MEAS:TEMP?``, ``UNIT:TEMP``, ``SENS:TEMP:TRAN:TC:RJUN:TYPE``,
-``SENS:TEMP:TRAN:TC:CHEC``, ``ROUT:SCAN``, ``ROUT:SCAN?`` (definite-length block ``#214(@101,102,103)``, empty ``#13(@)``), ``ROUT:SCAN:SIZE?``,
-``READ?``, ``ABOR``. CONF/MEAS redefine the scan list and reset the channels' settings
-[34970A-UG ch.4 "To Build a Scan List"]. Which channel sees which lab temperature is
+``SENS:TEMP:TRAN:TC:CHEC``, ``ROUT:SCAN``, ``ROUT:SCAN?`` (definite-length block
+``#214(@101,102,103)``, empty ``#13(@)``), ``ROUT:SCAN:SIZE?``, ``READ?``, ``ABOR``.
+CONF/MEAS redefine the scan list and reset the channels' settings [34970A-UG ch.4 "To Build a
+Scan List"]. Which channel sees which lab temperature is
 ``LabConfig.thermocouple_channels``; other channels have nothing wired, i.e. an open input.
 
 Readings are NR3 with 8 decimals (``+2.21234567E+01``), comma-separated in scan order; the
@@ -31,6 +32,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
+from typing import ClassVar
 
 from ecds_lab.simulators.lab import SimulatedLab
 from ecds_lab.simulators.scpi import SCPIEmulator, SCPIError
@@ -69,7 +71,7 @@ class DAQ970AEmulator(SCPIEmulator):
     name = "daq970a"
     identity = "Keysight Technologies,DAQ970A,MY58000001,A.02.04-00.16-11.29-00.02-02-01"
     opc_reply = "+1"  # [dvg]
-    commands = {
+    commands: ClassVar[dict[str, str]] = {
         "CONFigure:TEMPerature": "configure",
         "MEASure:TEMPerature?": "measure",
         "UNIT:TEMPerature": "set_unit",

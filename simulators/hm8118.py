@@ -126,10 +126,14 @@ class HM8118Emulator(LineEmulator):
         value = self.settings[mnemonic]
         return f"{value:.3f}" if mnemonic == "VOLT" else str(int(value))
 
+    def _code(self, mnemonic: str) -> int:
+        """A coded setting (PMOD, CIRC, RATE, NAVG, ...) as the integer the bridge holds."""
+        return int(self.settings[mnemonic])
+
     # -- measuring -------------------------------------------------------------------------
     def _duration(self) -> float:
-        count = self.settings["NAVG"] if self.settings["AVGM"] else 1
-        return MEASUREMENT_TIME_S[self.settings["RATE"]] * count
+        count = self._code("NAVG") if self.settings["AVGM"] else 1
+        return MEASUREMENT_TIME_S[self._code("RATE")] * count
 
     def _trigger(self) -> None:
         """*TRG starts a measurement; the lab is sampled now, the result is ready after the measuring time."""
@@ -155,17 +159,17 @@ class HM8118Emulator(LineEmulator):
 
     def _measure(self) -> tuple[float, float] | None:
         """Main and secondary value of the active function from the lab's coil impedance."""
-        if self.settings["PMOD"] in (0, 10, 11):  # AUTO display and transformer modes: nothing to read
+        if self._code("PMOD") in (0, 10, 11):  # AUTO display and transformer modes: nothing to read
             return None
         frequency = float(self.settings["FREQ"])
         omega = 2 * math.pi * frequency
-        averages = self.settings["NAVG"] if self.settings["AVGM"] else 1
-        z = self.lab.measured_impedance(frequency, SPEED_CODES[self.settings["RATE"]], self.settings["VOLT"], averages)
-        function = self.settings["PMOD"]
+        averages = self._code("NAVG") if self.settings["AVGM"] else 1
+        z = self.lab.measured_impedance(frequency, SPEED_CODES[self._code("RATE")], self.settings["VOLT"], averages)
+        function = self._code("PMOD")
         if function in (6, 7, 8):  # Z-theta, Y-theta, R-X: no equivalent circuit involved
             theta = math.degrees(cmath.phase(z))
             return {6: (abs(z), theta), 7: (abs(1 / z), -theta), 8: (z.real, z.imag)}[function]
-        circuit = self.settings["CIRC"]
+        circuit = self._code("CIRC")
         parallel = circuit == 1 or (circuit == 2 and abs(z) > 1e3)
         y = 1 / z
         if function == 9:  # G-B

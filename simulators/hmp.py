@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
+from typing import ClassVar
 
 from ecds_lab.simulators.lab import SimulatedLab
 from ecds_lab.simulators.scpi import SCPIEmulator, SCPIError
@@ -47,7 +48,7 @@ class HMPEmulator(SCPIEmulator):
     name = "hmp4040"
     identity = "ROHDE&SCHWARZ,HMP4040,101234,HW50020003/SW2.51"
     outputs = 4
-    commands = {
+    commands: ClassVar[dict[str, str]] = {
         "INSTrument[:SELect]": "select",
         "INSTrument[:SELect]?": "selected",
         "INSTrument:NSELect": "select_number",

@@ -8,7 +8,7 @@ re-opened port finds the instrument in the state it was left in, as hardware wou
 from __future__ import annotations
 
 import threading
-from typing import Callable
+from collections.abc import Callable
 
 from ecds_lab.instruments.kinds import KINDS
 from ecds_lab.simulators.emulator import LineEmulator

@@ -60,7 +60,8 @@ def check_experiment_fits_station(experiment: Experiment, station: StationConfig
                 problems.append(f"{source}: field '{field}[{i}]': {setpoint:g} C is at or above the station's "
                                 f"{channel} limit (allowed below {limit:g} C, safety.max_temperature_c)")
         ohm = station.heaters.target_heater_ohm if channel == "target" else station.heaters.coil_heater_ohm
-        max_power = min(safety.heater_max_voltage_v ** 2 / ohm, safety.heater_max_voltage_v * safety.heater_max_current_a)
+        volts, amps = safety.heater_max_voltage_v, safety.heater_max_current_a
+        max_power = min(volts ** 2 / ohm, volts * amps)
         for i, power in enumerate(powers or []):
             if not 0 <= power <= max_power:
                 problems.append(f"{source}: field 'heating.powers_w[{i}]': {power:g} W exceeds the heater limit "

@@ -56,7 +56,7 @@ class InstrumentConfig(_Strict):
         return driver
 
     @model_validator(mode="after")
-    def _link_fits_driver(self) -> "InstrumentConfig":
+    def _link_fits_driver(self) -> InstrumentConfig:
         links = KINDS[self.driver].links
         if self.link is not None and self.link.kind not in links:
             raise ValueError(f"driver {self.driver!r} has no {self.link.kind} link; allowed: {', '.join(links)}")
@@ -103,14 +103,15 @@ class StationConfig(_Strict):
     @field_validator(*ROLES)
     @classmethod
     def _driver_fits_role(cls, instrument: InstrumentConfig, info: ValidationInfo) -> InstrumentConfig:
-        allowed = ROLES[info.field_name]
+        role = str(info.field_name)
+        allowed = ROLES[role]
         if instrument.driver not in allowed:
-            raise ValueError(f"driver {instrument.driver!r} cannot serve as {info.field_name}; "
+            raise ValueError(f"driver {instrument.driver!r} cannot serve as {role}; "
                              f"allowed: {', '.join(allowed)}")
         return instrument
 
     @model_validator(mode="after")
-    def _check(self) -> "StationConfig":
+    def _check(self) -> StationConfig:
         for role in ROLES:
             instrument: InstrumentConfig = getattr(self, role)
             if self.simulated is None and instrument.link is None:

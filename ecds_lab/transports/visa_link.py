@@ -9,6 +9,7 @@ pyserial's ``serial_for_url``, so any pyserial URL scheme works as an ASRL resou
 from __future__ import annotations
 
 import pyvisa
+from pyvisa.resources import MessageBasedResource
 
 from ecds_lab.errors import TransportError
 from ecds_lab.transports.base import Transport
@@ -29,14 +30,18 @@ class VisaTransport(Transport):
                  **options: object) -> None:
         super().__init__(name, **options)  # type: ignore[arg-type]
         try:
-            self._resource = _resource_manager(backend).open_resource(
+            opened = _resource_manager(backend).open_resource(
                 resource,
                 read_termination=self.read_termination,
                 write_termination="",
                 timeout=round(self.timeout_s * 1000),
             )
-            if baudrate is not None and hasattr(self._resource, "baud_rate"):
-                self._resource.baud_rate = baudrate
+            if not isinstance(opened, MessageBasedResource):
+                opened.close()
+                raise ValueError("not a message-based resource (a line link needs one)")
+            if baudrate is not None and hasattr(opened, "baud_rate"):
+                opened.baud_rate = baudrate
+            self._resource = opened
         except (pyvisa.Error, ValueError, OSError) as exc:
             raise TransportError(f"{name}: cannot open VISA resource {resource!r}: {exc}") from exc
         self.resource_name = resource

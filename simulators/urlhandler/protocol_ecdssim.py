@@ -19,6 +19,8 @@ from ecds_lab.simulators.registry import emulator
 class Serial(SerialBase):
     """A serial port whose far end is a protocol emulator in this process."""
 
+    is_open: bool
+
     def open(self) -> None:
         if self._port is None:
             raise SerialException("Port must be configured before it can be used.")

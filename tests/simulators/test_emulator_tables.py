@@ -49,7 +49,7 @@ def test_hm8118_emulator_refuses_what_the_manual_does_not_list(sim, command, rep
 
 def test_a_frequency_mistyped_in_the_driver_is_refused_by_the_emulator(sim):
     bridge = MistypedHM8118(sim.serial("hm8118", SERIAL_SETTINGS))
-    with pytest.raises(InstrumentError, match="FREQ 21.*ERROR"):
+    with pytest.raises(InstrumentError, match=r"FREQ 21.*ERROR"):
         bridge.set_frequency(21)
 
 

@@ -24,8 +24,10 @@ def project_imports(path: Path) -> list[str]:
     return [m for m in modules if m.split(".")[0] == "ecds_lab"]
 
 
-@pytest.mark.parametrize("path", sorted([*(PACKAGE / "transports").glob("*.py"), *(PACKAGE / "instruments").glob("*.py")]),
-                         ids=lambda p: f"{p.parent.name}/{p.name}")
+BOTTOM = sorted([*(PACKAGE / "transports").glob("*.py"), *(PACKAGE / "instruments").glob("*.py")])
+
+
+@pytest.mark.parametrize("path", BOTTOM, ids=lambda p: f"{p.parent.name}/{p.name}")
 def test_bottom_layers_import_nothing_above_them(path):
     above = [m for m in project_imports(path) if not m.startswith(ALLOWED)]
     assert above == [], f"{path.parent.name}/{path.name} imports {above}"
