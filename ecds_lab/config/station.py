@@ -14,9 +14,6 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validat
 from ecds_lab.instruments.kinds import KINDS, ROLE_NAMES, drivers_for_role
 from ecds_lab.simulators.config import LabConfig
 
-#: Role -> the drivers that can serve it, read from the instrument table.
-ROLES: dict[str, tuple[str, ...]] = {role: drivers_for_role(role) for role in ROLE_NAMES}
-
 
 class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid")
@@ -52,7 +49,8 @@ class InstrumentConfig(_Strict):
     @classmethod
     def _known_driver(cls, driver: str) -> str:
         if driver not in KINDS:
-            raise ValueError(f"unknown driver {driver!r}; allowed: {', '.join(repr(name) for name in KINDS)}")
+            known = ", ".join(f"{name!r} ({'/'.join(row.roles)})" for name, row in KINDS.items())
+            raise ValueError(f"unknown driver {driver!r}; allowed: {known}")
         return driver
 
     @model_validator(mode="after")
@@ -100,11 +98,11 @@ class StationConfig(_Strict):
     heaters: HeaterWiring = HeaterWiring()
     safety: SafetyConfig = SafetyConfig()
 
-    @field_validator(*ROLES)
+    @field_validator(*ROLE_NAMES)
     @classmethod
     def _driver_fits_role(cls, instrument: InstrumentConfig, info: ValidationInfo) -> InstrumentConfig:
         role = str(info.field_name)
-        allowed = ROLES[role]
+        allowed = drivers_for_role(role)
         if instrument.driver not in allowed:
             raise ValueError(f"driver {instrument.driver!r} cannot serve as {role}; "
                              f"allowed: {', '.join(allowed)}")
@@ -112,7 +110,7 @@ class StationConfig(_Strict):
 
     @model_validator(mode="after")
     def _check(self) -> StationConfig:
-        for role in ROLES:
+        for role in ROLE_NAMES:
             instrument: InstrumentConfig = getattr(self, role)
             if self.simulated is None and instrument.link is None:
                 raise ValueError(f"{role}: a real station needs a 'link' (serial url or visa resource)")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pydantic
 import pytest
 
-from ecds_lab.config.station import ROLES, InstrumentConfig, StationConfig, VisaLink
+from ecds_lab.config.station import InstrumentConfig, StationConfig, VisaLink
 from ecds_lab.instruments.kinds import KINDS, ROLE_NAMES, drivers_for_role, kind
 from ecds_lab.simulators.emulator import LineEmulator
 from ecds_lab.simulators.registry import _emulator_class
@@ -37,16 +37,17 @@ def test_simulated_addresses():
     assert simulated_link("hmp4040", "x") == VisaLink(resource="ASRLecdssim://x/hmp4040::INSTR")
 
 
-def test_config_roles_and_registry_read_the_table():
-    assert ROLES == {role: drivers_for_role(role) for role in ROLE_NAMES}
-    assert ROLES["scanner"] == ("daq970a", "34970a")
+def test_roles_and_registry_read_the_table():
+    assert {role: drivers_for_role(role) for role in ROLE_NAMES} == {
+        "bridge": ("hm8118",), "slide": ("grbl",), "scanner": ("daq970a", "34970a"), "heater": ("hmp4040",)}
     assert _emulator_class("34970a") is kind("34970a").emulator_class()
     with pytest.raises(KeyError, match="no simulated instrument 'hm9999'"):
         _emulator_class("hm9999")
 
 
 def test_unknown_driver_names_the_allowed_ones():
-    with pytest.raises(pydantic.ValidationError, match="unknown driver 'hm9999'; allowed: 'hm8118', 'grbl'"):
+    allowed = r"'hm8118' \(bridge\), 'grbl' \(slide\), 'daq970a' \(scanner\)"
+    with pytest.raises(pydantic.ValidationError, match=rf"unknown driver 'hm9999'; allowed: {allowed}"):
         InstrumentConfig(driver="hm9999")
 
 
@@ -66,3 +67,21 @@ def test_station_overrides_win_over_the_drivers_settings():
 def test_wrong_role_is_refused_with_the_drivers_that_fit():
     with pytest.raises(pydantic.ValidationError, match="'grbl' cannot serve as scanner; allowed: daq970a, 34970a"):
         StationConfig(simulated={}, scanner={"driver": "grbl"})
+
+
+def test_one_new_row_is_all_a_new_instrument_needs(monkeypatch):
+    """A row naming existing classes under a new name: config accepts it, the station reaches it by ecdssim://."""
+    from ecds_lab.config.station import SimulationConfig
+    from ecds_lab.instruments.kinds import InstrumentKind
+    from ecds_lab.station import open_station
+
+    original = kind("hm8118")
+    monkeypatch.setitem(KINDS, "hm8118-bench", InstrumentKind(
+        "hm8118-bench", original.driver, original.emulator, ("bridge",), original.links, "serial"))
+    config = StationConfig(simulated=SimulationConfig(pacing=False), bridge={"driver": "hm8118-bench"})
+    station = open_station(config)
+    try:
+        assert station.transports["bridge"].url.endswith("/hm8118-bench")
+        assert "HM8118" in station.bridge.identity()
+    finally:
+        station.close()
