@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any, Callable, Literal, Mapping
+from typing import Any, Callable, ClassVar, Literal, Mapping
 
 from ecds_lab.drivers.instrument import Instrument
 from ecds_lab.errors import InstrumentError, InvalidSettingError, TransportTimeout
@@ -132,14 +132,16 @@ class Grbl(Instrument):
     """A GRBL 1.1 controller moving one axis of the slide; positions in m at the interface, mm inside."""
 
     model = "GRBL"
+    #: The slide's soft travel when the station gives none; config checks read it without building a driver.
+    default_travel_mm: ClassVar[tuple[float, float]] = (15.0, 160.0)
 
     def __init__(
         self,
         transport: Transport,
         *,
         origin_mm: float = 160.0,
-        min_mm: float = 15.0,
-        max_mm: float = 160.0,
+        min_mm: float = default_travel_mm[0],
+        max_mm: float = default_travel_mm[1],
         feed_mm_per_min: float = 600.0,
         approach: Literal["positive", "negative", "direct"] = "positive",
         overshoot_mm: float = 0.5,

@@ -7,11 +7,11 @@ resources for the VISA ones. Replay swaps only the transports (``transport_facto
 
 from __future__ import annotations
 
-import importlib
 import itertools
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import yaml
 
@@ -19,54 +19,37 @@ from ecds_lab.clock import Clock, SimulatedClock, WallClock
 from ecds_lab.config.loading import load_yaml_model
 from ecds_lab.config.station import InstrumentConfig, SerialLink, StationConfig, VisaLink
 from ecds_lab.instruments.interfaces import HeaterSupply, LCRBridge, Positioner, TemperatureScanner
+from ecds_lab.instruments.kinds import ROLE_NAMES, kind
 from ecds_lab.transports.base import Transport
 from ecds_lab.transports.serial_link import SerialTransport
 from ecds_lab.transports.visa_link import VisaTransport
 
-#: Driver name -> "module:class" (module also holds SERIAL_SETTINGS and, for SCPI, VISA_SETTINGS).
-DRIVERS = {
-    "hm8118": "ecds_lab.drivers.hm8118:HM8118",
-    "grbl": "ecds_lab.drivers.grbl:Grbl",
-    "daq970a": "ecds_lab.drivers.daq970a:DAQ970A",
-    "34970a": "ecds_lab.drivers.daq970a:Keysight34970A",
-    "hmp4040": "ecds_lab.drivers.hmp:HMP4040",
-}
-ROLE_NAMES = ("bridge", "slide", "scanner", "heater")
-#: How the simulated station reaches each simulator when the YAML gives no link.
-SIMULATED_LINKS: dict[str, Callable[[str, str], SerialLink | VisaLink]] = {
-    "bridge": lambda lab, drv: SerialLink(url=f"ecdssim://{lab}/{drv}"),
-    "slide": lambda lab, drv: SerialLink(url=f"ecdssim://{lab}/{drv}"),
-    "scanner": lambda lab, drv: VisaLink(resource=f"ASRLecdssim://{lab}/{drv}::INSTR"),
-    "heater": lambda lab, drv: VisaLink(resource=f"ASRLecdssim://{lab}/{drv}::INSTR"),
-}
 DEFAULT_STATION = Path(__file__).resolve().parent.parent / "experiments" / "stations" / "simulated_lab.yaml"
 
 TransportFactory = Callable[[str, InstrumentConfig, dict[str, Any], Clock], Transport]
 _lab_numbers = itertools.count()
 
 
-def driver_module(driver: str) -> Any:
-    return importlib.import_module(DRIVERS[driver].partition(":")[0])
-
-
 def driver_class(driver: str) -> Any:
-    module, _, cls = DRIVERS[driver].partition(":")
-    return getattr(importlib.import_module(module), cls)
+    """The driver class of an instrument kind (imported on first use)."""
+    return kind(driver).driver_class()
 
 
 def link_settings(driver: str, link: SerialLink | VisaLink) -> dict[str, Any]:
     """The driver's documented link settings for this kind of link, with the station's overrides."""
-    module = driver_module(driver)
-    base = getattr(module, "VISA_SETTINGS" if isinstance(link, VisaLink) else "SERIAL_SETTINGS")
-    settings = dict(base)
+    settings = kind(driver).link_settings(link.kind)
     if link.timeout_s is not None:
         settings["timeout_s"] = link.timeout_s
     if isinstance(link, SerialLink) and link.baudrate is not None:
         settings["baudrate"] = link.baudrate
-    if isinstance(link, VisaLink):
-        for serial_only in ("bytesize", "parity", "stopbits", "rtscts", "xonxoff", "baudrate"):
-            settings.pop(serial_only, None)
     return settings
+
+
+def simulated_link(driver: str, lab: str) -> SerialLink | VisaLink:
+    """How the simulated station reaches an instrument whose YAML entry gives no link."""
+    row = kind(driver)
+    address = row.simulated_address(lab)
+    return SerialLink(url=address) if row.simulated_link == "serial" else VisaLink(resource=address)
 
 
 def open_transport(role: str, instrument: InstrumentConfig, settings: dict[str, Any], clock: Clock) -> Transport:
@@ -124,7 +107,7 @@ def open_station(config: StationConfig, yaml_text: str = "", *, transport_factor
         lab_name = f"lab{next(_lab_numbers)}"
         lab = register_lab(lab_name, SimulatedLab(config.simulated.lab, clock))
         instruments = {role: inst if inst.link is not None else
-                       inst.model_copy(update={"link": SIMULATED_LINKS[role](lab_name, inst.driver)})
+                       inst.model_copy(update={"link": simulated_link(inst.driver, lab_name)})
                        for role, inst in instruments.items()}
     factory = transport_factory or open_transport
     transports: dict[str, Transport] = {}

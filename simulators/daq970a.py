@@ -1,10 +1,16 @@
 """DAQ970A / 34970A emulator: thermocouple channels scanned from the simulated lab's temperatures.
 
-Speaks the subset drivers/daq970a.py documents (sources there): ``CONF:TEMP``, ``MEAS:TEMP?``,
-``UNIT:TEMP``, ``SENS:TEMP:TRAN:TC:RJUN:TYPE``, ``SENS:TEMP:TRAN:TC:CHEC``, ``ROUT:SCAN``,
-``ROUT:SCAN?`` (definite-length block ``#214(@101,102,103)``, empty ``#13(@)``), ``ROUT:SCAN:SIZE?``,
-``READ?``, ``ABOR``. CONF/MEAS redefine the scan list and reset the channels' settings
-[34970A-UG ch.4 "To Build a Scan List"]. Which channel sees which lab temperature is
+Written from the manuals, not from the driver (its tables are the emulator's own):
+  [34970A-UG]   Agilent/HP 34970A User's Guide: ch.4 "To Build a Scan List" and "Rules for Using
+                a Channel List", ch.5 CONFigure / ROUTe:SCAN (p.228), SYSTem:ERRor? (p.268)
+  [34980A-help] 34980A online help (the same SCPI tree): CONFigure:TEMPerature, UNIT:TEMPerature,
+                [SENSe:]TEMPerature:TRANsducer:TCouple:RJUNction:TYPE
+  [dvg]         Dennis-van-Gils/python-dvg-devices, Keysight_3497xA_protocol_SCPI.py (*OPC? reply)
+Speaks ``CONF:TEMP``, ``MEAS:TEMP?``, ``UNIT:TEMP``, ``SENS:TEMP:TRAN:TC:RJUN:TYPE``,
+``SENS:TEMP:TRAN:TC:CHEC``, ``ROUT:SCAN``, ``ROUT:SCAN?`` (definite-length block
+``#214(@101,102,103)``, empty ``#13(@)``), ``ROUT:SCAN:SIZE?``, ``READ?``, ``ABOR``.
+CONF/MEAS redefine the scan list and reset the channels' settings [34970A-UG ch.4 "To Build a
+Scan List"]. Which channel sees which lab temperature is
 ``LabConfig.thermocouple_channels``; other channels have nothing wired, i.e. an open input.
 
 Readings are NR3 with 8 decimals (``+2.21234567E+01``), comma-separated in scan order; the
@@ -26,17 +32,27 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
+from typing import ClassVar
 
-from ecds_lab.drivers.daq970a import MUX_CHANNELS, SLOTS, TC_TYPES
 from ecds_lab.simulators.lab import SimulatedLab
 from ecds_lab.simulators.scpi import SCPIEmulator, SCPIError
 
+#: ``CONF:TEMP`` transducer names for a thermocouple (long and short form) [34980A-help CONFigure:TEMPerature].
+THERMOCOUPLE_TRANSDUCERS = frozenset({"TC", "TCOUPLE"})
+#: Thermocouple types the DMM linearises: ``{B|E|J|K|N|R|S|T}`` [34980A-help CONFigure:TEMPerature].
+THERMOCOUPLE_TYPES = frozenset("BEJKNRST")
+#: ``UNIT:TEMP {C|F|K}`` [34980A-help UNIT:TEMPerature].
+UNITS = ("C", "F", "K")
+#: ``RJUN:TYPE {INTernal|EXTernal|FIXed}``, long and short forms [34980A-help].
+_REFERENCE_JUNCTIONS = {"INT": "INT", "INTERNAL": "INT", "EXT": "EXT", "EXTERNAL": "EXT", "FIX": "FIX", "FIXED": "FIX"}
+#: Channel numbers are slot * 100 + channel: slots 1-3 [34970A-UG ch.4 "Rules for Using a Channel List"],
+#: 20 channels on the 34901A multiplexer.
+MAINFRAME_SLOTS: tuple[int, ...] = (1, 2, 3)
+MULTIPLEXER_CHANNELS = 20
 #: Modules fitted: slot 1 only (assumption, see above).
 INSTALLED_SLOTS: tuple[int, ...] = (1,)
 SCAN_TIME_PER_CHANNEL_S = 0.1
 OVERLOAD = 9.9e37
-_REFERENCE_JUNCTIONS = {"INT": "INT", "INTERNAL": "INT", "EXT": "EXT", "EXTERNAL": "EXT", "FIX": "FIX", "FIXED": "FIX"}
-_UNITS = ("C", "F", "K")
 
 
 @dataclass
@@ -55,7 +71,7 @@ class DAQ970AEmulator(SCPIEmulator):
     name = "daq970a"
     identity = "Keysight Technologies,DAQ970A,MY58000001,A.02.04-00.16-11.29-00.02-02-01"
     opc_reply = "+1"  # [dvg]
-    commands = {
+    commands: ClassVar[dict[str, str]] = {
         "CONFigure:TEMPerature": "configure",
         "MEASure:TEMPerature?": "measure",
         "UNIT:TEMPerature": "set_unit",
@@ -79,7 +95,7 @@ class DAQ970AEmulator(SCPIEmulator):
     # -- channel lists ------------------------------------------------------------------------
     @staticmethod
     def _valid(channel: int) -> bool:
-        return channel // 100 in SLOTS and 1 <= channel % 100 <= MUX_CHANNELS
+        return channel // 100 in MAINFRAME_SLOTS and 1 <= channel % 100 <= MULTIPLEXER_CHANNELS
 
     def channel_list(self, text: str) -> list[int]:
         """``(@101:103,105)`` -> [101, 102, 103, 105]; range ends must be valid, invalid channels inside are skipped."""
@@ -111,7 +127,7 @@ class DAQ970AEmulator(SCPIEmulator):
             raise SCPIError(-109)
         channels = self.channel_list(parameters[-1])
         transducer, tc_type = parameters[0].upper(), parameters[1].upper()
-        if transducer not in ("TC", "TCOUPLE") or tc_type not in TC_TYPES:
+        if transducer not in THERMOCOUPLE_TRANSDUCERS or tc_type not in THERMOCOUPLE_TYPES:
             raise SCPIError(-224)
         for number in channels:
             self.channels[number] = ThermocoupleChannel(tc_type)
@@ -124,7 +140,7 @@ class DAQ970AEmulator(SCPIEmulator):
     def set_unit(self, argument: str) -> None:
         parameters = self.parameters(argument)
         unit = parameters[0].upper() if parameters else ""
-        if unit not in _UNITS:
+        if unit not in UNITS:
             raise SCPIError(-109 if not unit else -224)
         for channel in self._targets(parameters):
             channel.unit = unit

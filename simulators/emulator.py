@@ -71,7 +71,7 @@ class LineEmulator(ABC):
             out += heapq.heappop(self._scheduled)[2]
         return bytes(out)
 
-    def on_open(self) -> None:
+    def on_open(self) -> None:  # noqa: B027 - optional hook: most instruments take no notice of a port opening
         """The host opened the port (GRBL on an Arduino resets here)."""
 
     # -- the firmware side --------------------------------------------------------------------
@@ -80,7 +80,8 @@ class LineEmulator(ABC):
         """Act on one command line (without its termination)."""
 
     def handle_realtime(self, char: bytes) -> None:
-        """Act on a real-time byte."""
+        """Act on a real-time byte; an emulator that declares ``realtime_bytes`` must say what they do."""
+        raise NotImplementedError(f"{self.name}: real-time byte {char!r} declared but not handled")
 
     def reply(self, text: str, delay_s: float = 0.0) -> None:
         """Queue one reply line, ready ``delay_s`` simulated seconds from now."""

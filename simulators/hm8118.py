@@ -1,9 +1,14 @@
 """HM8118 LCR bridge emulator: the bridge's serial protocol over the simulated lab's coil.
 
-Speaks what drivers/hm8118.py documents: CR-terminated commands, silent set
-commands, ``ERROR`` for anything refused, ``XALL?`` -> ``main,secondary,bin``.
-Measurement times and noise per speed are assumptions (the vendor's figures were
-not found): fast 70 ms, medium 190 ms, slow 600 ms per reading.
+Written from the instrument's manual, not from the driver (its tables are the emulator's own):
+  [M32] HM8118 manual, ch. 10 "Command reference", sections 10.1-10.2, p. 32 (mnemonics, codes)
+  [M23] HM8118 manual (German), "Befehlsliste", p. 23 (``ERROR`` for a refused command)
+  [M50] HM8118 manual, s. 7.3.2, p. 50 (compensation over the 69 test frequencies)
+  [SPEC] HM8118 data sheet: test frequencies 20 Hz-200 kHz, test signal 50 mV-1.5 V rms
+CR-terminated commands, silent set commands, ``ERROR`` for anything refused,
+``XALL?`` -> ``main,secondary,bin``. Measurement times and noise per speed are
+assumptions (the vendor's figures were not found): fast 70 ms, medium 190 ms, slow
+600 ms per reading.
 """
 
 from __future__ import annotations
@@ -11,14 +16,31 @@ from __future__ import annotations
 import cmath
 import math
 
-from ecds_lab.drivers.hm8118 import CIRCUITS, FREQUENCIES_HZ, FUNCTIONS, SPEEDS, TRIGGER_MODES
 from ecds_lab.simulators.emulator import LineEmulator
 from ecds_lab.simulators.lab import SimulatedLab
 
 IDENTITY = "HAMEG Instruments, HM8118,013206727,1.57"
+#: The bridge steps its test frequency through the same 17 values in every decade
+#: (1, 1.2, 1.5, 1.8, 2, 2.4, 2.5, 3, 3.6, 4, 4.5, 5, 6, 7.2, 7.5, 8, 9), from 20 Hz up to
+#: 200 kHz: 69 frequencies in all [SPEC, M50].
+_STEPS_PER_DECADE = (10, 12, 15, 18, 20, 24, 25, 30, 36, 40, 45, 50, 60, 72, 75, 80, 90)
+FREQUENCIES_HZ: frozenset[int] = frozenset(
+    step * 10 ** decade for decade in range(6) for step in _STEPS_PER_DECADE if 20 <= step * 10 ** decade <= 200_000)
+#: ``VOLT``: test signal level in V rms [SPEC].
+VOLTAGE_RANGE_V = (0.05, 1.5)
+#: ``PMOD`` codes [M32]: the main-secondary display pair (10 and 11 need the HZ186 fixture).
+FUNCTION_CODES = {0: "AUTO", 1: "L-Q", 2: "L-R", 3: "C-D", 4: "C-R", 5: "R-Q", 6: "Z-theta", 7: "Y-theta",
+                  8: "R-X", 9: "G-B", 10: "N-theta", 11: "M"}
+#: ``CIRC`` codes [M32].
+CIRCUIT_CODES = {0: "series", 1: "parallel", 2: "auto"}
+#: ``RATE`` codes [M32], named as the lab's noise model names them.
+SPEED_CODES = {0: "fast", 1: "medium", 2: "slow"}
+#: ``MMOD`` codes [M32].
+TRIGGER_CODES = {0: "continuous", 1: "manual", 2: "external"}
+#: ``NAVG``: readings averaged when ``AVGM`` is on [M32].
+AVERAGES_RANGE = (2, 99)
 MEASUREMENT_TIME_S = {0: 0.07, 1: 0.19, 2: 0.6}
 COMPENSATION_TIME_S = 1.5  # per frequency
-_SPEED_NAMES = {code: name for name, code in SPEEDS.items()}
 
 
 class HM8118Emulator(LineEmulator):
@@ -86,13 +108,13 @@ class HM8118Emulator(LineEmulator):
             return
         valid = {
             "FREQ": value in FREQUENCIES_HZ,
-            "VOLT": 0.05 <= value <= 1.5,
-            "PMOD": value in FUNCTIONS.values(),
-            "CIRC": value in CIRCUITS.values(),
-            "RATE": value in SPEEDS.values(),
+            "VOLT": VOLTAGE_RANGE_V[0] <= value <= VOLTAGE_RANGE_V[1],
+            "PMOD": value in FUNCTION_CODES,
+            "CIRC": value in CIRCUIT_CODES,
+            "RATE": value in SPEED_CODES,
             "AVGM": value in (0, 1),
-            "NAVG": value.is_integer() and 2 <= value <= 99,
-            "MMOD": value in TRIGGER_MODES.values(),
+            "NAVG": value.is_integer() and AVERAGES_RANGE[0] <= value <= AVERAGES_RANGE[1],
+            "MMOD": value in TRIGGER_CODES,
             "CALL": value in (0, 1),
         }[mnemonic]
         if not valid:
@@ -104,10 +126,14 @@ class HM8118Emulator(LineEmulator):
         value = self.settings[mnemonic]
         return f"{value:.3f}" if mnemonic == "VOLT" else str(int(value))
 
+    def _code(self, mnemonic: str) -> int:
+        """A coded setting (PMOD, CIRC, RATE, NAVG, ...) as the integer the bridge holds."""
+        return int(self.settings[mnemonic])
+
     # -- measuring -------------------------------------------------------------------------
     def _duration(self) -> float:
-        count = self.settings["NAVG"] if self.settings["AVGM"] else 1
-        return MEASUREMENT_TIME_S[self.settings["RATE"]] * count
+        count = self._code("NAVG") if self.settings["AVGM"] else 1
+        return MEASUREMENT_TIME_S[self._code("RATE")] * count
 
     def _trigger(self) -> None:
         """*TRG starts a measurement; the lab is sampled now, the result is ready after the measuring time."""
@@ -133,17 +159,17 @@ class HM8118Emulator(LineEmulator):
 
     def _measure(self) -> tuple[float, float] | None:
         """Main and secondary value of the active function from the lab's coil impedance."""
-        if self.settings["PMOD"] in (0, 10, 11):  # AUTO display and transformer modes: nothing to read
+        if self._code("PMOD") in (0, 10, 11):  # AUTO display and transformer modes: nothing to read
             return None
         frequency = float(self.settings["FREQ"])
         omega = 2 * math.pi * frequency
-        averages = self.settings["NAVG"] if self.settings["AVGM"] else 1
-        z = self.lab.measured_impedance(frequency, _SPEED_NAMES[self.settings["RATE"]], self.settings["VOLT"], averages)
-        function = self.settings["PMOD"]
+        averages = self._code("NAVG") if self.settings["AVGM"] else 1
+        z = self.lab.measured_impedance(frequency, SPEED_CODES[self._code("RATE")], self.settings["VOLT"], averages)
+        function = self._code("PMOD")
         if function in (6, 7, 8):  # Z-theta, Y-theta, R-X: no equivalent circuit involved
             theta = math.degrees(cmath.phase(z))
             return {6: (abs(z), theta), 7: (abs(1 / z), -theta), 8: (z.real, z.imag)}[function]
-        circuit = self.settings["CIRC"]
+        circuit = self._code("CIRC")
         parallel = circuit == 1 or (circuit == 2 and abs(z) > 1e3)
         y = 1 / z
         if function == 9:  # G-B

@@ -1,6 +1,11 @@
 """HMP4040 emulator: four outputs that drive the simulated lab's heaters.
 
-Speaks what drivers/hmp.py documents (sources there): ``INST OUT<n>`` / ``INST:SEL OUT<n>`` /
+Written from the public sources on the HMP's SCPI set, not from the driver:
+  [HMP-DS]  R&S HMP datasheet: HMP4040 4 x 0-32 V, 10 A, 160 W per output
+  [pym-HMP] pymeasure, instruments/rohdeschwarz/hmp.py; [qc-HMP] QCoDeS contrib, RohdeSchwarz/private/HMP.py
+  [sigrok]  libsigrok src/hardware/scpi-pps/profiles.c (rs_hmp4040_cmd, the 32.050 V / 10.010 A maxima)
+  [chk]     charkster/hmp4040 hmp4040.py (power-on readbacks, OUTP:SEL / OUTP:GEN wording)
+Speaks ``INST OUT<n>`` / ``INST:SEL OUT<n>`` /
 ``INST:NSEL <n>`` select; ``VOLT``, ``CURR`` (with optional ``SOUR:`` and ``:LEV:IMM:AMPL``
 nodes) set and query the selected output (``12.000``, ``1.5000`` [chk]); ``OUTP:SEL`` arms it,
 ``OUTP:GEN`` is the master switch, ``OUTP ON`` arms it and turns the master on, ``OUTP OFF``
@@ -10,7 +15,7 @@ holds, and every change goes through ``lab.set_supply`` so temperatures integrat
 settings that were in force.
 
 Assumptions, not from a manual: out-of-range values are refused with -222 "Data out of range"
-(the setting is kept); the accepted ranges are the drivers' 0-32.050 V and 0-10.010 A [sigrok,
+(the setting is kept); the accepted ranges are 0-32.050 V and 0-10.010 A [sigrok,
 qc-HMP]; *RST gives 0 V, 0.1 A, all off, output 1 selected (the power-on readbacks [chk]); the
 160 W per-output power limit is not modelled.
 """
@@ -19,6 +24,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
+from typing import ClassVar
 
 from ecds_lab.simulators.lab import SimulatedLab
 from ecds_lab.simulators.scpi import SCPIEmulator, SCPIError
@@ -42,7 +48,7 @@ class HMPEmulator(SCPIEmulator):
     name = "hmp4040"
     identity = "ROHDE&SCHWARZ,HMP4040,101234,HW50020003/SW2.51"
     outputs = 4
-    commands = {
+    commands: ClassVar[dict[str, str]] = {
         "INSTrument[:SELect]": "select",
         "INSTrument[:SELect]?": "selected",
         "INSTrument:NSELect": "select_number",

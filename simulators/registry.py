@@ -7,37 +7,30 @@ re-opened port finds the instrument in the state it was left in, as hardware wou
 
 from __future__ import annotations
 
-import importlib
 import threading
-from typing import Callable
+from collections.abc import Callable
 
+from ecds_lab.instruments.kinds import KINDS
 from ecds_lab.simulators.emulator import LineEmulator
 from ecds_lab.simulators.lab import SimulatedLab
+from ecds_lab.simulators.urlhandler import register_scheme
 
 _LABS: dict[str, SimulatedLab] = {}
 _EMULATORS: dict[tuple[str, str], LineEmulator] = {}
 _LOCK = threading.Lock()
 
 
-#: Instrument name in ``ecdssim://`` URLs -> "module:class" of its emulator (imported on first use).
-EMULATOR_KINDS = {
-    "hm8118": "ecds_lab.simulators.hm8118:HM8118Emulator",
-    "grbl": "ecds_lab.simulators.grbl:GrblEmulator",
-    "daq970a": "ecds_lab.simulators.daq970a:DAQ970AEmulator",
-    "34970a": "ecds_lab.simulators.daq970a:Keysight34970AEmulator",
-    "hmp4040": "ecds_lab.simulators.hmp:HMPEmulator",
-}
-
-
 def _emulator_class(instrument: str) -> Callable[[SimulatedLab], LineEmulator]:
-    if instrument not in EMULATOR_KINDS:
-        raise KeyError(f"no simulated instrument {instrument!r}; choose one of {sorted(EMULATOR_KINDS)}")
-    module, _, cls = EMULATOR_KINDS[instrument].partition(":")
-    return getattr(importlib.import_module(module), cls)
+    """The emulator class the instrument table names for ``instrument`` (imported on first use)."""
+    if instrument not in KINDS:
+        raise KeyError(f"no simulated instrument {instrument!r}; choose one of {sorted(KINDS)}")
+    emulator_class: Callable[[SimulatedLab], LineEmulator] = KINDS[instrument].emulator_class()
+    return emulator_class
 
 
 def register_lab(name: str, lab: SimulatedLab) -> SimulatedLab:
     """Make ``lab`` reachable as ``ecdssim://name/...``; replaces a lab of the same name."""
+    register_scheme()
     with _LOCK:
         _LABS[name] = lab
         for key in [k for k in _EMULATORS if k[0] == name]:

@@ -2,24 +2,24 @@
 
 from __future__ import annotations
 
-import inspect
+import math
 
 from ecds_lab.config.experiment import CoilHeating, DisplacementSweep, Spectroscopy, SweepConfig, TargetHeating
 from ecds_lab.config.station import StationConfig
 from ecds_lab.errors import ConfigError
+from ecds_lab.instruments.kinds import kind
 
 Experiment = DisplacementSweep | CoilHeating | TargetHeating | Spectroscopy
 
 
 def slide_travel_mm(station: StationConfig) -> tuple[float, float]:
-    """The slide's soft travel limits: the station's options, else the driver's defaults."""
-    from ecds_lab.station import driver_class
+    """The slide's soft travel limits: the station's options, else the travel its driver declares.
 
-    defaults = inspect.signature(driver_class(station.slide.driver).__init__).parameters
+    A slide driver that declares no ``default_travel_mm`` has no soft limits to check against.
+    """
+    declared = getattr(kind(station.slide.driver).driver_class(), "default_travel_mm", (0.0, math.inf))
     options = station.slide.options
-    low = options.get("min_mm", defaults["min_mm"].default if "min_mm" in defaults else 0.0)
-    high = options.get("max_mm", defaults["max_mm"].default if "max_mm" in defaults else float("inf"))
-    return float(low), float(high)
+    return float(options.get("min_mm", declared[0])), float(options.get("max_mm", declared[1]))
 
 
 def check_experiment_fits_station(experiment: Experiment, station: StationConfig, source: str) -> None:
@@ -60,7 +60,8 @@ def check_experiment_fits_station(experiment: Experiment, station: StationConfig
                 problems.append(f"{source}: field '{field}[{i}]': {setpoint:g} C is at or above the station's "
                                 f"{channel} limit (allowed below {limit:g} C, safety.max_temperature_c)")
         ohm = station.heaters.target_heater_ohm if channel == "target" else station.heaters.coil_heater_ohm
-        max_power = min(safety.heater_max_voltage_v ** 2 / ohm, safety.heater_max_voltage_v * safety.heater_max_current_a)
+        volts, amps = safety.heater_max_voltage_v, safety.heater_max_current_a
+        max_power = min(volts ** 2 / ohm, volts * amps)
         for i, power in enumerate(powers or []):
             if not 0 <= power <= max_power:
                 problems.append(f"{source}: field 'heating.powers_w[{i}]': {power:g} W exceeds the heater limit "

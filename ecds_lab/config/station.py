@@ -13,10 +13,8 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validat
 
 from ecds_lab.data.sensor import SensorConfig, load_sensor
 from ecds_lab.errors import ConfigError
+from ecds_lab.instruments.kinds import KINDS, ROLE_NAMES, drivers_for_role
 from ecds_lab.simulators.config import LabConfig
-
-DRIVERS = ("hm8118", "grbl", "daq970a", "34970a", "hmp4040")
-ROLES = {"bridge": ("hm8118",), "slide": ("grbl",), "scanner": ("daq970a", "34970a"), "heater": ("hmp4040",)}
 
 
 class _Strict(BaseModel):
@@ -44,10 +42,25 @@ class VisaLink(_Strict):
 class InstrumentConfig(_Strict):
     """One instrument of the station: driver, link, and driver options."""
 
-    driver: Literal["hm8118", "grbl", "daq970a", "34970a", "hmp4040"]
+    driver: str = Field(description="an instrument kind of ecds_lab.instruments.kinds (hm8118, grbl, ...)")
     link: SerialLink | VisaLink | None = Field(None, discriminator="kind")
     options: dict[str, Any] = {}
     min_interval_s: float | None = Field(None, ge=0, description="pause between commands; default per driver")
+
+    @field_validator("driver")
+    @classmethod
+    def _known_driver(cls, driver: str) -> str:
+        if driver not in KINDS:
+            known = ", ".join(f"{name!r} ({'/'.join(row.roles)})" for name, row in KINDS.items())
+            raise ValueError(f"unknown driver {driver!r}; allowed: {known}")
+        return driver
+
+    @model_validator(mode="after")
+    def _link_fits_driver(self) -> InstrumentConfig:
+        links = KINDS[self.driver].links
+        if self.link is not None and self.link.kind not in links:
+            raise ValueError(f"driver {self.driver!r} has no {self.link.kind} link; allowed: {', '.join(links)}")
+        return self
 
 
 class SafetyConfig(_Strict):
@@ -116,18 +129,19 @@ class StationConfig(_Strict):
             self.simulated = self.simulated.model_copy(update={"lab": lab.model_copy(update={"sensor": self.sensor})})
         return self
 
-    @field_validator(*ROLES)
+    @field_validator(*ROLE_NAMES)
     @classmethod
     def _driver_fits_role(cls, instrument: InstrumentConfig, info: ValidationInfo) -> InstrumentConfig:
-        allowed = ROLES[info.field_name]
+        role = str(info.field_name)
+        allowed = drivers_for_role(role)
         if instrument.driver not in allowed:
-            raise ValueError(f"driver {instrument.driver!r} cannot serve as {info.field_name}; "
+            raise ValueError(f"driver {instrument.driver!r} cannot serve as {role}; "
                              f"allowed: {', '.join(allowed)}")
         return instrument
 
     @model_validator(mode="after")
-    def _check(self) -> "StationConfig":
-        for role in ROLES:
+    def _check(self) -> StationConfig:
+        for role in ROLE_NAMES:
             instrument: InstrumentConfig = getattr(self, role)
             if self.simulated is None and instrument.link is None:
                 raise ValueError(f"{role}: a real station needs a 'link' (serial url or visa resource)")

@@ -3,4 +3,4 @@
 from ecds_lab.transports.base import Transport
 from ecds_lab.transports.transcript import Transcript, TranscriptEvent
 
-__all__ = ["Transport", "Transcript", "TranscriptEvent"]
+__all__ = ["Transcript", "TranscriptEvent", "Transport"]

@@ -90,7 +90,7 @@ class Transport(ABC):
             self._closed = True
             self._close()
 
-    def __enter__(self) -> "Transport":
+    def __enter__(self) -> Transport:
         return self
 
     def __exit__(self, *exc: object) -> None:

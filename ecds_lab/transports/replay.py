@@ -13,6 +13,7 @@ what is reported is the first place the code left the recording, not a consequen
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 from ecds_lab.clock import SimulatedClock
 from ecds_lab.errors import ReplayDivergence, TransportError
@@ -43,9 +44,9 @@ class ReplayTransport(Transport):
                  write_termination: str = "\n", read_termination: str = "\n", state: ReplayState | None = None,
                  **options: object) -> None:
         options.pop("min_interval_s", None)  # the recording already holds the pauses
+        kept: dict[str, Any] = {k: v for k, v in options.items() if k in ("timeout_s", "record")}
         super().__init__(name, write_termination=write_termination, read_termination=read_termination,
-                         clock=clock, min_interval_s=0.0, **{k: v for k, v in options.items()
-                                                           if k in ("timeout_s", "record")})
+                         clock=clock, min_interval_s=0.0, **kept)
         self.events = events
         self.position = 0
         self.state = state or ReplayState()

@@ -1,7 +1,8 @@
 """pyserial link, opened with ``serial_for_url``.
 
-Real ports (``/dev/ttyUSB0``, ``COM3``), ``socket://host:port``, ``loop://`` and
-the simulators' ``ecdssim://`` scheme all go through this one code path.
+Real ports (``/dev/ttyUSB0``, ``COM3``), ``socket://host:port``, ``loop://`` and any
+scheme registered with pyserial (the simulated lab registers ``ecdssim://``) all go
+through this one code path; the transport knows nothing of who is at the far end.
 """
 
 from __future__ import annotations
@@ -12,13 +13,6 @@ from ecds_lab.errors import TransportError
 from ecds_lab.transports.base import Transport
 
 _PARITY = {"N": serial.PARITY_NONE, "E": serial.PARITY_EVEN, "O": serial.PARITY_ODD}
-
-
-def register_simulator_scheme() -> None:
-    """Make ``ecdssim://LAB/INSTRUMENT`` URLs resolve to the in-process simulators."""
-    package = "ecds_lab.simulators.urlhandler"
-    if package not in serial.protocol_handler_packages:
-        serial.protocol_handler_packages.append(package)
 
 
 class SerialTransport(Transport):
@@ -38,7 +32,6 @@ class SerialTransport(Transport):
         **options: object,
     ) -> None:
         super().__init__(name, **options)  # type: ignore[arg-type]
-        register_simulator_scheme()
         try:
             self._port = serial.serial_for_url(
                 url,
@@ -60,7 +53,7 @@ class SerialTransport(Transport):
 
     @property
     def port(self) -> serial.SerialBase:
-        """The underlying pyserial object (simulator tests reach the emulator through it)."""
+        """The underlying pyserial object (tests reach the far end through it)."""
         return self._port
 
     def _send(self, data: bytes) -> None:

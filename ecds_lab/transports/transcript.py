@@ -7,8 +7,9 @@ instrument, and the replay transport serves it back to the same driver code.
 from __future__ import annotations
 
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass, field
-from typing import Iterator, NamedTuple
+from typing import NamedTuple
 
 #: Event kinds: bytes the host sent (a terminated command or raw real-time bytes),
 #: a line the instrument sent, or a failure seen on the link (e.g. a timeout).

@@ -2,17 +2,17 @@
 
 Any VISA resource works: ``TCPIP0::192.168.0.5::5025::SOCKET``, ``USB0::...::INSTR``,
 ``ASRL/dev/ttyUSB0::INSTR``. pyvisa-py opens ``ASRL<url>::INSTR`` through
-pyserial's ``serial_for_url``, so ``ASRLecdssim://lab/daq970a::INSTR`` reaches a
-simulator through the full VISA stack.
+pyserial's ``serial_for_url``, so any pyserial URL scheme works as an ASRL resource
+(the simulated lab's ``ASRLecdssim://lab/daq970a::INSTR`` goes through the full VISA stack).
 """
 
 from __future__ import annotations
 
 import pyvisa
+from pyvisa.resources import MessageBasedResource
 
 from ecds_lab.errors import TransportError
 from ecds_lab.transports.base import Transport
-from ecds_lab.transports.serial_link import register_simulator_scheme
 
 _MANAGERS: dict[str, pyvisa.ResourceManager] = {}
 
@@ -29,16 +29,19 @@ class VisaTransport(Transport):
     def __init__(self, name: str, resource: str, *, backend: str = "@py", baudrate: int | None = None,
                  **options: object) -> None:
         super().__init__(name, **options)  # type: ignore[arg-type]
-        register_simulator_scheme()
         try:
-            self._resource = _resource_manager(backend).open_resource(
+            opened = _resource_manager(backend).open_resource(
                 resource,
                 read_termination=self.read_termination,
                 write_termination="",
                 timeout=round(self.timeout_s * 1000),
             )
-            if baudrate is not None and hasattr(self._resource, "baud_rate"):
-                self._resource.baud_rate = baudrate
+            if not isinstance(opened, MessageBasedResource):
+                opened.close()
+                raise ValueError("not a message-based resource (a line link needs one)")
+            if baudrate is not None and hasattr(opened, "baud_rate"):
+                opened.baud_rate = baudrate
+            self._resource = opened
         except (pyvisa.Error, ValueError, OSError) as exc:
             raise TransportError(f"{name}: cannot open VISA resource {resource!r}: {exc}") from exc
         self.resource_name = resource

@@ -1,7 +1,7 @@
 """pyserial URL handler ``ecdssim://LAB/INSTRUMENT``: a serial port wired to an emulator.
 
 pyserial finds this module through ``serial.protocol_handler_packages`` (registered
-by ``ecds_lab.transports.serial_link``). Reads hand out the emulator's replies; when
+by ``ecds_lab.simulators.registry.register_lab``). Reads hand out the emulator's replies; when
 none is ready, the host's wait passes on the lab's simulated clock, up to the port
 timeout, so instrument-internal delays cost no wall time.
 """
@@ -12,11 +12,14 @@ from urllib.parse import urlparse
 
 from serial.serialutil import PortNotOpenError, SerialBase, SerialException, SerialTimeoutException
 
+from ecds_lab.simulators.emulator import LineEmulator
 from ecds_lab.simulators.registry import emulator
 
 
 class Serial(SerialBase):
     """A serial port whose far end is a protocol emulator in this process."""
+
+    is_open: bool
 
     def open(self) -> None:
         if self._port is None:
@@ -44,7 +47,7 @@ class Serial(SerialBase):
         self.is_open = False
 
     @property
-    def emulator(self):  # noqa: ANN201 - the emulator type lives in the simulators package
+    def emulator(self) -> LineEmulator:
         return self._emulator
 
     @property

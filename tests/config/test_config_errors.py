@@ -14,7 +14,7 @@ import yaml
 
 from ecds_lab.cli import main
 from ecds_lab.config.experiment import SweepConfig
-from ecds_lab.config.station import DRIVERS, ROLES
+from ecds_lab.instruments.kinds import KINDS, drivers_for_role
 from ecds_lab.drivers.hm8118 import FREQUENCIES_HZ
 from ecds_lab.simulators.config import TargetBending
 from ecds_lab.errors import ConfigError
@@ -115,13 +115,14 @@ def power_above_heater_wiring(copy, tmp_path, experiments) -> BadConfig:  # noqa
 def driver_in_the_wrong_role(copy, tmp_path, experiments) -> BadConfig:  # noqa: ANN001
     station = copy("stations/simulated_lab.yaml", lambda d: d["slide"].update(driver="hm8118"))
     return BadConfig(experiments / "displacement_sweep.yaml", station, station,
-                     ["field 'slide'", "'hm8118' cannot serve as slide", "allowed: " + ", ".join(ROLES["slide"])])
+                     ["field 'slide'", "'hm8118' cannot serve as slide",
+                      "allowed: " + ", ".join(drivers_for_role("slide"))])
 
 
 def unknown_driver(copy, tmp_path, experiments) -> BadConfig:  # noqa: ANN001
     station = copy("stations/simulated_lab.yaml", lambda d: d["bridge"].update(driver="hm9999"))
     return BadConfig(experiments / "displacement_sweep.yaml", station, station,
-                     ["field 'bridge.driver'", "'hm9999'", *(f"'{d}'" for d in DRIVERS)])
+                     ["field 'bridge.driver'", "'hm9999'", *(f"'{d}'" for d in KINDS)])
 
 
 def malformed_experiment(copy, tmp_path, experiments) -> BadConfig:  # noqa: ANN001
