@@ -6,7 +6,8 @@ decorated with ``@handles(ThatStep)``.
 
 from __future__ import annotations
 
-from typing import Any, Callable, TypeVar
+from collections.abc import Callable
+from typing import Any, TypeVar
 
 from ecds_lab.errors import EcdsLabError
 from ecds_lab.instruments.interfaces import BridgeSettings
@@ -15,7 +16,15 @@ from ecds_lab.runner.heater_control import HeaterGoal
 from ecds_lab.runner.regulation import regulate
 from ecds_lab.runner.steady_state import SteadinessWindow
 from ecds_lab.runner.steps import (
-    ConfigureBridge, ConfigureScanner, CoolDown, Home, MeasurePoint, Park, PlanStep, SetHeater, WaitSteady,
+    ConfigureBridge,
+    ConfigureScanner,
+    CoolDown,
+    Home,
+    MeasurePoint,
+    Park,
+    PlanStep,
+    SetHeater,
+    WaitSteady,
 )
 from ecds_lab.storage.columns import PLANNED_POINT
 

@@ -10,12 +10,26 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ecds_lab.config.experiment import (
-    CoilHeating, DisplacementSweep, HeatingConfig, Spectroscopy, SweepConfig, TargetHeating,
+    CoilHeating,
+    DisplacementSweep,
+    HeatingConfig,
+    Spectroscopy,
+    SweepConfig,
+    TargetHeating,
 )
 from ecds_lab.config.experiment import SteadyState as SteadyStateConfig
 from ecds_lab.runner.steady_state import SteadyState
 from ecds_lab.runner.steps import (
-    BridgeLog, ConfigureBridge, ConfigureScanner, CoolDown, Heater, Home, MeasurePoint, Park, PlanStep, SetHeater,
+    BridgeLog,
+    ConfigureBridge,
+    ConfigureScanner,
+    CoolDown,
+    Heater,
+    Home,
+    MeasurePoint,
+    Park,
+    PlanStep,
+    SetHeater,
     WaitSteady,
 )
 

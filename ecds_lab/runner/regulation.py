@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import logging
-from typing import Callable
+from collections.abc import Callable
 
 from ecds_lab.errors import EcdsLabError
 from ecds_lab.runner.context import RunContext

@@ -49,7 +49,8 @@ class BridgeLog:
     def describe(self) -> str:
         if not self.frequencies_hz:
             return "no bridge readings"
-        return f"logging the bridge every {self.interval_s:g} s at {', '.join(f'{f:g}' for f in self.frequencies_hz)} Hz"
+        frequencies = ", ".join(f"{f:g}" for f in self.frequencies_hz)
+        return f"logging the bridge every {self.interval_s:g} s at {frequencies} Hz"
 
 
 @dataclass(frozen=True)
