@@ -15,6 +15,9 @@ from ecds_lab.station import Station
 from ecds_lab.storage.columns import LOGGED_POINT
 from ecds_lab.storage.run_file import RunWriter
 
+#: Temperatures and heater powers older than this (simulated or wall seconds) are read again.
+READING_MAX_AGE_S = 2.0
+
 
 class RunContext:
     """The station and run file of one run, with the slide position, heaters and thermocouples it tracks."""
@@ -30,9 +33,10 @@ class RunContext:
         self.step_index = -1
         self.position = SlidePosition(station.slide)
         config = station.config
-        self.heaters = Heaters(station.heater, self.clock, config.heaters, config.safety, read_back=heats)
+        self.heaters = Heaters(station.heater, self.clock, config.heaters, config.safety, read_back=heats,
+                               max_age_s=READING_MAX_AGE_S)
         self.thermocouples = GuardedThermocouples(station.scanner, self.clock, config.safety.max_temperature_c,
-                                                  heating=lambda: self.heaters.heating)
+                                                  heating=lambda: self.heaters.heating, max_age_s=READING_MAX_AGE_S)
 
     def record(self, freq_hz: float, kind: int, point: MeasurePoint | None = None) -> None:
         """One bridge reading with the temperatures and heater powers of the moment, appended to the run file."""

@@ -9,7 +9,6 @@ from ecds_lab.clock import Clock
 from ecds_lab.config.station import HeaterWiring, SafetyConfig
 from ecds_lab.instruments.interfaces import HeaterSupply
 from ecds_lab.runner.heater_control import HeaterGoal, PowerLoop, volts_for_power
-from ecds_lab.runner.interlocks import READING_MAX_AGE_S
 
 HEATERS = ("target", "coil")
 
@@ -18,11 +17,12 @@ class Heaters:
     """What each heater should do and the supply outputs that do it, within the station's safety limits."""
 
     def __init__(self, supply: HeaterSupply, clock: Clock, wiring: HeaterWiring, safety: SafetyConfig, *,
-                 read_back: bool) -> None:
+                 read_back: bool, max_age_s: float) -> None:
         self.supply = supply
         self.clock = clock
         self.safety = safety
         self.read_back = read_back
+        self.max_age_s = max_age_s
         self.outputs = {"target": wiring.target_output, "coil": wiring.coil_output}
         self.heater_ohm = {"target": wiring.target_heater_ohm, "coil": wiring.coil_heater_ohm}
         self.max_power_w = {h: min(safety.heater_max_voltage_v ** 2 / r, safety.heater_max_voltage_v
@@ -65,8 +65,9 @@ class Heaters:
                 self.apply_power(heater, self.loops[heater].update(goal.setpoint_c, temperatures[heater], dt_s))
 
     def powers(self) -> dict[str, float]:
-        """Delivered power per heater (W) from the supply's read-back; NaN when the plan never heats."""
-        if not self.read_back or self.clock.now() - self._powers_at < READING_MAX_AGE_S:
+        """Delivered power per heater (W) from the supply's read-back (again once ``max_age_s`` old);
+        NaN when the plan never heats."""
+        if not self.read_back or self.clock.now() - self._powers_at < self.max_age_s:
             return self.powers_w
         for heater, output in self.outputs.items():
             volts, amps = self.supply.read_back(output)

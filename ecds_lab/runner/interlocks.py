@@ -9,28 +9,27 @@ from ecds_lab.clock import Clock
 from ecds_lab.errors import InstrumentError, SafetyInterlock, TransportError
 from ecds_lab.instruments.interfaces import TemperatureScanner
 
-#: Temperatures and heater powers older than this (simulated or wall seconds) are read again.
-READING_MAX_AGE_S = 2.0
-
 
 class GuardedThermocouples:
-    """Reads the scanner (at most every READING_MAX_AGE_S unless asked fresh) and enforces the limits.
+    """Reads the scanner (again once the last reading is ``max_age_s`` old, or when asked fresh) and
+    enforces the limits.
 
     A SafetyInterlock propagates to the runner, whose safe state switches the heater off.
     """
 
     def __init__(self, scanner: TemperatureScanner, clock: Clock, max_temperature_c: dict[str, float],
-                 heating: Callable[[], bool]) -> None:
+                 heating: Callable[[], bool], max_age_s: float) -> None:
         self.scanner = scanner
         self.clock = clock
         self.max_temperature_c = max_temperature_c
         self.heating = heating
+        self.max_age_s = max_age_s
         self.latest: dict[str, float] = {}
         self._read_at = -math.inf
 
     def read(self, fresh: bool = False) -> dict[str, float]:
         """Temperatures by thermocouple name (C); raises SafetyInterlock if one is over its limit."""
-        if not fresh and self.clock.now() - self._read_at < READING_MAX_AGE_S:
+        if not fresh and self.clock.now() - self._read_at < self.max_age_s:
             return self.latest
         try:
             temperatures = self.scanner.read_temperatures_c()

@@ -35,8 +35,8 @@ class PlanStep(ABC):
         return None
 
     def state_key(self) -> tuple[str, str]:
-        """Which state a LATEST_STATE step sets: the kind of state, and the heater it belongs to (if any)."""
-        return self.restores, str(getattr(self, "heater", ""))
+        """Which state a LATEST_STATE step sets: the kind of state, and what it belongs to ("" for the station)."""
+        return self.restores, ""
 
 
 @dataclass(frozen=True)
@@ -129,6 +129,9 @@ class SetHeater(PlanStep):
         goal = f"{self.setpoint_c:g} C" if self.setpoint_c is not None else f"{self.power_w:g} W"
         return f"{self.heater} heater to {goal}"
 
+    def state_key(self) -> tuple[str, str]:
+        return self.restores, self.heater
+
 
 @dataclass(frozen=True)
 class WaitSteady(PlanStep):
@@ -145,6 +148,9 @@ class WaitSteady(PlanStep):
     def describe(self) -> str:
         logging = self.log.describe() if self.log is not None else "no bridge readings"
         return f"wait until {self.heater} is steady at {self.setpoint_c:g} C ({self.steady.describe()}); {logging}"
+
+    def state_key(self) -> tuple[str, str]:
+        return self.restores, self.heater
 
 
 @dataclass(frozen=True)
@@ -163,3 +169,6 @@ class CoolDown(PlanStep):
     def describe(self) -> str:
         logging = self.log.describe() if self.log is not None else "no bridge readings"
         return f"cool down: {self.heater} heater off, wait until below {self.below_c:g} C; {logging}"
+
+    def state_key(self) -> tuple[str, str]:
+        return self.restores, self.heater
