@@ -30,6 +30,9 @@ def steps_to_run(plan: Plan, done: set[int]) -> Iterator[tuple[int, PlanStep]]:
     runs as planned except points already measured. A fresh run (nothing done) executes every step.
     """
     steps = plan.steps
+    if not done:  # a fresh run: the rules are for resuming
+        yield from enumerate(steps)
+        return
     first = next((i for i, s in enumerate(steps) if s.measures_point is not None and s.measures_point not in done),
                  len(steps))
     latest: dict[tuple[str, str], int] = {}

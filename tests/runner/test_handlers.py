@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 import pytest
 
@@ -49,17 +48,7 @@ def private_handlers(monkeypatch: pytest.MonkeyPatch) -> dict:
     return table
 
 
-class RowsInMemory:
-    """Takes the rows a Runner appends (what RunWriter.append receives)."""
-
-    def __init__(self) -> None:
-        self.rows: list[dict[str, float]] = []
-
-    def append(self, values: Any) -> None:
-        self.rows.append(dict(values))
-
-
-def test_a_new_step_runs_once_its_handler_is_registered(private_handlers, open_sim_station):
+def test_a_new_step_runs_once_its_handler_is_registered(private_handlers, open_sim_station, rows_in_memory):
     @handlers.handles(Pause)
     def pause(run: RunContext, step: Pause) -> None:
         run.clock.sleep(step.seconds)
@@ -67,7 +56,7 @@ def test_a_new_step_runs_once_its_handler_is_registered(private_handlers, open_s
     station = open_sim_station()
     bridge = BridgeConfig(function="L-R", circuit="series", voltage_v=1.5, speed="slow", averages=1)
     plan = Plan("pause", "test", (ConfigureBridge(bridge), Pause(120.0), MeasurePoint(0, None, 1000.0)))
-    writer = RowsInMemory()
+    writer = rows_in_memory
     status, error = Runner(station, plan, writer, progress=False).run()  # type: ignore[arg-type]
     assert (status, error) == ("completed", "")
     (row,) = writer.rows
@@ -75,9 +64,10 @@ def test_a_new_step_runs_once_its_handler_is_registered(private_handlers, open_s
     assert row["time_s"] >= 120.0
 
 
-def test_a_step_without_a_handler_fails_the_run_naming_the_step(private_handlers, open_sim_station):
+def test_a_step_without_a_handler_fails_the_run_naming_the_step(private_handlers, open_sim_station,
+                                                                rows_in_memory):
     station = open_sim_station()
-    status, error = Runner(station, Plan("p", "test", (Pause(1.0),)), RowsInMemory(),  # type: ignore[arg-type]
+    status, error = Runner(station, Plan("p", "test", (Pause(1.0),)), rows_in_memory,  # type: ignore[arg-type]
                            progress=False).run()
     assert status == "failed"
     assert "no handler for plan step Pause" in error
