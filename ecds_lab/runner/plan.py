@@ -1,8 +1,8 @@
 """Plans: an experiment turned into a list of plain, inspectable steps.
 
-A plan is data (frozen dataclasses), not code: ``ecds-lab run --dry-run`` prints it
-before anything moves, the runner executes it step by step, and ``--resume`` uses
-the point numbers to skip what an interrupted run already measured.
+A plan is data (frozen dataclasses, :mod:`~ecds_lab.runner.steps`), not code: ``ecds-lab run
+--dry-run`` prints it before anything moves, the runner executes it step by step, and ``--resume``
+skips what an interrupted run already measured, following the rule each step declares.
 """
 
 from __future__ import annotations
