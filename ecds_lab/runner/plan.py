@@ -1,121 +1,37 @@
 """Plans: an experiment turned into a list of plain, inspectable steps.
 
-A plan is data (frozen dataclasses), not code: ``ecds-lab run --dry-run`` prints it
-before anything moves, the runner executes it step by step, and ``--resume`` uses
-the point numbers to skip what an interrupted run already measured.
+A plan is data (frozen dataclasses, :mod:`~ecds_lab.runner.steps`), not code: ``ecds-lab run
+--dry-run`` prints it before anything moves, the runner executes it step by step, and ``--resume``
+skips what an interrupted run already measured, following the rule each step declares.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal, Union
 
 from ecds_lab.config.experiment import (
-    BridgeConfig, CoilHeating, DisplacementSweep, HeatingConfig, Spectroscopy, SweepConfig, TargetHeating,
+    CoilHeating,
+    DisplacementSweep,
+    HeatingConfig,
+    Spectroscopy,
+    SweepConfig,
+    TargetHeating,
 )
-
-Heater = Literal["target", "coil"]
-
-
-@dataclass(frozen=True)
-class ConfigureBridge:
-    bridge: BridgeConfig
-
-    def describe(self) -> str:
-        b = self.bridge
-        return f"configure bridge: {b.function} {b.circuit}, {b.voltage_v:g} V, {b.speed}, {b.averages} average(s)"
-
-
-@dataclass(frozen=True)
-class ConfigureScanner:
-    def describe(self) -> str:
-        return "configure the thermocouple scanner (type, reference junction, scan list)"
-
-
-@dataclass(frozen=True)
-class Home:
-    def describe(self) -> str:
-        return "home the slide"
-
-
-@dataclass(frozen=True)
-class Park:
-    x_mm: float
-
-    def describe(self) -> str:
-        return f"park the slide at {self.x_mm:g} mm"
-
-
-@dataclass(frozen=True)
-class MeasurePoint:
-    """Move (if needed), settle, set the frequency, read the bridge, temperatures and heater."""
-
-    point: int
-    x_mm: float | None
-    freq_hz: float
-    sweep: int = 0
-    direction: Literal["forward", "backward", "none"] = "none"
-    repeat: int = 0
-    reading: int = 0
-    settle_s: float = 0.0
-    label: str = ""
-    in_air: bool = False
-
-    def describe(self) -> str:
-        where = "coil in air" if self.in_air else "in place" if self.x_mm is None else f"x = {self.x_mm:g} mm ({self.direction})"
-        return f"point {self.point}: {where}, {self.freq_hz:g} Hz, repeat {self.repeat}, reading {self.reading}"
-
-
-@dataclass(frozen=True)
-class SetHeater:
-    """Set a heater's goal: a temperature (closed loop), a power, or off."""
-
-    heater: Heater
-    setpoint_c: float | None = None
-    power_w: float | None = None
-
-    def describe(self) -> str:
-        if self.setpoint_c is None and self.power_w is None:
-            return f"{self.heater} heater off"
-        goal = f"{self.setpoint_c:g} C" if self.setpoint_c is not None else f"{self.power_w:g} W"
-        return f"{self.heater} heater to {goal}"
-
-
-@dataclass(frozen=True)
-class WaitSteady:
-    """Control the heater until its thermocouple is steady, logging the bridge meanwhile."""
-
-    heater: Heater
-    setpoint_c: float
-    slope_k_per_min: float
-    window_s: float
-    tolerance_k: float
-    interval_s: float
-    timeout_s: float
-    log_interval_s: float
-    log_frequencies_hz: tuple[float, ...]
-
-    def describe(self) -> str:
-        return (f"wait until {self.heater} is steady at {self.setpoint_c:g} C "
-                f"(< {self.slope_k_per_min:g} K/min over {self.window_s:g} s), logging every {self.log_interval_s:g} s")
-
-
-@dataclass(frozen=True)
-class CoolDown:
-    """Heater off, log until the thermocouple falls below a temperature."""
-
-    heater: Heater
-    below_c: float
-    interval_s: float
-    timeout_s: float
-    log_interval_s: float
-    log_frequencies_hz: tuple[float, ...]
-
-    def describe(self) -> str:
-        return f"cool down: {self.heater} heater off, log until below {self.below_c:g} C"
-
-
-Step = Union[ConfigureBridge, ConfigureScanner, Home, Park, MeasurePoint, SetHeater, WaitSteady, CoolDown]
+from ecds_lab.config.experiment import SteadyState as SteadyStateConfig
+from ecds_lab.runner.steady_state import SteadyState
+from ecds_lab.runner.steps import (
+    BridgeLog,
+    ConfigureBridge,
+    ConfigureScanner,
+    CoolDown,
+    Heater,
+    Home,
+    MeasurePoint,
+    Park,
+    PlanStep,
+    SetHeater,
+    WaitSteady,
+)
 
 
 @dataclass(frozen=True)
@@ -124,7 +40,7 @@ class Plan:
 
     name: str
     kind: str
-    steps: tuple[Step, ...]
+    steps: tuple[PlanStep, ...]
 
     @property
     def points(self) -> tuple[MeasurePoint, ...]:
@@ -136,15 +52,25 @@ class Plan:
         return "\n".join(lines)
 
 
+def steady_state(config: SteadyStateConfig) -> SteadyState:
+    """The steady-state criterion of an experiment's configuration, as a plan value."""
+    return SteadyState(slope_k_per_min=config.slope_k_per_min, window_s=config.window_s,
+                       tolerance_k=config.tolerance_k, check_interval_s=config.interval_s, timeout_s=config.timeout_s)
+
+
+def _bridge_log(heating: HeatingConfig, default_frequencies_hz: list[float]) -> BridgeLog:
+    return BridgeLog(heating.log_interval_s, tuple(heating.log_frequencies_hz or default_frequencies_hz))
+
+
 class _Builder:
     """Accumulates steps and numbers the measured points."""
 
     def __init__(self) -> None:
-        self.steps: list[Step] = []
+        self.steps: list[PlanStep] = []
         self.next_point = 0
         self.next_sweep = 0
 
-    def add(self, step: Step) -> None:
+    def add(self, step: PlanStep) -> None:
         self.steps.append(step)
 
     def point(self, **fields: object) -> None:
@@ -176,16 +102,14 @@ class _Builder:
         setpoint = heating.setpoints_c[index]
         power = heating.powers_w[index] if heating.control == "power" and heating.powers_w else None
         self.add(SetHeater(heater, setpoint_c=None if power is not None else setpoint, power_w=power))
-        st = heating.steady
-        self.add(WaitSteady(heater, setpoint, st.slope_k_per_min, st.window_s, st.tolerance_k, st.interval_s,
-                            st.timeout_s, heating.log_interval_s, tuple(heating.log_frequencies_hz or default_log)))
+        self.add(WaitSteady(heater, setpoint, steady_state(heating.steady), _bridge_log(heating, default_log)))
 
     def cool(self, heater: Heater, heating: HeatingConfig, default_log: list[float]) -> None:
         self.add(SetHeater(heater))
         if heating.cool_down_to_c is not None:
             st = heating.steady
             self.add(CoolDown(heater, heating.cool_down_to_c, st.interval_s, st.timeout_s,
-                              heating.log_interval_s, tuple(heating.log_frequencies_hz or default_log)))
+                              _bridge_log(heating, default_log)))
 
 
 def build_plan(experiment: DisplacementSweep | CoilHeating | TargetHeating | Spectroscopy) -> Plan:
@@ -220,10 +144,8 @@ def build_plan(experiment: DisplacementSweep | CoilHeating | TargetHeating | Spe
             b.add(Park(experiment.park_mm))
         for temperature in [None, *(experiment.coil_temperatures_c or [])]:
             if temperature is not None:
-                st = experiment.heating
                 b.add(SetHeater("coil", setpoint_c=temperature))
-                b.add(WaitSteady("coil", temperature, st.slope_k_per_min, st.window_s, st.tolerance_k,
-                                 st.interval_s, st.timeout_s, 1e9, ()))
+                b.add(WaitSteady("coil", temperature, steady_state(experiment.heating)))
             label = "ambient" if temperature is None else f"coil {temperature:g} C"
             b.readings_in_place(experiment.frequencies_hz, 1, label, experiment.coil_in_air)
         if experiment.coil_temperatures_c:

@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import pytest
 
@@ -76,3 +77,18 @@ def assert_heater_off() -> Callable[..., None]:
             assert recorded[-len(expected):] == expected
 
     return check
+
+
+class RowsInMemory:
+    """Takes the rows a Runner appends (what RunWriter.append receives), for runs that need no file."""
+
+    def __init__(self) -> None:
+        self.rows: list[dict[str, float]] = []
+
+    def append(self, values: Any) -> None:
+        self.rows.append(dict(values))
+
+
+@pytest.fixture
+def rows_in_memory() -> RowsInMemory:
+    return RowsInMemory()

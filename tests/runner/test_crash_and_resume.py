@@ -30,19 +30,19 @@ def cli(*args: object) -> list[str]:
     return [sys.executable, "-m", "ecds_lab.cli", *map(str, args)]
 
 
-def planned(run) -> np.ndarray:  # noqa: ANN001
+def planned(run) -> np.ndarray:
     """The planned-point rows of a RunFile."""
     return run.points[run.column("kind") == PLANNED_POINT]
 
 
-def rows_in(path) -> int:  # noqa: ANN001
+def rows_in(path) -> int:
     try:
         return len(read_run(path, transcripts=False).points)
     except RunFileError:  # not created yet, or not yet in SWMR mode
         return 0
 
 
-def kill_after_rows(command: list[str], path, rows: int, timeout_s: float = 30.0) -> None:  # noqa: ANN001
+def kill_after_rows(command: list[str], path, rows: int, timeout_s: float = 30.0) -> None:
     """Start ``command``; SIGKILL it once ``path`` holds at least ``rows`` rows."""
     process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     try:

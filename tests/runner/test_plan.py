@@ -1,19 +1,15 @@
-"""Plans: the points an experiment measures, position ranges, and which steps a resumed run executes."""
+"""Plans: the points an experiment measures, position ranges, and the heater waits they hold."""
 
 from __future__ import annotations
 
-from types import SimpleNamespace
+import itertools
 
 import pytest
 
-from ecds_lab.clock import SimulatedClock
 from ecds_lab.config.experiment import SweepConfig
-from ecds_lab.config.station import SimulationConfig, StationConfig
-from ecds_lab.runner.plan import (
-    ConfigureBridge, ConfigureScanner, CoolDown, Home, MeasurePoint, SetHeater, WaitSteady, build_plan,
-)
-from ecds_lab.runner.runner import Runner
+from ecds_lab.runner.plan import build_plan
 from ecds_lab.runner.session import load_experiment
+from ecds_lab.runner.steps import CoolDown, SetHeater, WaitSteady
 
 
 def test_displacement_plan_is_positions_x_frequencies_x_directions_x_readings(experiments_dir):
@@ -41,7 +37,7 @@ def test_start_stop_step_is_inclusive(start, stop, step):
     positions = SweepConfig(start_mm=start, stop_mm=stop, step_mm=step, frequencies_hz=[500]).positions()
     assert positions[0] == start and positions[-1] == stop
     assert len(positions) == round(abs(stop - start) / step) + 1
-    gaps = [abs(b - a) for a, b in zip(positions, positions[1:])]
+    gaps = [abs(b - a) for a, b in itertools.pairwise(positions)]
     assert gaps == pytest.approx([step] * len(gaps))
 
 
@@ -61,53 +57,24 @@ def test_target_heating_plan_sweeps_at_every_setpoint(experiments_dir):
     assert isinstance(plan.steps[-1], CoolDown) and plan.steps[-1].below_c == experiment.heating.cool_down_to_c
 
 
-# -- resume: which steps run again ----------------------------------------------------------------------------
-
-def steps_to_run(plan, done: set[int]) -> list[int]:  # noqa: ANN001
-    """Indexes of the plan's steps a Runner would execute with ``done`` already measured (no instrument)."""
-    station = SimpleNamespace(clock=SimulatedClock(), config=StationConfig(simulated=SimulationConfig()))
-    runner = Runner(station, plan, writer=None, done=done, progress=False)  # type: ignore[arg-type]
-    return [index for index, _ in runner._steps_to_run()]
-
-
-@pytest.fixture
-def small_heating_plan(yaml_copy):
-    """Target heating at three setpoints with a two-position, two-frequency sweep at each."""
-    def edit(data: dict) -> None:
-        data["heating"]["setpoints_c"] = [22.0, 40.0, 60.0]
-        data["sweep"].update(start_mm=20.0, stop_mm=30.0, step_mm=10.0, frequencies_hz=[500, 15000])
-
-    return build_plan(load_experiment(yaml_copy("target_heating_copper.yaml", edit)))
+def test_spectroscopy_waits_hold_the_configured_criterion_and_log_nothing(experiments_dir):
+    experiment = load_experiment(experiments_dir / "spectroscopy.yaml")
+    waits = [s for s in build_plan(experiment).steps if isinstance(s, WaitSteady)]
+    assert [w.setpoint_c for w in waits] == experiment.coil_temperatures_c
+    config = experiment.heating
+    for wait in waits:
+        assert wait.log is None
+        assert (wait.steady.slope_k_per_min, wait.steady.window_s, wait.steady.tolerance_k,
+                wait.steady.check_interval_s, wait.steady.timeout_s) == (
+            config.slope_k_per_min, config.window_s, config.tolerance_k, config.interval_s, config.timeout_s)
+        assert wait.describe().endswith("; no bridge readings")
 
 
-def test_a_fresh_run_executes_every_step(small_heating_plan):
-    assert steps_to_run(small_heating_plan, set()) == list(range(len(small_heating_plan.steps)))
-
-
-def test_resume_skips_done_points_and_repeats_only_the_state_steps(small_heating_plan):
-    plan = small_heating_plan
-    steps = plan.steps
-    per_setpoint = len(plan.points) // 3
-    done = set(range(per_setpoint + 1))  # the first setpoint's sweep and one point of the second
-    run = steps_to_run(plan, done)
-    executed = [steps[i] for i in run]
-
-    # the bridge and scanner are configured and the slide homed again, as in any run
-    assert [type(s) for s in executed[:3]] == [ConfigureBridge, ConfigureScanner, Home]
-    # only the heater state of the interrupted setpoint is re-established: no earlier setpoint, no done point
-    heater_steps = [s for s in executed if isinstance(s, (SetHeater, WaitSteady))]
-    assert [(type(s), s.setpoint_c) for s in heater_steps[:2]] == [(SetHeater, 40.0), (WaitSteady, 40.0)]
-    assert all(s.setpoint_c != 22.0 for s in heater_steps)
-    measured = [s.point for s in executed if isinstance(s, MeasurePoint)]
-    assert measured == sorted(set(range(len(plan.points))) - done)
-    # everything after the first missing point runs exactly as planned
-    first_missing = next(i for i, s in enumerate(steps) if isinstance(s, MeasurePoint) and s.point not in done)
-    assert [i for i in run if i >= first_missing] == list(range(first_missing, len(steps)))
-
-
-def test_resume_with_every_point_done_only_makes_the_lab_safe(small_heating_plan):
-    plan = small_heating_plan
-    executed = [plan.steps[i] for i in steps_to_run(plan, {p.point for p in plan.points})]
-    assert not any(isinstance(s, MeasurePoint) for s in executed)
-    heater_steps = [s for s in executed if isinstance(s, (SetHeater, WaitSteady, CoolDown))]
-    assert len(heater_steps) == 2 and heater_steps[0].setpoint_c is None and isinstance(heater_steps[1], CoolDown)
+def test_heating_waits_log_the_bridge_at_the_configured_frequencies(experiments_dir):
+    experiment = load_experiment(experiments_dir / "target_heating_copper.yaml")
+    plan = build_plan(experiment)
+    waits = [s for s in plan.steps if isinstance(s, (WaitSteady, CoolDown))]
+    expected = tuple(experiment.heating.log_frequencies_hz or experiment.sweep.frequencies_hz)
+    assert all(w.log is not None and w.log.frequencies_hz == expected
+               and w.log.interval_s == experiment.heating.log_interval_s for w in waits)
+    assert "1e+09" not in plan.describe()

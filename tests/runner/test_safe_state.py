@@ -21,7 +21,7 @@ HEATING = "target_heating_copper.yaml"
 MID_HEATING_S = 1800.0
 
 
-def run_heating(*args, **kwargs):  # noqa: ANN002, ANN003, ANN201
+def run_heating(*args, **kwargs):
     """run_experiment, where a KeyboardInterrupt that escapes fails the test (instead of stopping pytest)."""
     try:
         return run_experiment(*args, progress=False, **kwargs)
@@ -65,7 +65,7 @@ def test_ctrl_c_while_heating_aborts_with_the_heater_off_and_keeps_the_points(
 
     # every row measured before the interrupt is in the file, in order, and nothing else
     kinds, points = recorded.column("kind").astype(int), recorded.column("point").astype(int)
-    assert list(zip(kinds, points)) == appended
+    assert list(zip(kinds, points, strict=True)) == appended
     planned = points[kinds == PLANNED_POINT]
     assert list(planned) == list(range(len(planned)))
     plan = build_plan(load_experiment(experiments_dir / HEATING))

@@ -1,0 +1,55 @@
+"""What step handlers work with during a run: the station, its tracked state, and the run file."""
+
+from __future__ import annotations
+
+import time
+
+from ecds_lab.clock import Clock
+from ecds_lab.runner.heaters import Heaters
+from ecds_lab.runner.interlocks import GuardedThermocouples
+from ecds_lab.runner.progress import Progress
+from ecds_lab.runner.rows import reading_row
+from ecds_lab.runner.slide_position import SlidePosition
+from ecds_lab.runner.steps import MeasurePoint
+from ecds_lab.station import Station
+from ecds_lab.data.columns import LOGGED_POINT
+from ecds_lab.storage.run_file import RunWriter
+
+#: Temperatures and heater powers older than this (simulated or wall seconds) are read again.
+READING_MAX_AGE_S = 2.0
+
+
+class RunContext:
+    """The station and run file of one run, with the slide position, heaters and thermocouples it tracks."""
+
+    def __init__(self, station: Station, writer: RunWriter, progress: Progress, *, t0: float,
+                 heats: bool, coil_in_air: bool) -> None:
+        self.station = station
+        self.writer = writer
+        self.progress = progress
+        self.clock: Clock = station.clock
+        self.t0 = t0
+        self.coil_in_air = coil_in_air
+        self.step_index = -1
+        self.position = SlidePosition(station.slide)
+        config = station.config
+        self.heaters = Heaters(station.heater, self.clock, config.heaters, config.safety, read_back=heats,
+                               max_age_s=READING_MAX_AGE_S)
+        self.thermocouples = GuardedThermocouples(station.scanner, self.clock, config.safety.max_temperature_c,
+                                                  heating=lambda: self.heaters.heating, max_age_s=READING_MAX_AGE_S)
+
+    def record(self, freq_hz: float, kind: int, point: MeasurePoint | None = None) -> None:
+        """One bridge reading with the temperatures and heater powers of the moment, appended to the run file."""
+        self.station.bridge.set_frequency(freq_hz)
+        reading = self.station.bridge.measure()
+        temperatures = self.thermocouples.read()
+        powers = self.heaters.powers()
+        self.writer.append(reading_row(
+            time_s=self.clock.now() - self.t0, wall_time_s=time.time(), step_index=self.step_index, kind=kind,
+            point=point, position=self.position, in_air=point.in_air if point is not None else self.coil_in_air,
+            freq_hz=freq_hz, temperatures=temperatures, powers_w=powers, reading=reading))
+
+    def log_readings(self, frequencies_hz: tuple[float, ...]) -> None:
+        """Unplanned bridge readings (while waiting on a heater), one per frequency."""
+        for freq in frequencies_hz:
+            self.record(freq, LOGGED_POINT)
