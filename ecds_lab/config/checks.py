@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import inspect
+import math
 
 from ecds_lab.config.experiment import CoilHeating, DisplacementSweep, Spectroscopy, SweepConfig, TargetHeating
 from ecds_lab.config.station import StationConfig
@@ -11,21 +12,35 @@ from ecds_lab.errors import ConfigError
 Experiment = DisplacementSweep | CoilHeating | TargetHeating | Spectroscopy
 
 
-def slide_travel_mm(station: StationConfig) -> tuple[float, float]:
-    """The slide's soft travel limits: the station's options, else the driver's defaults."""
+def slide_travel_mm(station: StationConfig, station_source: str = "station") -> tuple[float, float]:
+    """The slide's soft travel limits: the station's options, else the driver's defaults.
+
+    Limits that are not finite numbers, or a minimum not below the maximum, raise ConfigError naming
+    the station file and the option (not the experiment, whose positions are then not at fault).
+    """
     from ecds_lab.station import driver_class
 
     defaults = inspect.signature(driver_class(station.slide.driver).__init__).parameters
     options = station.slide.options
-    low = options.get("min_mm", defaults["min_mm"].default if "min_mm" in defaults else 0.0)
-    high = options.get("max_mm", defaults["max_mm"].default if "max_mm" in defaults else float("inf"))
-    return float(low), float(high)
+    limits = {}
+    for name, fallback in (("min_mm", 0.0), ("max_mm", math.inf)):
+        value = options.get(name, defaults[name].default if name in defaults else fallback)
+        if name in options and (isinstance(value, bool) or not isinstance(value, (int, float))
+                                or not math.isfinite(value)):
+            raise ConfigError(f"{station_source}: field 'slide.options.{name}': {value!r} is not a number; "
+                              f"allowed: a finite number of mm")
+        limits[name] = float(value)
+    if limits["min_mm"] >= limits["max_mm"]:
+        raise ConfigError(f"{station_source}: field 'slide.options.min_mm': {limits['min_mm']:g} mm is not below "
+                          f"max_mm {limits['max_mm']:g} mm; allowed: min_mm < max_mm")
+    return limits["min_mm"], limits["max_mm"]
 
 
-def check_experiment_fits_station(experiment: Experiment, station: StationConfig, source: str) -> None:
+def check_experiment_fits_station(experiment: Experiment, station: StationConfig, source: str,
+                                  station_source: str = "station") -> None:
     """Raise ConfigError (file, field, allowed values) before any instrument is opened."""
     problems: list[str] = []
-    low, high = slide_travel_mm(station)
+    low, high = slide_travel_mm(station, station_source)
 
     def positions(field: str, values: list[float]) -> None:
         for i, x in enumerate(values):
