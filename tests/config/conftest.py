@@ -7,14 +7,19 @@ message must name and what else it must say (field, value, allowed values).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
 
 import pytest
 import yaml
 
-from ecds_lab.config.experiment import MAX_DURATION_S, MAX_POSITIONS, MAX_READINGS, MIN_STEP_MM
+from ecds_lab.config.experiment import (
+    MAX_DURATION_S,
+    MAX_POSITIONS,
+    MAX_READINGS,
+    MIN_STEP_MM,
+)
 from ecds_lab.config.loading import MAX_VALUES
 
 SILENT_CAPABLE = ("hm8118", "grbl", "daq970a", "34970a", "hmp4040")
