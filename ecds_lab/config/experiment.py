@@ -238,14 +238,31 @@ class _Experiment(_Strict):
     @model_validator(mode="after")
     def _plan_fits(self) -> _Experiment:
         size = self.size()
+        fields = ", ".join(self._size_fields())
         if size.readings > MAX_READINGS:
-            raise ValueError(f"the plan takes {size.readings} bridge readings; allowed: at most {MAX_READINGS} "
-                             f"(fewer positions, frequencies, setpoints, repeats or readings)")
+            raise ValueError(f"the plan takes {size.readings} bridge readings (set by {fields}); "
+                             f"allowed: at most {MAX_READINGS}")
         if size.duration_s > MAX_DURATION_S:
-            raise ValueError(f"the plan takes at least {format_duration(size.duration_s)} (settling, steady-state "
-                             f"windows and {size.readings} readings); allowed: at most "
-                             f"{format_duration(MAX_DURATION_S)}")
+            raise ValueError(f"the plan takes at least {format_duration(size.duration_s)} with {size.readings} "
+                             f"bridge readings (set by {fields}); allowed: at most {format_duration(MAX_DURATION_S)}")
         return self
+
+    def _size_fields(self) -> list[str]:
+        """The fields that make the plan long, for the message that refuses it."""
+        fields = []
+        for name in ("sweep", "heating"):
+            part = getattr(self, name, None)
+            if isinstance(part, SweepConfig):
+                given = "positions_mm" if part.positions_mm is not None else "step_mm"
+                fields += [f"sweep.{f}" for f in (given, "frequencies_hz", "direction", "repeats",
+                                                  "readings_per_point", "settle_s")]
+            elif isinstance(part, HeatingConfig):
+                fields += ["heating.setpoints_c", "heating.steady.window_s"]
+            elif isinstance(part, SteadyState):
+                fields += ["coil_temperatures_c", "heating.window_s"]
+        if not isinstance(getattr(self, "sweep", None), SweepConfig) and hasattr(self, "frequencies_hz"):
+            fields += ["frequencies_hz", *(["readings"] if hasattr(self, "readings") else [])]
+        return fields
 
 
 class DisplacementSweep(_Experiment):

@@ -73,7 +73,7 @@ def too_many_readings(copy: Copy, tmp_path: Path, experiments: Path) -> BadInput
     path = copy("displacement_sweep.yaml", lambda d: d["sweep"].update(repeats=1000, readings_per_point=100,
                                                                        settle_s=0.0))
     readings = 31 * 2 * 2 * 1000 * 100
-    return BadInput(path, None, path, [f"the plan takes {readings} bridge readings",
+    return BadInput(path, None, path, [f"the plan takes {readings} bridge readings", "sweep.repeats",
                                        f"allowed: at most {MAX_READINGS}"])
 
 
