@@ -121,8 +121,8 @@ class InjectedFaults(_Strict):
         [], description="the bridge answers ERROR to these: a mnemonic (FREQ: every frequency) "
                         "or a whole command in upper case (FREQ 15000: only that one)")
     open_thermocouples: list[int] = Field([], description="scanner channels whose thermocouple reads open")
-    silent_instruments: list[str] = Field([], description="emulators that never answer (hm8118, grbl, daq970a, "
-                                                          "34970a, hmp4040)")
+    silent_instruments: list[Literal["hm8118", "grbl", "daq970a", "34970a", "hmp4040"]] = Field(
+        [], description="emulators that never answer")
 
 
 class LabConfig(_Strict):

@@ -12,20 +12,34 @@ from ecds_lab.instruments.kinds import kind
 Experiment = DisplacementSweep | CoilHeating | TargetHeating | Spectroscopy
 
 
-def slide_travel_mm(station: StationConfig) -> tuple[float, float]:
+def slide_travel_mm(station: StationConfig, station_source: str = "station") -> tuple[float, float]:
     """The slide's soft travel limits: the station's options, else the travel its driver declares.
 
-    A slide driver that declares no ``default_travel_mm`` has no soft limits to check against.
+    A slide driver that declares no ``default_travel_mm`` has no soft limits to check against. Limits that
+    are not finite numbers, or a minimum not below the maximum, raise ConfigError naming the station file
+    and the option (not the experiment, whose positions are then not at fault).
     """
     declared = getattr(kind(station.slide.driver).driver_class(), "default_travel_mm", (0.0, math.inf))
     options = station.slide.options
-    return float(options.get("min_mm", declared[0])), float(options.get("max_mm", declared[1]))
+    limits = {}
+    for i, name in enumerate(("min_mm", "max_mm")):
+        value = options.get(name, declared[i])
+        if name in options and (isinstance(value, bool) or not isinstance(value, (int, float))
+                                or not math.isfinite(value)):
+            raise ConfigError(f"{station_source}: field 'slide.options.{name}': {value!r} is not a number; "
+                              f"allowed: a finite number of mm")
+        limits[name] = float(value)
+    if limits["min_mm"] >= limits["max_mm"]:
+        raise ConfigError(f"{station_source}: field 'slide.options.min_mm': {limits['min_mm']:g} mm is not below "
+                          f"max_mm {limits['max_mm']:g} mm; allowed: min_mm < max_mm")
+    return limits["min_mm"], limits["max_mm"]
 
 
-def check_experiment_fits_station(experiment: Experiment, station: StationConfig, source: str) -> None:
+def check_experiment_fits_station(experiment: Experiment, station: StationConfig, source: str,
+                                  station_source: str = "station") -> None:
     """Raise ConfigError (file, field, allowed values) before any instrument is opened."""
     problems: list[str] = []
-    low, high = slide_travel_mm(station)
+    low, high = slide_travel_mm(station, station_source)
 
     def positions(field: str, values: list[float]) -> None:
         for i, x in enumerate(values):

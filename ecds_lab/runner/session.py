@@ -16,7 +16,7 @@ import numpy as np
 
 from ecds_lab.config.checks import check_experiment_fits_station
 from ecds_lab.config.experiment import EXPERIMENT_ADAPTER
-from ecds_lab.config.loading import read_yaml, validate
+from ecds_lab.config.loading import parse_yaml, read_text, validate
 from ecds_lab.config.station import StationConfig
 from ecds_lab.data.columns import INDEX
 from ecds_lab.errors import ConfigError, RunFileError
@@ -41,23 +41,17 @@ class RunResult:
 def load_experiment(path: Path | str, text: str | None = None):  # noqa: ANN201 - one of the experiment models
     """Validate an experiment YAML (from its file or the text recorded in a run file)."""
     path = Path(path)
-    if text is None:
-        data = read_yaml(path)
-    else:
-        import yaml
-
-        data = yaml.safe_load(text)
-    return validate(str(path), data, EXPERIMENT_ADAPTER)
+    return validate(str(path), parse_yaml(read_text(path) if text is None else text, str(path)), EXPERIMENT_ADAPTER)
 
 
 def prepare(experiment_path: Path, station_path: Path | None) -> tuple[object, str, StationConfig, str, Plan]:
     """Load, validate and cross-check both files; build the plan. No instrument is touched."""
-    experiment = load_experiment(experiment_path)
-    experiment_text = Path(experiment_path).read_text()
+    experiment_text = read_text(Path(experiment_path))
+    experiment = load_experiment(experiment_path, experiment_text)
     station_path = station_path or DEFAULT_STATION
-    station_text = Path(station_path).read_text()
-    station = validate(str(station_path), read_yaml(Path(station_path)), StationConfig)
-    check_experiment_fits_station(experiment, station, str(experiment_path))
+    station_text = read_text(Path(station_path))
+    station = validate(str(station_path), parse_yaml(station_text, str(station_path)), StationConfig)
+    check_experiment_fits_station(experiment, station, str(experiment_path), str(station_path))
     return experiment, experiment_text, station, station_text, build_plan(experiment)
 
 
