@@ -15,6 +15,7 @@ from typing import Any, Callable
 
 import yaml
 
+from ecds_lab import shipped
 from ecds_lab.clock import Clock, SimulatedClock, WallClock
 from ecds_lab.config.loading import load_yaml_model
 from ecds_lab.config.station import InstrumentConfig, SerialLink, StationConfig, VisaLink
@@ -39,7 +40,7 @@ SIMULATED_LINKS: dict[str, Callable[[str, str], SerialLink | VisaLink]] = {
     "scanner": lambda lab, drv: VisaLink(resource=f"ASRLecdssim://{lab}/{drv}::INSTR"),
     "heater": lambda lab, drv: VisaLink(resource=f"ASRLecdssim://{lab}/{drv}::INSTR"),
 }
-DEFAULT_STATION = Path(__file__).resolve().parent.parent / "experiments" / "stations" / "simulated_lab.yaml"
+DEFAULT_STATION = shipped.station("simulated_lab.yaml")
 
 TransportFactory = Callable[[str, InstrumentConfig, dict[str, Any], Clock], Transport]
 _lab_numbers = itertools.count()
