@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from ecds_lab.drivers.instrument import Control, Instrument, choice, in_range, integer_in_range, one_of
+from ecds_lab.drivers.instrument import Control, Instrument, in_range, integer_in_range, one_of
 from ecds_lab.instruments.interfaces import BridgeReading, BridgeSettings
 from ecds_lab.transports.base import Transport
 

@@ -11,6 +11,7 @@ residual within each frequency.
 from __future__ import annotations
 
 from dataclasses import dataclass
+
 import numpy as np
 
 from ecds_lab.analysis.dataset import Measurements

@@ -12,8 +12,9 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -77,7 +78,7 @@ class Diagnosis:
     associations: list[Association]
     verdict: str
     explanation: str
-    follow_up: "Diagnosis | None" = None
+    follow_up: Diagnosis | None = None
     residual_mm: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     @property
@@ -136,12 +137,12 @@ def run_diagnosis(data: Measurements, effects: Sequence[str] = (), sensor: Senso
     base_cv = _cv_rmse(data, effects, base, sensor, folds) if folds is not None else None
     for candidate in _competitive(ranked)[:CROSS_VALIDATED]:
         if folds is not None:
-            candidate.cv_rmse_ppm = _cv_rmse(data, effects + [candidate.effect], candidate.fit, sensor, folds)
+            candidate.cv_rmse_ppm = _cv_rmse(data, [*effects, candidate.effect], candidate.fit, sensor, folds)
     verdict = _verdict(base, noise, ranked, associations)
     result = Diagnosis(data, effects, noise, base, base_cv, ranked, associations, verdict, "",
                        residual_mm=_residual_mm(base, data))
     if follow_up and verdict == "missing_effect" and ranked and ranked[0].delta_bic < DECISIVE_DELTA_BIC:
-        result.follow_up = run_diagnosis(data, effects + [ranked[0].effect], sensor, candidates=candidates,
+        result.follow_up = run_diagnosis(data, [*effects, ranked[0].effect], sensor, candidates=candidates,
                                          follow_up=False, cross_validate=False)
     result.explanation = explain(result)
     return result
@@ -159,7 +160,7 @@ def diagnose(data: Measurements, effects: Sequence[str] = (), sensor: SensorConf
 def _candidate(data: Measurements, effects: list[str], name: str, base: FitResult,
                sensor: SensorConfig | None) -> Candidate:
     """Fit model + effect, starting from the current fit's values and the effect's defaults."""
-    model = SensorModel(sensor, effects + [name])
+    model = SensorModel(sensor, [*effects, name])
     fitted = fit_model(model, data, start=dict(base.values), multistart=False, screening=True)
     return Candidate(name, fitted, fitted.bic - base.bic)
 
@@ -197,7 +198,7 @@ def _folds(data: Measurements) -> np.ndarray | None:
     if len(unique) < 2 or len(data) < 8 * FOLDS:
         return None
     rng = np.random.default_rng(0)
-    fold_of_group = dict(zip(unique.tolist(), rng.permutation(len(unique)) % FOLDS))
+    fold_of_group = dict(zip(unique.tolist(), rng.permutation(len(unique)) % FOLDS, strict=True))
     return np.array([fold_of_group[g] for g in groups.tolist()])
 
 

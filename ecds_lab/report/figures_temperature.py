@@ -3,7 +3,7 @@ the coil's heating characterisation with Eq. (4) (Fig. 17/19), and spectroscopy 
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 from matplotlib.axes import Axes
@@ -148,14 +148,14 @@ def coil_heating(air: Measurements, compensation: TemperatureCompensation) -> Pn
 
 
 @styled
-def spectra(items: Sequence[tuple[Measurements, "object"]]) -> Png:
+def spectra(items: Sequence[tuple[Measurements, object]]) -> Png:
     """Fig. 18: |Z| and phase of the coil in air against frequency per temperature, with the RLC fits."""
     fig, axes = subplots(11.0, 3.8, 1, 2)
     temps = [float(np.mean(d.t_coil_c)) for d, _ in items]
     norm = Normalize(min(temps), max(max(temps), min(temps) + 1.0))
     cmap = colormap("plasma")
     markers = "osD^v<>p"
-    for k, ((data, fit), temp) in enumerate(zip(items, temps)):
+    for k, ((data, fit), temp) in enumerate(zip(items, temps, strict=True)):
         colour = cmap(0.85 * norm(temp))
         marker = markers[k % len(markers)]
         omega = 2 * np.pi * data.freq_hz

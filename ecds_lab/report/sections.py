@@ -7,9 +7,10 @@ data cannot support is replaced by a one-line note saying why.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from datetime import datetime
-from typing import Any, Callable, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -288,7 +289,7 @@ def _ts_rows(group: TargetGroup, with_coil: bool) -> list[tuple[str, ...]]:
                 fs = float(np.max(np.abs(heated.errors.error_fs_percent)))
                 cells.append(Html(f"n = {case.calibration.n_points}: {heated.errors.max_abs_mm():.3g} mm "
                                   f"({fs:.2g} % FS)<br>TS {low:+.0f} … {high:+.0f}"))
-            rows.append(tuple(cells + [PAPER_TS[what]]))
+            rows.append(tuple([*cells, PAPER_TS[what]]))
     return rows
 
 

@@ -8,7 +8,7 @@ w = 1 + c (x - 60 mm) / 40 mm. b1 > 0: the plate comes closer as it heats.
 
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 
@@ -29,7 +29,7 @@ class TargetBending(Effect):
             Parameter("bending_x", 0.0, -0.9, 0.9, "1", "change of the shift from 60 mm to 100 mm (relative)", 0.1),
         ]
 
-    def unidentifiable(self, data) -> dict[str, str]:  # noqa: ANN001
+    def unidentifiable(self, data) -> dict[str, str]:
         finite = np.isfinite(data.x_m)
         span = float(np.ptp(data.t_target_c[finite])) if finite.any() else 0.0
         if span < 5:
@@ -37,7 +37,7 @@ class TargetBending(Effect):
                     for n in ("bending", "bending_quadratic", "bending_x")}
         return {"bending_quadratic": f"target temperature span {span:.1f} K < 30 K"} if span < 30 else {}
 
-    def effective_distance(self, x_m: np.ndarray, data, p: Mapping[str, float]) -> np.ndarray:  # noqa: ANN001
+    def effective_distance(self, x_m: np.ndarray, data, p: Mapping[str, float]) -> np.ndarray:
         d_t = data.t_target_c - self.sensor.reference_temperature_c
         weight = 1 + p["bending_x"] * np.where(np.isfinite(x_m), (x_m - 0.060) / 0.040, 0.0)
         return x_m - (p["bending"] * d_t + p["bending_quadratic"] * d_t**2) * weight

@@ -7,7 +7,7 @@ of conductivity and a linear rise of resistivity to within a fraction of a perce
 
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 
@@ -27,7 +27,7 @@ class TargetTauTemperature(Effect):
                       1e-6),
         ]
 
-    def unidentifiable(self, data) -> dict[str, str]:  # noqa: ANN001
+    def unidentifiable(self, data) -> dict[str, str]:
         span = float(np.ptp(data.t_target_c)) if len(data) else 0.0
         fixed = {}
         if span < 5.0:
@@ -36,6 +36,6 @@ class TargetTauTemperature(Effect):
             fixed["tau_tempco2"] = f"target temperature span {span:.1f} K < 30 K"
         return fixed
 
-    def target_tau(self, tau_s: np.ndarray, inputs: Inputs, data, p: Mapping[str, float]) -> np.ndarray:  # noqa: ANN001
+    def target_tau(self, tau_s: np.ndarray, inputs: Inputs, data, p: Mapping[str, float]) -> np.ndarray:
         d_t = inputs.t_target_c - self.sensor.reference_temperature_c
         return tau_s * np.exp(p["tau_tempco"] * d_t + p["tau_tempco2"] * d_t**2)

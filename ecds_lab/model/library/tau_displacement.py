@@ -3,13 +3,14 @@
 The eddy-current pattern, and so the target's effective L_T/R_T, changes as the coil comes
 closer (the paper's simulation: ~20 % at 30 mm). The form is not known a priori (the field
 simulation gives it), so ln(tau_T / tau0) is a smooth natural cubic spline in x through knots at
-20, 28, 40, 60 and 100 mm (denser near the coil, where the field changes fastest), zero at 60 mm (tau0 is the value there); it takes any smooth change over
-the range, from a linear trend to a rise concentrated near the coil. Beyond the knots it is constant.
+20, 28, 40, 60 and 100 mm (denser near the coil, where the field changes fastest), zero at
+60 mm (tau0 is the value there); it takes any smooth change over the range, from a linear
+trend to a rise concentrated near the coil. Beyond the knots it is constant.
 """
 
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 from scipy.interpolate import CubicSpline
@@ -30,11 +31,11 @@ class TauDisplacement(Effect):
         return [Parameter(name, 0.0, -2.0, 2.0, "1", f"ln(tau_T / tau_T at 60 mm) at {name[6:]}", 0.05)
                 for name in FREE_KNOTS]
 
-    def unidentifiable(self, data) -> dict[str, str]:  # noqa: ANN001
+    def unidentifiable(self, data) -> dict[str, str]:
         positions = len(np.unique(np.round(data.x_m[np.isfinite(data.x_m)], 6)))
         return {n: f"{positions} distinct positions" for n in FREE_KNOTS} if positions < 8 else {}
 
-    def target_tau(self, tau_s: np.ndarray, inputs: Inputs, data, p: Mapping[str, float]) -> np.ndarray:  # noqa: ANN001
+    def target_tau(self, tau_s: np.ndarray, inputs: Inputs, data, p: Mapping[str, float]) -> np.ndarray:
         values = np.zeros(len(KNOTS_M))
         for name, index in FREE_KNOTS.items():
             values[index] = p[name]
