@@ -67,7 +67,7 @@ class Candidate:
 
 @dataclass
 class Diagnosis:
-    """Everything the diagnosis found; ``to_json`` gives DESIGN.md's JSON object."""
+    """Everything the diagnosis found; ``to_json`` gives the JSON of docs/data-contract.md."""
 
     data: Measurements
     effects: list[str]
@@ -149,7 +149,7 @@ def run_diagnosis(data: Measurements, effects: Sequence[str] = (), sensor: Senso
 
 
 def diagnose(data: Measurements, effects: Sequence[str] = (), sensor: SensorConfig | None = None) -> dict[str, Any]:
-    """The diagnosis as DESIGN.md's JSON object."""
+    """The diagnosis as the JSON object of docs/data-contract.md."""
     unknown = [e for e in effects if e not in library()]
     if unknown:
         raise ValueError(f"unknown effect(s) {', '.join(unknown)}; known: {', '.join(library())}")

@@ -12,10 +12,10 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-#: Thermal expansion of former materials, 1/K (PHYSICS.md: gypsum 25e-6, fired clay 7.5e-6).
+#: Thermal expansion of former materials, 1/K (docs/physics.md: gypsum 25e-6, fired clay 7.5e-6).
 FORMER_EXPANSION_PER_K = {"gypsum": 25e-6, "fired_clay": 7.5e-6, "plastic": 70e-6}
 
-#: Target materials: eddy-current time constant tau_T at 20 C (PHYSICS.md) and the
+#: Target materials: eddy-current time constant tau_T at 20 C (docs/physics.md) and the
 #: relative change of tau_T per kelvin (copper conductivity falls ~0.39 %/K).
 TARGET_TAU_S = {"copper": 100e-6, "steel": 3e-6}
 TARGET_TAU_TEMPCO_PER_K = {"copper": -0.0039, "steel": -0.0030}
