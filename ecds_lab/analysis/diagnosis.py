@@ -274,15 +274,14 @@ def explain(result: Diagnosis) -> str:
         lines.append(f"Adding {best.effect} ({effect.explains}) brings it from {base.rms_ppm:.1f} to "
                      f"{best.rmse_ppm:.1f} ppm (delta BIC {best.delta_bic:+.0f}{cv}); fitted {values}.")
         follow = result.follow_up
-        second = (follow is not None and follow.verdict == "missing_effect" and follow.best is not None
-                  and follow.best.delta_bic < DECISIVE_DELTA_BIC)
+        second = follow.best if follow is not None and follow.verdict == "missing_effect" else None
         final_ppm = best.rmse_ppm
-        if second:
-            lines.append(f"With {best.effect} added, a second effect helps: {follow.best.effect} "
-                         f"({follow.best.fit.model.effects[-1].explains}) brings the residual to "
-                         f"{follow.best.rmse_ppm:.1f} ppm (delta BIC {follow.best.delta_bic:+.0f}); "
-                         f"fit with --effects {best.effect},{follow.best.effect}.")
-            final_ppm = follow.best.rmse_ppm
+        if second is not None and second.delta_bic < DECISIVE_DELTA_BIC:
+            lines.append(f"With {best.effect} added, a second effect helps: {second.effect} "
+                         f"({second.fit.model.effects[-1].explains}) brings the residual to "
+                         f"{second.rmse_ppm:.1f} ppm (delta BIC {second.delta_bic:+.0f}); "
+                         f"fit with --effects {best.effect},{second.effect}.")
+            final_ppm = second.rmse_ppm
         elif follow is not None and follow.verdict == "adequate":
             lines.append(f"With it added the model is adequate ({follow.baseline.rms_ppm:.1f} ppm).")
         if final_ppm > FAILING_RATIO * noise:

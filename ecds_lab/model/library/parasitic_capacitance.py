@@ -30,6 +30,9 @@ class ParasiticCapacitance(Effect):
     alternative_starts = ({"drying_rate": 1e-4}, {"drying_rate": 1e-2},
                           *({"drying_order": 0.0, "drying_rate": 3e-4, "drying_onset": onset, "drying_width": 1.0}
                             for onset in (60.0, 90.0)))
+    #: The last moisture curve and the (data, drying parameters) it belongs to: fits ask for it repeatedly.
+    _memo_key: tuple[float, ...] | None = None
+    _memo: np.ndarray
 
     def parameters(self) -> list[Parameter]:
         return [
@@ -53,7 +56,7 @@ class ParasiticCapacitance(Effect):
     def moisture(self, data, p: Mapping[str, float]) -> np.ndarray:
         """m(t) per recording, integrated with the drying rate at the mean temperature of each interval."""
         key = (id(data), p["drying_rate"], p["drying_onset"], p["drying_width"], p["drying_order"])
-        if getattr(self, "_memo_key", None) == key:
+        if self._memo_key == key:
             return self._memo
         out = np.ones(len(data))
         for rows in data.segment_rows:

@@ -29,7 +29,7 @@ class TargetTauTemperature(Effect):
 
     def unidentifiable(self, data) -> dict[str, str]:
         span = float(np.ptp(data.t_target_c)) if len(data) else 0.0
-        fixed = {}
+        fixed: dict[str, str] = {}
         if span < 5.0:
             fixed.update(tau_tempco=f"target temperature span {span:.1f} K < 5 K", tau_tempco2="as tau_tempco")
         elif span < 30.0:
