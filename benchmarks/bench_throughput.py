@@ -90,7 +90,8 @@ def main() -> None:
     wholes = sorted(r[1] for r in runs)
     print(f"{runs[0][2]} points per run, {len(runs)} runs, bridge speed {args.speed}, instant time, no pacing")
     print("measuring loop (first to last point): " + ", ".join(f"{1 / t:,.0f}" for t, _, _ in runs)
-          + f" points/s; median {1 / loops[len(loops) // 2]:,.0f} points/s = {loops[len(loops) // 2] * 1e6:.1f} us/point")
+          + f" points/s; median {1 / loops[len(loops) // 2]:,.0f} points/s = "
+          f"{loops[len(loops) // 2] * 1e6:.1f} us/point")
     print("whole command incl. start-up and close: " + ", ".join(f"{1 / t:,.0f}" for _, t, _ in runs)
           + f" points/s; median {1 / wholes[len(wholes) // 2]:,.0f} points/s = "
             f"{wholes[len(wholes) // 2] * 1e6:.1f} us/point")

@@ -17,7 +17,8 @@ overload [34970A-UG p.280], so the driver must look at every value.
 
 from __future__ import annotations
 
-from typing import Any, Mapping, Sequence
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 from ecds_lab.drivers.instrument import SCPIInstrument
 from ecds_lab.errors import InvalidSettingError, TransportTimeout
@@ -87,7 +88,7 @@ class DAQ970A(SCPIInstrument):
 
     # -- TemperatureScanner interface ----------------------------------------------------------
     def identity(self) -> str:
-        """``*IDN?``; refuses an instrument that is not of the 3497x / DAQ970 family [34970A-UG p.146, DAQ970-PG p.149]."""
+        """``*IDN?``; refuses an instrument not of the 3497x / DAQ970 family [34970A-UG p.146, DAQ970-PG p.149]."""
         reply = self.ask("*IDN?")
         fields = [field.strip() for field in reply.split(",")]
         model = fields[1].upper() if len(fields) > 1 else ""
@@ -124,9 +125,10 @@ class DAQ970A(SCPIInstrument):
         except ValueError:
             raise self.fail("READ?", reply, "expected comma-separated readings") from None
         if len(values) != len(self.channels):
-            raise self.fail("READ?", reply, f"expected {len(self.channels)} readings for {channel_list(list(self.channels))}")
+            scan_list = channel_list(list(self.channels))
+            raise self.fail("READ?", reply, f"expected {len(self.channels)} readings for {scan_list}")
         temperatures: dict[str, float] = {}
-        for (number, name), value in zip(self.channels.items(), values):
+        for (number, name), value in zip(self.channels.items(), values, strict=True):
             if abs(value) >= OVERLOAD_THRESHOLD:
                 raise self.fail("READ?", reply, f"channel {number} ({name!r}): open thermocouple or overload")
             temperatures[name] = value

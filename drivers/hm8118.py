@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from ecds_lab.drivers.instrument import Control, Instrument, choice, in_range, integer_in_range, one_of
+from ecds_lab.drivers.instrument import Control, Instrument, in_range, integer_in_range, one_of
 from ecds_lab.instruments.interfaces import BridgeReading, BridgeSettings
 from ecds_lab.transports.base import Transport
 
@@ -52,22 +52,22 @@ class HM8118(Instrument):
 
     model = "HM8118"
 
-    frequency_hz = Control("FREQ?", "FREQ {:.0f}", "Test frequency in Hz; only the 69 discrete values.",
-                           validator=one_of(FREQUENCIES_HZ, " Hz"))
-    voltage_v = Control("VOLT?", "VOLT {:.3f}", "Test signal level, 0.05-1.5 V rms.",
-                        validator=in_range(0.05, 1.5, " V"))
-    function = Control("PMOD?", "PMOD {}", "Measurement function (main-secondary pair).",
-                       mapping=FUNCTIONS, parse=int)
-    circuit = Control("CIRC?", "CIRC {}", "Equivalent circuit: series, parallel or auto.",
-                      mapping=CIRCUITS, parse=int)
-    speed = Control("RATE?", "RATE {}", "Measurement speed; slow is the most accurate.",
-                    mapping=SPEEDS, parse=int)
-    averaging = Control("AVGM?", "AVGM {}", "Averaging on (NAVG readings) or off [SWM].",
-                        mapping={False: 0, True: 1}, parse=int)
-    averages = Control("NAVG?", "NAVG {}", "Number of readings averaged, 2-99 [SWM].",
-                       validator=integer_in_range(2, 99), parse=int)
-    trigger_mode = Control("MMOD?", "MMOD {}", "Trigger: continuous, manual (*TRG) or external.",
-                           mapping=TRIGGER_MODES, parse=int)
+    frequency_hz: Control[float] = Control("FREQ?", "FREQ {:.0f}", "Test frequency in Hz; only the 69 discrete values.",
+                                           validator=one_of(FREQUENCIES_HZ, " Hz"))
+    voltage_v: Control[float] = Control("VOLT?", "VOLT {:.3f}", "Test signal level, 0.05-1.5 V rms.",
+                                        validator=in_range(0.05, 1.5, " V"))
+    function: Control[str] = Control("PMOD?", "PMOD {}", "Measurement function (main-secondary pair).",
+                                     mapping=FUNCTIONS, parse=int)
+    circuit: Control[str] = Control("CIRC?", "CIRC {}", "Equivalent circuit: series, parallel or auto.",
+                                    mapping=CIRCUITS, parse=int)
+    speed: Control[str] = Control("RATE?", "RATE {}", "Measurement speed; slow is the most accurate.",
+                                  mapping=SPEEDS, parse=int)
+    averaging: Control[bool] = Control("AVGM?", "AVGM {}", "Averaging on (NAVG readings) or off [SWM].",
+                                       mapping={False: 0, True: 1}, parse=int)
+    averages: Control[int] = Control("NAVG?", "NAVG {}", "Number of readings averaged, 2-99 [SWM].",
+                                     validator=integer_in_range(2, 99), parse=int)
+    trigger_mode: Control[str] = Control("MMOD?", "MMOD {}", "Trigger: continuous, manual (*TRG) or external.",
+                                         mapping=TRIGGER_MODES, parse=int)
 
     def __init__(self, transport: Transport) -> None:
         super().__init__(transport)

@@ -65,12 +65,12 @@ class HMP4040(SCPIInstrument):
                         low=0.0, high="max_voltage_v", unit=" V")
     current_limit_a = Bounded("CURR?", "CURR {:.4f}", "Current limit of the selected output.",
                               low=0.0, high="max_current_a", unit=" A")
-    output = Control("OUTP?", "OUTP {}", "Selected output armed and switched (ON) or disarmed (OFF).",
-                     mapping=ON_OFF, parse=_on_off)
-    armed = Control("OUTP:SEL?", "OUTP:SEL {}", "Selected output armed for the master switch.",
-                    mapping=ON_OFF, parse=_on_off)
-    master = Control("OUTP:GEN?", "OUTP:GEN {}", "Master switch of all armed outputs.",
-                     mapping=ON_OFF, parse=_on_off)
+    output: Control[bool] = Control("OUTP?", "OUTP {}", "Selected output armed and switched (ON) or disarmed (OFF).",
+                                    mapping=ON_OFF, parse=_on_off)
+    armed: Control[bool] = Control("OUTP:SEL?", "OUTP:SEL {}", "Selected output armed for the master switch.",
+                                   mapping=ON_OFF, parse=_on_off)
+    master: Control[bool] = Control("OUTP:GEN?", "OUTP:GEN {}", "Master switch of all armed outputs.",
+                                    mapping=ON_OFF, parse=_on_off)
 
     def __init__(self, transport: Transport, *, outputs: int = 4, max_voltage_v: float = 32.0,
                  max_current_a: float = 10.0, max_power_w: float = 160.0) -> None:

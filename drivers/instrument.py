@@ -7,7 +7,8 @@ input never reaches the instrument.
 
 from __future__ import annotations
 
-from typing import Any, Callable, Generic, Iterable, Mapping, TypeVar
+from collections.abc import Callable, Iterable, Mapping
+from typing import Any, Generic, TypeVar
 
 from ecds_lab.errors import InstrumentError, InvalidSettingError
 from ecds_lab.transports.base import Transport

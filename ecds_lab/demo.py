@@ -7,9 +7,8 @@ import logging
 import time
 from pathlib import Path
 
+from ecds_lab import shipped
 from ecds_lab.runner.session import RunResult, run_experiment
-
-EXPERIMENTS = Path(__file__).resolve().parent.parent / "experiments"
 
 #: (experiment, station) pairs of the campaign, in the order the paper presents them.
 CAMPAIGN: tuple[tuple[str, str], ...] = (
@@ -30,7 +29,7 @@ def run_demo(output: Path, progress: bool = True) -> list[RunResult]:
     results = []
     for experiment, station in CAMPAIGN:
         run_file = output / experiment.replace(".yaml", ".h5")
-        result = run_experiment(EXPERIMENTS / experiment, EXPERIMENTS / "stations" / station, run_file,
+        result = run_experiment(shipped.experiment(experiment), shipped.station(station), run_file,
                                 overwrite=True, progress=progress)
         print(f"{result.status:9s} {result.points:5d} points  {run_file}  ({result.wall_s:.1f} s)")
         results.append(result)

@@ -9,15 +9,16 @@ from __future__ import annotations
 import logging
 import math
 import tempfile
+from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Iterator
+from typing import Any
 
 import numpy as np
 import yaml
 
-from ecds_lab.clock import SimulatedClock
+from ecds_lab.clock import Clock, SimulatedClock
 from ecds_lab.config.experiment import EXPERIMENT_ADAPTER
 from ecds_lab.config.loading import validate
 from ecds_lab.config.station import InstrumentConfig, StationConfig
@@ -28,6 +29,7 @@ from ecds_lab.runner.runner import Runner
 from ecds_lab.station import Station, open_station
 from ecds_lab.storage.reader import RunFile, read_run
 from ecds_lab.storage.run_file import RunWriter, metadata_for
+from ecds_lab.transports.base import Transport
 from ecds_lab.transports.replay import ReplayState, ReplayTransport
 
 #: Columns not expected to reproduce: wall-clock time differs by nature.
@@ -78,10 +80,11 @@ def replay_station(run: RunFile | str | Path) -> Station:
     clock = SimulatedClock()
     state = ReplayState()  # one per station: the first divergence on any link stops them all
 
-    def factory(role: str, instrument: InstrumentConfig, settings: dict, clock_: SimulatedClock) -> ReplayTransport:
+    def factory(role: str, instrument: InstrumentConfig, settings: dict[str, Any], station_clock: Clock) -> Transport:
+        """The replay link of one role; ``station_clock`` is ``clock``, which replay links advance."""
         if role not in run.transcripts:
             raise RunFileError(f"{run.path}: no transcript for the {role}")
-        return ReplayTransport(role, run.transcripts[role], clock=clock_, clock_origin_s=origin,
+        return ReplayTransport(role, run.transcripts[role], clock=clock, clock_origin_s=origin,
                                write_termination=settings.get("write_termination", "\n"),
                                read_termination=settings.get("read_termination", "\n"),
                                timeout_s=settings.get("timeout_s", 2.0), state=state)

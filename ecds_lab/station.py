@@ -15,6 +15,7 @@ from typing import Any
 
 import yaml
 
+from ecds_lab import shipped
 from ecds_lab.clock import Clock, SimulatedClock, WallClock
 from ecds_lab.config.loading import load_yaml_model
 from ecds_lab.config.station import InstrumentConfig, SerialLink, StationConfig, VisaLink
@@ -24,7 +25,7 @@ from ecds_lab.transports.base import Transport
 from ecds_lab.transports.serial_link import SerialTransport
 from ecds_lab.transports.visa_link import VisaTransport
 
-DEFAULT_STATION = Path(__file__).resolve().parent.parent / "experiments" / "stations" / "simulated_lab.yaml"
+DEFAULT_STATION = shipped.station("simulated_lab.yaml")
 
 TransportFactory = Callable[[str, InstrumentConfig, dict[str, Any], Clock], Transport]
 _lab_numbers = itertools.count()

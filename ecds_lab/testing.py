@@ -11,8 +11,8 @@ the position in the transcript, and the expected and actual command.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import Callable, Iterator
 
 import pytest
 

@@ -74,7 +74,7 @@ def move_to(lab: SimulatedLab, distance_mm: float) -> None:
 def take_up_backlash(lab: SimulatedLab, distance_mm: float, direction: int) -> None:
     """Arrive at the first position of a recording moving in ``direction`` (+1: increasing distance).
 
-    A recording's direction of approach is inferred from its own positions (DESIGN.md), so its
+    A recording's direction of approach is inferred from its own positions (docs/data-contract.md), so its
     first reading must be approached the way its first recorded move goes.
     """
     move_to(lab, distance_mm - direction * BACKLASH_TAKE_UP_MM)

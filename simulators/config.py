@@ -1,6 +1,6 @@
 """Settings of the simulated lab: sensor, thermal constants, noise and switchable effects.
 
-Every effect beyond the baseline ECM (DESIGN.md's effect names) can be switched on
+Every effect beyond the baseline ECM (the README's effect names) can be switched on
 and sized here, so campaigns with a hidden effect can be generated on demand.
 """
 

@@ -6,8 +6,8 @@ temperature stability TS = e_pos / (FS dT) in ppm FS/K.
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Mapping, Sequence
 
 import numpy as np
 

@@ -7,8 +7,8 @@ error of a heated coil into the small remainder the paper reports (about 10 %).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
-from typing import Sequence
 
 import numpy as np
 

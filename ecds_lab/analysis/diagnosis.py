@@ -12,8 +12,9 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -66,7 +67,7 @@ class Candidate:
 
 @dataclass
 class Diagnosis:
-    """Everything the diagnosis found; ``to_json`` gives DESIGN.md's JSON object."""
+    """Everything the diagnosis found; ``to_json`` gives the JSON of docs/data-contract.md."""
 
     data: Measurements
     effects: list[str]
@@ -77,7 +78,7 @@ class Diagnosis:
     associations: list[Association]
     verdict: str
     explanation: str
-    follow_up: "Diagnosis | None" = None
+    follow_up: Diagnosis | None = None
     residual_mm: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     @property
@@ -136,19 +137,19 @@ def run_diagnosis(data: Measurements, effects: Sequence[str] = (), sensor: Senso
     base_cv = _cv_rmse(data, effects, base, sensor, folds) if folds is not None else None
     for candidate in _competitive(ranked)[:CROSS_VALIDATED]:
         if folds is not None:
-            candidate.cv_rmse_ppm = _cv_rmse(data, effects + [candidate.effect], candidate.fit, sensor, folds)
+            candidate.cv_rmse_ppm = _cv_rmse(data, [*effects, candidate.effect], candidate.fit, sensor, folds)
     verdict = _verdict(base, noise, ranked, associations)
     result = Diagnosis(data, effects, noise, base, base_cv, ranked, associations, verdict, "",
                        residual_mm=_residual_mm(base, data))
     if follow_up and verdict == "missing_effect" and ranked and ranked[0].delta_bic < DECISIVE_DELTA_BIC:
-        result.follow_up = run_diagnosis(data, effects + [ranked[0].effect], sensor, candidates=candidates,
+        result.follow_up = run_diagnosis(data, [*effects, ranked[0].effect], sensor, candidates=candidates,
                                          follow_up=False, cross_validate=False)
     result.explanation = explain(result)
     return result
 
 
 def diagnose(data: Measurements, effects: Sequence[str] = (), sensor: SensorConfig | None = None) -> dict[str, Any]:
-    """The diagnosis as DESIGN.md's JSON object."""
+    """The diagnosis as the JSON object of docs/data-contract.md."""
     unknown = [e for e in effects if e not in library()]
     if unknown:
         raise ValueError(f"unknown effect(s) {', '.join(unknown)}; known: {', '.join(library())}")
@@ -159,7 +160,7 @@ def diagnose(data: Measurements, effects: Sequence[str] = (), sensor: SensorConf
 def _candidate(data: Measurements, effects: list[str], name: str, base: FitResult,
                sensor: SensorConfig | None) -> Candidate:
     """Fit model + effect, starting from the current fit's values and the effect's defaults."""
-    model = SensorModel(sensor, effects + [name])
+    model = SensorModel(sensor, [*effects, name])
     fitted = fit_model(model, data, start=dict(base.values), multistart=False, screening=True)
     return Candidate(name, fitted, fitted.bic - base.bic)
 
@@ -197,7 +198,7 @@ def _folds(data: Measurements) -> np.ndarray | None:
     if len(unique) < 2 or len(data) < 8 * FOLDS:
         return None
     rng = np.random.default_rng(0)
-    fold_of_group = dict(zip(unique.tolist(), rng.permutation(len(unique)) % FOLDS))
+    fold_of_group = dict(zip(unique.tolist(), rng.permutation(len(unique)) % FOLDS, strict=True))
     return np.array([fold_of_group[g] for g in groups.tolist()])
 
 
@@ -270,15 +271,14 @@ def explain(result: Diagnosis) -> str:
         lines.append(f"Adding {best.effect} ({effect.explains}) brings it from {base.rms_ppm:.1f} to "
                      f"{best.rmse_ppm:.1f} ppm (delta BIC {best.delta_bic:+.0f}{cv}); fitted {values}.")
         follow = result.follow_up
-        second = (follow is not None and follow.verdict == "missing_effect" and follow.best is not None
-                  and follow.best.delta_bic < DECISIVE_DELTA_BIC)
+        second = follow.best if follow is not None and follow.verdict == "missing_effect" else None
         final_ppm = best.rmse_ppm
-        if second:
-            lines.append(f"With {best.effect} added, a second effect helps: {follow.best.effect} "
-                         f"({follow.best.fit.model.effects[-1].explains}) brings the residual to "
-                         f"{follow.best.rmse_ppm:.1f} ppm (delta BIC {follow.best.delta_bic:+.0f}); "
-                         f"fit with --effects {best.effect},{follow.best.effect}.")
-            final_ppm = follow.best.rmse_ppm
+        if second is not None and second.delta_bic < DECISIVE_DELTA_BIC:
+            lines.append(f"With {best.effect} added, a second effect helps: {second.effect} "
+                         f"({second.fit.model.effects[-1].explains}) brings the residual to "
+                         f"{second.rmse_ppm:.1f} ppm (delta BIC {second.delta_bic:+.0f}); "
+                         f"fit with --effects {best.effect},{second.effect}.")
+            final_ppm = second.rmse_ppm
         elif follow is not None and follow.verdict == "adequate":
             lines.append(f"With it added the model is adequate ({follow.baseline.rms_ppm:.1f} ppm).")
         if final_ppm > FAILING_RATIO * noise:

@@ -70,7 +70,9 @@ def fit_parallel_rlc(freq_hz: np.ndarray, ls_h: np.ndarray, rs_ohm: np.ndarray) 
     sd_theta = np.sqrt(np.clip(np.diag(cov), 0, None))
     sd = np.concatenate([v[:3] * sd_theta[:3], [start[3] * sd_theta[3]]])
     rms = float(np.sqrt(np.mean(result.fun**2)))
-    return RlcFit(*v.tolist(), stderr=dict(zip(_NAMES, sd.tolist())), rms_ppm=rms)
+    inductance, capacitance, parallel_resistance, series_resistance = v.tolist()
+    return RlcFit(inductance, capacitance, parallel_resistance, series_resistance,
+                  stderr=dict(zip(_NAMES, sd.tolist(), strict=True)), rms_ppm=rms)
 
 
 def fit_spectroscopy(data: Measurements) -> list[RlcFit]:

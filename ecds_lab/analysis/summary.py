@@ -9,8 +9,9 @@ readings are summarised in mm, % FS and ppm FS/K.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -79,7 +80,7 @@ class HeatedRows:
     coil_room_c: float
 
     @classmethod
-    def of(cls, data: Measurements) -> "HeatedRows":
+    def of(cls, data: Measurements) -> HeatedRows:
         finite = np.isfinite(data.x_m)
         coil_room = float(np.percentile(data.t_coil_c, 5))
         coil_rise = data.t_coil_c - coil_room
@@ -176,7 +177,7 @@ def _errors(errors: PositionErrors, rise_k: np.ndarray | None = None) -> dict[st
     """Max and RMS position error (mm, % FS), out-of-range count, and TS when temperatures rose."""
     e = errors.error_mm
     out: dict[str, Any] = {
-        "n": int(len(e)),
+        "n": len(e),
         "max_abs_mm": float(np.max(np.abs(e))),
         "rms_mm": float(np.sqrt(np.mean(e**2))),
         "max_abs_fs_percent": float(np.max(np.abs(errors.error_fs_percent))),

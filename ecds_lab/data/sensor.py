@@ -14,10 +14,10 @@ from typing import Literal
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
+from ecds_lab import shipped
 from ecds_lab.errors import ConfigError
 
 #: The shipped sensor YAMLs, named by their file stem.
-SHIPPED_SENSORS = Path(__file__).resolve().parent.parent.parent / "experiments" / "sensors"
 #: What analysis assumes when nothing says which sensor measured the data.
 DEFAULT_SENSOR_NOTE = "sensor not recorded: analysed as the paper's copper prototype"
 
@@ -71,7 +71,7 @@ class SensorConfig(BaseModel):
 
 def shipped_sensors() -> list[str]:
     """Names of the sensor YAMLs shipped with ecds-lab (``paper_prototype``, ``steel_target``...)."""
-    return sorted(p.stem for p in SHIPPED_SENSORS.glob("*.yaml"))
+    return sorted(p.stem for p in shipped.sensors_folder().glob("*.yaml"))
 
 
 def sensor_path(name: str | Path) -> Path:
@@ -81,7 +81,7 @@ def sensor_path(name: str | Path) -> Path:
         if text not in shipped_sensors():
             raise ConfigError(f"sensor {text!r}: no shipped sensor of that name; shipped: "
                               f"{', '.join(shipped_sensors())} (or give a path to a sensor YAML)")
-        return SHIPPED_SENSORS / f"{text}.yaml"
+        return shipped.sensors_folder() / f"{text}.yaml"
     return Path(text)
 
 

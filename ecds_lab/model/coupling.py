@@ -1,6 +1,6 @@
 """Coupling k(x) between the coil and an ideal (superconducting) target.
 
-Image method (PHYSICS.md): a perfect conductor at distance x mirrors the coil
+Image method (docs/physics.md): a perfect conductor at distance x mirrors the coil
 at 2x with opposite current, so L_eff = L - M(2x) and k(x)^2 = M_image(x) / L.
 M comes from Maxwell's formula for coaxial circular filaments, summed over a
 filament grid of the winding. The result is tabulated once per geometry and

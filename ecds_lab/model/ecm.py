@@ -36,14 +36,6 @@ def with_parallel_elements(z_series: np.ndarray, omega: np.ndarray, capacitance:
     return 1.0 / (1.0 / z_series + 1j * omega * capacitance + 1.0 / parallel_resistance)
 
 
-def apparent_series_inductance(l_true: np.ndarray, r_true: np.ndarray, omega: np.ndarray,
-                               capacitance: np.ndarray,
-                               parallel_resistance: np.ndarray | float = np.inf) -> np.ndarray:
-    """Series inductance Ls = Im(Z)/w the bridge reports for a coil with parallel C (and R_p)."""
-    z = with_parallel_elements(r_true + 1j * omega * l_true, omega, capacitance, parallel_resistance)
-    return z.imag / omega
-
-
 def parallel_rlc_impedance(omega: np.ndarray, inductance: float, capacitance: float,
                            resistance: float, series_resistance: float = 0.0) -> np.ndarray:
     """(R_s + jwL) || C || R: the resonance model of Table 2 (R_s = 0 gives the plain parallel RLC)."""

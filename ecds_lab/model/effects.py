@@ -1,6 +1,6 @@
 """Model effects: named additions to the baseline ECM, and the one registry of them.
 
-An effect is one small class: a ``name`` (DESIGN.md's effect names), its own
+An effect is one small class: a ``name`` (the effect names of the README), its own
 ``parameters()``, optionally ``unidentifiable(data)``, and any of the stage hooks
 below. ``SensorModel`` evaluates a fixed pipeline and calls every effect's hook at
 each stage, in the order the effects were given; a hook returns the changed quantity.
@@ -34,7 +34,7 @@ from ecds_lab.data.measurements import Measurements
 from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.model.parameters import Parameter
 
-#: The effect names DESIGN.md fixes (the contract of ``--effects`` and of the diagnosis).
+#: The effect names the README fixes (the contract of ``--effects`` and of the diagnosis).
 EFFECT_NAMES = ("target_tau_temperature", "tau_displacement", "target_bending",
                 "parasitic_capacitance", "thermal_lag", "slide_backlash")
 
@@ -112,10 +112,10 @@ def library() -> dict[str, type[Effect]]:
 
 
 def make_effect(name: str, sensor: SensorConfig) -> Effect:
-    """An effect by its DESIGN.md name; unknown names fail listing the known ones."""
+    """An effect by its contract name; unknown names fail listing the known ones."""
     if name in library():
         return EFFECTS[name](sensor)
     known = ", ".join(sorted(EFFECTS)) or "none yet"
     if name in EFFECT_NAMES:
-        raise ValueError(f"effect {name!r} is named in DESIGN.md but not implemented; implemented: {known}")
+        raise ValueError(f"effect {name!r} is a known effect name but not implemented; implemented: {known}")
     raise ValueError(f"unknown effect {name!r}; known effects: {known}")

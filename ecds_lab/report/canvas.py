@@ -9,8 +9,9 @@ from __future__ import annotations
 import functools
 import io
 import struct
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Literal, ParamSpec, TypeVar
 
 import matplotlib
 import numpy as np
@@ -20,10 +21,16 @@ from matplotlib.cm import ScalarMappable
 from matplotlib.colors import Colormap, Normalize
 from matplotlib.figure import Figure
 
+if TYPE_CHECKING:
+    from matplotlib.typing import RcKeyType  # the rc keys as a Literal (matplotlib >= 3.8)
+
 #: Pixels per inch of the embedded PNGs (sizes are given in inches).
 DPI = 96
 
-STYLE = {
+P = ParamSpec("P")
+R = TypeVar("R")
+
+STYLE: dict[RcKeyType, Any] = {
     "font.size": 9.0,
     "axes.titlesize": 9.5,
     "axes.labelsize": 9.0,
@@ -47,18 +54,19 @@ class Png:
     alt: str
 
 
-def styled(draw: Callable[..., Png]) -> Callable[..., Png]:
+def styled(draw: Callable[P, R]) -> Callable[P, R]:
     """Run a figure-drawing function with the report's matplotlib style in force."""
 
     @functools.wraps(draw)
-    def wrapper(*args: Any, **kwargs: Any) -> Png:
+    def wrapper(*args: P.args, **kwargs: P.kwargs) -> R:
         with matplotlib.rc_context(STYLE):
             return draw(*args, **kwargs)
 
     return wrapper
 
 
-def subplots(width_in: float, height_in: float, rows: int = 1, cols: int = 1, *, layout: str | None = "constrained",
+def subplots(width_in: float, height_in: float, rows: int = 1, cols: int = 1, *,
+             layout: Literal["constrained", "compressed", "tight"] | None = "constrained",
              **kwargs: Any) -> tuple[Figure, np.ndarray]:
     """A figure on an Agg canvas (constrained layout unless ``layout=None``) and a 2-D array of its axes."""
     figure = Figure(figsize=(width_in, height_in), dpi=DPI, layout=layout)

@@ -3,7 +3,7 @@ and the diagnosis (candidate ranking, residuals before and after the best effect
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 from matplotlib.axes import Axes
@@ -75,7 +75,7 @@ def inductance_vs_distance(groups: Sequence[tuple[str, FitResult, Measurements]]
     all_t = np.concatenate([d.t_target_c for _, _, d in groups])
     norm = Normalize(float(np.min(all_t)), max(float(np.max(all_t)), float(np.min(all_t)) + 1.0))
     cmap = colormap("plasma")
-    for ax, freq in zip(axes[0], freqs):
+    for ax, freq in zip(axes[0], freqs, strict=True):
         for material, fit, data in groups:
             part = data.select(np.isfinite(data.x_m) & (data.freq_hz == freq))
             marker = MATERIAL_MARKERS.get(material, "^")
@@ -117,8 +117,8 @@ def sensitivity(groups: Sequence[tuple[str, FitResult, Measurements]]) -> Png:
 
     freqs = np.unique(np.concatenate([d.freq_hz[np.isfinite(d.x_m)] for _, _, d in groups]))
     fig, axes = subplots(4.4 * len(freqs), 3.6, 1, len(freqs))
-    for ax, freq in zip(axes[0], freqs):
-        for (material, fit, data), colour in zip(groups, CATEGORY_COLOURS):
+    for ax, freq in zip(axes[0], freqs, strict=True):
+        for (material, fit, data), colour in zip(groups, CATEGORY_COLOURS, strict=False):
             room = data.select(room_temperature_rows(data) & np.isfinite(data.x_m) & (data.freq_hz == freq))
             if not len(room):
                 continue
@@ -165,7 +165,7 @@ def residual_map_row(data: Measurements, residuals_ppm: np.ndarray, noise_ppm: f
     jitter = np.random.default_rng(0).uniform(-0.18, 0.18, len(data))
     x = values[axis_name] + (jitter if VARIABLES[axis_name].categorical else 0.0)
     span = float(np.max(np.abs(r))) * 1.05 if len(r) else 1.0
-    for ax, colour_name in zip(axes[0], MAP_COLOURS):
+    for ax, colour_name in zip(axes[0], MAP_COLOURS, strict=True):
         if colour_name == axis_name:
             ax.scatter(x, r, s=3, color="0.35", lw=0)
         else:
@@ -197,7 +197,7 @@ def _colour_scales(values: dict[str, np.ndarray]) -> dict[str, Normalize]:
 def _colour_keys(fig: Figure, axes: Sequence[Axes], values: dict[str, np.ndarray], scales: dict[str, Normalize],
                  cmap: Colormap, room: float) -> None:
     """A colour bar (continuous) or legend (categorical) above each column."""
-    for ax, colour_name in zip(axes, MAP_COLOURS):
+    for ax, colour_name in zip(axes, MAP_COLOURS, strict=False):
         variable = VARIABLES[colour_name]
         if colour_name in scales:
             box = ax.get_position()
@@ -268,7 +268,7 @@ def before_after(data: Measurements, before_ppm: np.ndarray, after_ppm: np.ndarr
     names = [v for v in variables if v in VARIABLES][:3] or ["x_mm"]
     fig, axes = subplots(4.0 * len(names), 3.4, 1, len(names), sharey=True)
     jitter = np.random.default_rng(1).uniform(-0.18, 0.18, len(data))
-    for ax, name in zip(axes[0], names):
+    for ax, name in zip(axes[0], names, strict=True):
         variable = VARIABLES[name]
         x = variable.display(data) + (jitter if variable.categorical else 0.0)
         if noise_ppm:

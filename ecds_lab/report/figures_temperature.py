@@ -3,13 +3,14 @@ the coil's heating characterisation with Eq. (4) (Fig. 17/19), and spectroscopy 
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.colors import Colormap, Normalize
 
 from ecds_lab.analysis.compensation import TemperatureCompensation
+from ecds_lab.analysis.spectroscopy import RlcFit
 from ecds_lab.analysis.summary import CalibrationCase, HeatedErrors
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.model.ecm import parallel_rlc_impedance
@@ -45,7 +46,8 @@ def _error_lines(ax: Axes, case: CalibrationCase, heated: HeatedErrors, norm: No
 def _fs_axis(ax: Axes, fs_m: float) -> None:
     """A right-hand axis in % of full scale."""
     fs_mm = fs_m * 1e3
-    right = ax.secondary_yaxis("right", functions=(lambda mm: mm / fs_mm * 100, lambda pct: pct * fs_mm / 100))
+    right = ax.secondary_yaxis("right", functions=(lambda mm: np.asarray(mm) / fs_mm * 100,
+                                                       lambda pct: np.asarray(pct) * fs_mm / 100))
     right.set_ylabel("e_pos (% FS)")
 
 
@@ -148,14 +150,14 @@ def coil_heating(air: Measurements, compensation: TemperatureCompensation) -> Pn
 
 
 @styled
-def spectra(items: Sequence[tuple[Measurements, "object"]]) -> Png:
+def spectra(items: Sequence[tuple[Measurements, RlcFit]]) -> Png:
     """Fig. 18: |Z| and phase of the coil in air against frequency per temperature, with the RLC fits."""
     fig, axes = subplots(11.0, 3.8, 1, 2)
     temps = [float(np.mean(d.t_coil_c)) for d, _ in items]
     norm = Normalize(min(temps), max(max(temps), min(temps) + 1.0))
     cmap = colormap("plasma")
     markers = "osD^v<>p"
-    for k, ((data, fit), temp) in enumerate(zip(items, temps)):
+    for k, ((data, fit), temp) in enumerate(zip(items, temps, strict=True)):
         colour = cmap(0.85 * norm(temp))
         marker = markers[k % len(markers)]
         omega = 2 * np.pi * data.freq_hz

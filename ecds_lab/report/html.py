@@ -8,9 +8,10 @@ from __future__ import annotations
 
 import logging
 import time
+from collections.abc import Sequence
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 from ecds_lab import __version__
 from ecds_lab.report import render
@@ -83,7 +84,7 @@ def write_report(data_paths: Sequence[Path], output: Path, *, diagnosis: Any = N
         diagnosed = time.perf_counter()
         (diagnosis_section,) = build_sections(findings, [DIAGNOSIS])
         drawn = {id(plot): plot.render() for plot in diagnosis_section.plots()}  # while the workers draw the rest
-        drawn.update(zip(map(id, plots), rendering.results()))
+        drawn.update(zip(map(id, plots), rendering.results(), strict=True))
     sections.insert(anchors().index(DIAGNOSIS), diagnosis_section)
     page = document(sections, [p.name for p in paths], drawn)
     output = Path(output)

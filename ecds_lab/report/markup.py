@@ -9,7 +9,7 @@ from __future__ import annotations
 import base64
 import html
 import math
-from typing import Iterable, Sequence
+from collections.abc import Iterable, Sequence
 
 from ecds_lab.report.canvas import Png
 
@@ -82,7 +82,7 @@ def value_error(value: float, stderr: float | None, scale: float = 1.0, unit: st
     if stderr is None or not math.isfinite(stderr) or stderr <= 0:
         return f"{v:.6g}" + (f" {unit}" if unit else "")
     e = stderr * abs(scale)
-    decimals = max(0, 1 - int(math.floor(math.log10(e))))
+    decimals = max(0, 1 - math.floor(math.log10(e)))
     return f"{v:.{decimals}f} ± {e:.{decimals}f}" + (f" {unit}" if unit else "")
 
 

@@ -12,12 +12,13 @@ from __future__ import annotations
 
 import multiprocessing
 import os
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any
 
 from ecds_lab.report.canvas import Png, styled, warm_up
 
-_PENDING: list["Plot"] = []
+_PENDING: list[Plot] = []
 
 
 @dataclass
@@ -85,7 +86,7 @@ class Rendering:
             self._pool.join()
             self._pool = None
 
-    def __enter__(self) -> "Rendering":
+    def __enter__(self) -> Rendering:
         return self
 
     def __exit__(self, *exc: object) -> None:

@@ -7,9 +7,10 @@ data cannot support is replaced by a one-line note saying why.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from datetime import datetime
-from typing import Any, Callable, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -113,9 +114,10 @@ def _started(run_start: str) -> str:
 def runs_section(findings: Findings) -> Parts:
     runs = [i for i in findings.inputs if i.run is not None]
     csvs = [i for i in findings.inputs if i.run is None]
-    parts = []
+    parts: Parts = []
     if runs:
-        shared = all(i.run.identities == runs[0].run.identities for i in runs)  # type: ignore[union-attr]
+        run_identities = [i.run.identities for i in runs if i.run is not None]
+        shared = all(ids == run_identities[0] for ids in run_identities)
         rows = []
         for item in runs:
             run = item.run
@@ -134,7 +136,7 @@ def runs_section(findings: Findings) -> Parts:
         header = ["file", "experiment", "station"] + ([] if shared else ["instruments"]) + [
             "status", "started / duration", "points", "faults", "used for"]
         parts.append(table(header, rows, css="runs"))
-        identities = sorted(runs[0].run.identities.items()) if shared else []  # type: ignore[union-attr]
+        identities = sorted(run_identities[0].items()) if shared else []
         if identities:
             parts.append(table(("role", "instrument identity"), identities,
                                caption=f"Instruments (the same in all {len(runs)} runs)" if len(runs) > 1
@@ -148,12 +150,6 @@ def runs_section(findings: Findings) -> Parts:
 
 
 # -- model fit -----------------------------------------------------------------------------------
-def _groups_or_note(findings: Findings) -> list[TargetGroup] | Parts:
-    if isinstance(findings.groups, Omitted):
-        return [note(findings.groups.reason)]
-    return findings.groups
-
-
 def _params_table(group: TargetGroup) -> Html:
     fit = group.fit
     rows = []
@@ -169,9 +165,9 @@ def _params_table(group: TargetGroup) -> Html:
 
 
 def fit_section(findings: Findings) -> Parts:
-    groups = _groups_or_note(findings)
-    if not isinstance(findings.groups, list):
-        return groups  # type: ignore[return-value]
+    if isinstance(findings.groups, Omitted):
+        return [note(findings.groups.reason)]
+    groups = findings.groups
     parts: Parts = [paragraph("Baseline model, the paper's Eq. (2) with Eq. (4) and the calibrated coupling Eq. (5), "
                        "fitted to all readings of each target material.")]
     with_target = [g for g in groups if g.has_target]
@@ -289,17 +285,17 @@ def _ts_rows(group: TargetGroup, with_coil: bool) -> list[tuple[str, ...]]:
                 fs = float(np.max(np.abs(heated.errors.error_fs_percent)))
                 cells.append(Html(f"n = {case.calibration.n_points}: {heated.errors.max_abs_mm():.3g} mm "
                                   f"({fs:.2g} % FS)<br>TS {low:+.0f} … {high:+.0f}"))
-            rows.append(tuple(cells + [PAPER_TS[what]]))
+            rows.append(tuple([*cells, PAPER_TS[what]]))
     return rows
 
 
 def position_section(findings: Findings) -> Parts:
-    groups = _groups_or_note(findings)
-    if not isinstance(findings.groups, list):
-        return groups  # type: ignore[return-value]
+    if isinstance(findings.groups, Omitted):
+        return [note(findings.groups.reason)]
+    groups = findings.groups
     parts: Parts = []
     with_cases = [g for g in groups if g.cases]
-    skipped = [note(reason) for g in groups for reason in g.skipped.values()]
+    skipped: Parts = [note(reason) for g in groups for reason in g.skipped.values()]
     if not with_cases:
         return list(skipped) or [note("no calibration: no room-temperature sweep with five or more positions "
                                       "at one frequency")]

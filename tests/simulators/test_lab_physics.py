@@ -1,4 +1,4 @@
-"""The simulated lab against PHYSICS.md, measured through the real drivers and transports."""
+"""The simulated lab against docs/physics.md, measured through the real drivers and transports."""
 
 from __future__ import annotations
 
