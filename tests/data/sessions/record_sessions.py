@@ -59,7 +59,7 @@ def record(name: str, folder: Path = HERE) -> Path:
     target = folder / f"{name}.h5"
     with tempfile.TemporaryDirectory() as scratch:
         raw = Path(scratch) / f"{name}.h5"
-        command = ecds_lab_command() + ["run", str(HERE / experiment), "-o", str(raw), "--quiet"]
+        command = [*ecds_lab_command(), "run", str(HERE / experiment), "-o", str(raw), "--quiet"]
         if station:
             command += ["--station", str(HERE / station)]
         done = subprocess.run(command, capture_output=True, text=True)
@@ -88,7 +88,7 @@ def _copy_group(src: h5py.Group, dst: h5py.Group) -> None:
             _copy_group(item, group)
         else:
             data = item[()]
-            chunks = tuple(max(1, min(n, c)) for n, c in zip(item.shape, item.chunks or item.shape))
+            chunks = tuple(max(1, min(n, c)) for n, c in zip(item.shape, item.chunks or item.shape, strict=True))
             ds = dst.create_dataset(key, data=data, maxshape=item.maxshape, chunks=chunks or None,
                                     compression="gzip", compression_opts=9, shuffle=True)
             _copy_attrs(item, ds)
