@@ -267,12 +267,11 @@ class Grbl(Instrument):
         self._ensure_connected()
         self._check_not_held("$H")
         self.transport.write("$H")
-        alarms: list[str] = []
-        self._read_until("$H", lambda line: line == "ok" or line.startswith("ALARM:"), alarms=alarms,
-                         timeout_s=HOMING_TIMEOUT_S)
-        if alarms:
-            self.wake_up(timeout_s=BANNER_WAIT_S)
-            raise self._homing_alarm(alarms[0])
+        reply = self._read_until("$H", lambda line: line == "ok" or line.startswith("ALARM:"),
+                                 timeout_s=HOMING_TIMEOUT_S)
+        if reply.startswith("ALARM:"):
+            self.wake_up(timeout_s=BANNER_WAIT_S)  # skips the stray "ok" of $H that precedes the banner
+            raise self._homing_alarm(reply)
         self._direction = 0  # the pull-off direction depends on $23; the next approach re-establishes it
 
     # -- real-time commands [G-RT] --------------------------------------------------------

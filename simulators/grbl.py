@@ -16,7 +16,8 @@ What it reproduces: the banner only after the bootloader (an Arduino resets when
 ``ok`` when a line is *planned*, with up to 15 moves queued (a full planner holds the line back);
 trapezoidal moves at $120 acceleration (``FS:`` ramps); ``!`` decelerates (``Hold:1``) before the
 hold is complete (``Hold:0``), ``~`` is honoured only then, and lines sent during a hold wait in the
-serial buffer until after the resume; a soft limit stops, prints ``ALARM:2`` and, 500 ms later,
+serial buffer until after the resume (during the deceleration, Hold:1, they are still planned and
+answered: sys.suspend is set only when the hold completes); a soft limit stops, prints ``ALARM:2`` and, 500 ms later,
 ``[MSG:Reset to continue]``, discarding any Ctrl-X that came meanwhile, and the offending line's
 ``ok`` comes after the accepted reset, before the banner; ``?`` during homing is answered after the
 cycle; the stock homing cycle (Z first, then X and Y) fails with ``ALARM:9`` on a slide that has a
@@ -423,8 +424,8 @@ class GrblEmulator(LineEmulator):
         while fw.pending:
             if fw.critical or fw.homing is not None or fw.busy_until is not None or fw.soft_limit_stop:
                 return
-            if fw.state in ("Hold", "Sleep") or t < fw.deaf_until:
-                return
+            if (fw.state == "Hold" and fw.hold_complete) or fw.state == "Sleep" or t < fw.deaf_until:
+                return  # suspended once the hold is complete; during Hold:1 lines are still planned [G-PROT]
             if not self._execute(fw.pending[0], t):
                 fw.executing = fw.pending[0]
                 return
