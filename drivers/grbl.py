@@ -216,9 +216,13 @@ class Grbl(Instrument):
 
         A stray ``ok`` before it (the status of the line a reset interrupted [G-PROT, G-MC]) is skipped.
         """
+        errors: list[str] = []
         self.banner = self._read_until("(start-up)", lambda line: line.startswith("Grbl "), alarms=alarms,
-                                       timeout_s=timeout_s)
+                                       errors=errors, timeout_s=timeout_s)
         self._critical_alarm = self._reset_prompt_seen = self._held = False
+        if "error:7" in errors:  # settings_init() failed and wrote the defaults [G-PROT, settings.c]
+            raise self.fail("(start-up)", "error:7", ERRORS[7] + "; GRBL now runs on its stock $ settings "
+                                                    "(homing, soft limits, travel): restore the slide's before moving")
         return self.banner
 
     def connect(self) -> str:
@@ -286,7 +290,8 @@ class Grbl(Instrument):
             status = parse_status(line)
         except ValueError as exc:
             raise self.fail("?", line, str(exc)) from None
-        self._held = status.base_state == "Hold"
+        if status.base_state != "Run":
+            self._held = status.base_state == "Hold"
         return status
 
     def feed_hold(self) -> None:
@@ -300,8 +305,10 @@ class Grbl(Instrument):
         self._ensure_connected()
         for _ in range(_MAX_LINES):
             status = self.status()
-            if status.state != "Hold:1":
+            # a '?' sent right after '!' can still report Run: the report is served before the hold [G-PROT]
+            if status.state != "Hold:1" and not (status.base_state in ("Run", "Jog") and self._held):
                 break
+            self._held = True
             self.transport.clock.sleep(self.poll_interval_s)
         else:
             raise self.fail("~", status.raw, "the feed hold did not complete (still Hold:1)")
@@ -499,6 +506,7 @@ class Grbl(Instrument):
         *,
         collect: list[str] | None = None,
         alarms: list[str] | None = None,
+        errors: list[str] | None = None,
         timeout_s: float | None = None,
         banner_ok: bool = False,
     ) -> str:
@@ -514,7 +522,9 @@ class Grbl(Instrument):
                     raise self._alarm(command, line)
                 alarms.append(line)
             elif line.startswith("error:"):
-                raise self._error(command, line)
+                if errors is None:
+                    raise self._error(command, line)
+                errors.append(line)
             elif line.startswith("Grbl "):
                 self.banner, self._critical_alarm, self._held = line, False, False
                 if not banner_ok:
