@@ -426,11 +426,11 @@ class GrblEmulator(LineEmulator):
                 return
             if (fw.state == "Hold" and fw.hold_complete) or fw.state == "Sleep" or t < fw.deaf_until:
                 return  # suspended once the hold is complete; during Hold:1 lines are still planned [G-PROT]
-            if not self._execute(fw.pending[0], t):
-                fw.executing = fw.pending[0]
-                return
-            fw.pending.pop(0)
             fw.executing = None
+            if not self._execute(fw.pending[0], t):
+                fw.executing = fw.pending[0]  # blocked inside the line (mc_line, mc_dwell): its ok is due
+                return
+            fw.pending.pop(0)  # done, or still running it (homing, dwell, a soft limit) with executing set
 
     def _execute(self, raw: str, t: float) -> bool:
         """One line; False if it must wait (planner full, dwell needing an empty planner)."""
