@@ -37,6 +37,7 @@ from typing import Any, TypeVar
 import pytest
 
 from ecds_lab.clock import SimulatedClock
+from ecds_lab.errors import EcdsLabError
 from ecds_lab.station import Station
 from ecds_lab.transports.base import Transport
 
@@ -47,8 +48,10 @@ InstrumentT = TypeVar("InstrumentT")
 Pair = tuple[bytes | None, bytes | None]
 
 
-class ProtocolMismatch(AssertionError):
-    """The driver sent something other than the next expected command, or left pairs unused."""
+class ProtocolMismatch(EcdsLabError, AssertionError):
+    """The driver sent something other than the next expected command, or left pairs unused.
+
+    An EcdsLabError so the transport passes it through unwrapped (as a replay's divergence)."""
 
 
 class ProtocolTransport(Transport):
