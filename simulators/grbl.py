@@ -493,7 +493,13 @@ class GrblEmulator(LineEmulator):
             self._emit_lines(t, *BUILD_INFO, "ok")
         elif command == "N":
             self._emit_lines(t, *(f"$N{n}={text}" for n, text in enumerate(self.startup_lines)), "ok")
-        elif command.startswith("RST="):
+        elif command in ("RST=$", "RST=#", "RST=*"):
+            if command != "RST=#":  # the coordinate parameters ($RST=#) are all zero here already
+                self.settings = dict(STOCK_SETTINGS)
+                self.startup_lines = ["", ""]
+            self._emit("[MSG:Restoring defaults]", t)
+            self._reinitialise(t, stray_ok=True, locked=fw.state == "Alarm")  # mc_reset() [G-SYS]
+        elif command.startswith("RST"):
             self._emit("error:3", t)
         else:
             self._emit(self._store(command, t), t)

@@ -101,6 +101,13 @@ def test_parameters_startup_lines_and_build_info(link):
     assert ask(link, "$") == ["[HLP:$$ $# $G $I $N $x=val $Nx=line $J=line $SLP $C $X $H ~ ! ? ctrl-x]", "ok"]
 
 
+def test_restoring_defaults_resets_to_the_stock_settings(link):
+    assert ask(link, "$RST=$") == ["[MSG:Restoring defaults]", "ok", "", BANNER]
+    lines = ask(link, "$$")
+    assert "$22=0" in lines and "$130=200.000" in lines
+    assert ask(link, "$RST=x") == ["error:3"]
+
+
 def test_check_mode_parses_without_moving_and_resets_when_left(link):
     assert ask(link, "$C") == ["[MSG:Enabled]", "ok"]
     assert ask(link, "G0 X-50") == ["ok"]
