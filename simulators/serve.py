@@ -93,18 +93,18 @@ class LabServer:
         self.selector = selectors.DefaultSelector()
         self.endpoints: list[Endpoint] = []
         self._stop = threading.Event()
+        for role in ROLE_NAMES:
+            instrument = getattr(station, role)
+            row = kind(instrument.driver)
+            self.endpoints.append(Endpoint(role, instrument.driver, row.emulator_class()(self.lab), row.simulated_link))
         next_port = port_base
-        try:
-            for role in ROLE_NAMES:
-                instrument = getattr(station, role)
-                row = kind(instrument.driver)
-                endpoint = Endpoint(role, instrument.driver, row.emulator_class()(self.lab), row.simulated_link)
+        try:  # SCPI instruments take the first ports (5025, 5026, ...), serial ones over TCP the next
+            for endpoint in sorted(self.endpoints, key=lambda e: e.link != "visa"):
                 if endpoint.link == "serial" and serial == "pty":
                     self._open_pty(endpoint)
                 else:
                     self._listen(endpoint, next_port)
                     next_port = next_port + 1 if port_base else 0
-                self.endpoints.append(endpoint)
         except Exception:
             self.close()
             raise
