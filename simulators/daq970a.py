@@ -123,7 +123,7 @@ class DAQ970AEmulator(SCPIEmulator):
 
     def __init__(self, lab: SimulatedLab) -> None:
         super().__init__(lab)
-        self.relay_cycles: dict[int, int] = {}
+        self.relay_counts: dict[int, int] = {}
         self.dmm_relay_cycles = dict.fromkeys(MAINFRAME_SLOTS, 0)
         self.display_text = ""
         self.reset()
@@ -242,7 +242,7 @@ class DAQ970AEmulator(SCPIEmulator):
         for number in self.channel_list(argument):
             if number not in self.closed:
                 self.closed.add(number)
-                self.relay_cycles[number] = self.relay_cycles.get(number, 0) + 1
+                self.relay_counts[number] = self.relay_counts.get(number, 0) + 1
 
     def relays_closed(self, argument: str) -> str:
         return ",".join("1" if n in self.closed else "0" for n in self.channel_list(argument))
@@ -274,7 +274,7 @@ class DAQ970AEmulator(SCPIEmulator):
         return ",".join(f"{self.dmm_relay_cycles[slot]:+d}" for slot in MAINFRAME_SLOTS)
 
     def relay_cycles_of(self, number: int) -> int:
-        return self.relay_cycles.get(number, 0)
+        return self.relay_counts.get(number, 0)
 
     def relay_cycles(self, argument: str) -> str:
         if not argument:
@@ -292,7 +292,7 @@ class DAQ970AEmulator(SCPIEmulator):
             raise SCPIError(-221)
         readings = ",".join(f"{self._reading(channel):+.8E}" for channel in self.scan_list)
         for number in self.scan_list:
-            self.relay_cycles[number] = self.relay_cycles.get(number, 0) + 1
+            self.relay_counts[number] = self.relay_counts.get(number, 0) + 1
             self.dmm_relay_cycles[number // 100] += 1
         self.closed.clear()
         self.busy(sum(self._channel_time(number) for number in self.scan_list))

@@ -21,6 +21,7 @@ import contextlib
 import os
 import selectors
 import socket
+import sys
 import threading
 import time
 import tty
@@ -186,7 +187,7 @@ class LabServer:
             self._drop(endpoint, client)
             return
         endpoint.reply_to = client
-        endpoint.emulator.receive(data)
+        self._feed(endpoint, data)
 
     def _from_pty(self, endpoint: Endpoint) -> None:
         assert endpoint.master_fd is not None
@@ -197,7 +198,15 @@ class LabServer:
         except OSError:  # no client has the terminal open
             return
         if data:
+            self._feed(endpoint, data)
+
+    @staticmethod
+    def _feed(endpoint: Endpoint, data: bytes) -> None:
+        """Hand bytes to the emulator; a fault in one emulator is reported and the others keep serving."""
+        try:
             endpoint.emulator.receive(data)
+        except Exception as exc:  # an emulator bug must not take the whole lab down
+            print(f"simulate: {endpoint.driver} failed on {data!r}: {exc!r}", file=sys.stderr, flush=True)
 
     def _send_replies(self, endpoint: Endpoint) -> None:
         data = endpoint.emulator.take_ready()
