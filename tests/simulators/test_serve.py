@@ -6,6 +6,7 @@ import subprocess
 import sys
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
+from pathlib import Path
 
 import pytest
 
@@ -23,6 +24,7 @@ from ecds_lab.transports.serial_link import SerialTransport
 from ecds_lab.transports.visa_link import VisaTransport
 
 pytestmark = pytest.mark.slow
+EXAMPLE_STATION = Path(__file__).resolve().parents[2] / "experiments" / "stations" / "simulated_over_network.yaml"
 
 
 @dataclass
@@ -188,3 +190,26 @@ def test_dvg_keysight_3497xa_scans_the_served_scanner(served_pty: Served) -> Non
         assert len(mux.state.readings) == 3 and all(15 < t < 30 for t in mux.state.readings)
     finally:
         mux.close()
+
+
+def test_the_example_station_opens_on_the_served_lab(served_tcp: Served) -> None:
+    """experiments/stations/simulated_over_network.yaml with its ports moved to the ones the server chose."""
+    from ecds_lab.station import load_station_config, open_station
+
+    config, _ = load_station_config(EXAMPLE_STATION)
+    assert config.simulated is None  # a real-lab station: wall clock, real transports
+    links = {"bridge": ("url", "serial"), "slide": ("url", "serial"), "scanner": ("resource", "visa"),
+             "heater": ("resource", "visa")}
+    update = {}
+    for role, (field, _kind) in links.items():
+        instrument = getattr(config, role)
+        link = instrument.link.model_copy(update={field: served_tcp.addresses[role]})
+        update[role] = instrument.model_copy(update={"link": link})
+    station = open_station(config.model_copy(update=update))
+    try:
+        assert "HM8118" in station.bridge.identity()
+        station.scanner.configure()
+        assert set(station.scanner.read_temperatures_c()) == {"coil", "target", "ambient"}
+        assert station.heater.identity().startswith("ROHDE&SCHWARZ,HMP4040")
+    finally:
+        station.close()
