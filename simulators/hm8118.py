@@ -27,7 +27,9 @@ below the 0.15 s [SWM] and 0.2 s (R&S example) that clients use successfully.
 
 Assumptions, not confirmed from the manual pages at hand: the range codes of RNGE (1-6, auto-ranging
 chooses by |Z|), AVGM 2 = median of three readings (the front panel's MED averaging), the OUTP codes
-0 value, 1 absolute deviation, 2 percent deviation (the XDLT?/XDMT? pair [M23]), CONV 0|1. Bias,
+0 value, 1 absolute deviation, 2 percent deviation from PREL (the XDLT?/XDMT? pair [M23]; XMAJ? and
+XALL? show the main value that way, and a percent display with a zero reference is an error [M23]),
+CONV 0|1. Bias,
 constant-voltage mode and the range setting are held and read back but do not change the lab's
 coil: the lab's noise model is given the set test level in every mode.
 """
@@ -236,15 +238,30 @@ class HM8118Emulator(LineEmulator):
             self._trigger()
         return self.last_values
 
-    def _read_all(self) -> None:
+    def _displayed(self) -> tuple[float, float] | None:
+        """The displayed pair: the main value as OUTP shows it (value, deviation from PREL, or percent).
+
+        A percent display with a zero reference has nothing to show: an error [M23 XMAJ?]."""
         values = self._fresh_values()
+        if values is None:
+            return None
+        output, reference = self._code("OUTP"), self.settings["PREL"]
+        if output == 0:
+            return values
+        if output == 2 and reference == 0:
+            return None
+        deviation = values[0] - reference
+        return (100 * deviation / reference if output == 2 else deviation), values[1]
+
+    def _read_all(self) -> None:
+        values = self._displayed()
         if values is None:
             self._answer("ERROR")
         else:
             self._answer(f"{values[0]:.5E},{values[1]:.5E},0")
 
     def _read_one(self, index: int) -> None:
-        values = self._fresh_values()
+        values = self._displayed()
         self._answer("ERROR" if values is None else f"{values[index]:.5E}")
 
     def _read_deviation(self, percent: bool) -> None:

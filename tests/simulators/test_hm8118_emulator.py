@@ -118,3 +118,16 @@ def test_deviation_reads_need_a_reference(bridge):
     bridge.send(b"PREL " + f"{z:.5f}".encode() + b"\r")
     assert abs(float(bridge.ask(b"XDLT?\r"))) < 0.01 * z
     assert abs(float(bridge.ask(b"XDMT?\r"))) < 1.0  # percent
+
+
+def test_the_output_mode_shows_the_main_value_as_a_deviation(bridge):
+    bridge.send(b"PMOD 6\r")
+    bridge.send(b"OUTP 2\r")  # percent deviation from PREL, which is 0: nothing to show [M23]
+    assert bridge.ask(b"XMAJ?\r") == b"ERROR\r"
+    bridge.send(b"OUTP 0\r")
+    z = float(bridge.ask(b"XMAJ?\r"))
+    bridge.send(b"PREL " + f"{z / 2:.5f}".encode() + b"\r")
+    bridge.send(b"OUTP 2\r")
+    assert float(bridge.ask(b"XALL?\r").split(b",")[0]) == pytest.approx(100.0, abs=2.0)
+    bridge.send(b"OUTP 1\r")
+    assert float(bridge.ask(b"XMAJ?\r")) == pytest.approx(z / 2, rel=0.02)
