@@ -213,3 +213,21 @@ def test_the_example_station_opens_on_the_served_lab(served_tcp: Served) -> None
         assert station.heater.identity().startswith("ROHDE&SCHWARZ,HMP4040")
     finally:
         station.close()
+
+
+def _simulate(*options: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, "-m", "ecds_lab.cli", "simulate", *options],
+                          capture_output=True, text=True, timeout=60)
+
+
+def test_a_real_lab_station_is_refused_with_the_reason() -> None:
+    result = _simulate("--station", str(EXAMPLE_STATION))
+    assert result.returncode == 2
+    assert "no 'simulated' section" in result.stderr and result.stdout == ""
+
+
+def test_a_port_in_use_is_named(served_pty: Served) -> None:
+    port = served_pty.addresses["scanner"].split("::")[2]
+    result = _simulate("--port-base", port)
+    assert result.returncode == 2
+    assert f"cannot listen on 127.0.0.1:{port} for the scanner (daq970a)" in result.stderr
