@@ -172,3 +172,26 @@ def test_protocol_compensation_open_at_all_frequencies_and_short_here():
         bridge.open_compensation(all_frequencies=True)
         with pytest.raises(InstrumentError, match="compensation failed"):
             bridge.short_compensation()
+
+
+def test_a_pacing_regression_in_the_driver_shows_up(sim):
+    """The bridge loses a command sent while it still takes in the previous one [M32: no parallel processing]."""
+    from ecds_lab.errors import TransportTimeout
+
+    bridge = HM8118(sim.serial("hm8118", SERIAL_SETTINGS, min_interval_s=0.05))
+    with pytest.raises(TransportTimeout):
+        bridge.frequency_hz = 1000  # FREQ? comes 50 ms after FREQ 1000: lost, no reply
+    assert sim.emulator("hm8118").lost_lines == ["FREQ?"]
+
+
+def test_a_simulated_station_without_pacing_loses_nothing():
+    from ecds_lab.config.station import SimulationConfig, StationConfig
+    from ecds_lab.station import open_station
+
+    station = open_station(StationConfig(simulated=SimulationConfig(pacing=False)))
+    try:
+        assert station.bridge.transport.min_interval_s == 0.0
+        station.bridge.configure(BridgeSettings())
+        assert station.bridge.identity().startswith("HAMEG")
+    finally:
+        station.close()
