@@ -131,3 +131,14 @@ def test_the_output_mode_shows_the_main_value_as_a_deviation(bridge):
     assert float(bridge.ask(b"XALL?\r").split(b",")[0]) == pytest.approx(100.0, abs=2.0)
     bridge.send(b"OUTP 1\r")
     assert float(bridge.ask(b"XMAJ?\r")) == pytest.approx(z / 2, rel=0.02)
+
+
+def test_trigger_and_opc_in_one_line_answer_when_the_reading_is_done(sim, bridge):
+    """SweepMe!'s measure step: "*TRG; *OPC?" then XALL? [SWM]."""
+    for command in (b"PMOD 8\r", b"RATE 2\r", b"MMOD 1\r"):
+        bridge.send(command)
+    start = sim.clock.now() + PAUSE_S
+    assert bridge.ask(b"*TRG; *OPC?\r") == b"1\r"
+    assert sim.clock.now() - start == pytest.approx(0.6, abs=0.01)
+    real, imaginary, bin_number = bridge.ask(b"XALL?\r").rstrip(b"\r").split(b",")
+    assert float(real) > 0 and float(imaginary) > 0 and bin_number == b"0"
