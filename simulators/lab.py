@@ -242,7 +242,7 @@ class SimulatedLab:
         t_plate = self.plate.field_temperature_c(self.t_plate_surface_c, ambient)
         branch = self.sensor.series_branch(omega, self.distance_m(), self.t_winding_c, t_plate, ambient,
                                            self.former.strain(self.t_winding_c))
-        capacitance, conductance = self.former.parallel_elements()
+        capacitance, conductance = self.former.parallel_elements(omega / (2 * math.pi))
         return ecm.with_parallel(branch, omega, capacitance, conductance)
 
     def _ecm_impedance(self, omega: float) -> complex:

@@ -12,7 +12,11 @@ loss only). Each relaxes toward the equilibrium moisture at its temperature,
 with tau = tau_dry(T) = tau_dry(100 C) 2^((100 C - T) / doubling) while drying (faster when hot)
 and the slow re-absorption time at room temperature otherwise. Then
 
-    C_p = C_dry + dC m_s,   G_p = 1/R_dry + g_s m_s + g_b m_b.
+    C_p = C_dry + dC m_s,   G_p = (1/R_dry + g_s m_s + g_b m_b) f / f_ref.
+
+The loss is dielectric (a constant loss tangent of the former's capacitance), so its conductance grows
+in proportion to frequency; the conductances are given at f_ref = 85 kHz, near the coil's self-resonance
+where Table 2's parallel RLC fits measure R_p. At 500 Hz the loss is then negligible for L.
 
 Sizes from Table 2: moist 62.5 pF / 92 kOhm at 20 C, 47.46 pF / 212 kOhm at 65 C (the groove is dry,
 the bulk still partly moist), 47.53 pF / 984 kOhm at 120 C (dry). Drying also shrinks the former:
@@ -58,6 +62,8 @@ class Moisture(Strict):
     drying_doubling_k: float = Field(12.0, gt=0, description="drying twice as fast every this many kelvin")
     reabsorption_tau_s: float = Field(3 * 24 * 3600.0, gt=0, description="slow re-absorption at room temperature")
     swelling_strain: float = Field(150e-6, ge=0, description="linear strain of the fully moist groove clay")
+    loss_reference_hz: float = Field(85e3, gt=0, description="frequency at which the conductances are given "
+                                                              "(dielectric loss: G grows with f)")
 
 
 class FormerSettings(Strict):
@@ -104,12 +110,12 @@ class FormerState:
         swelling = self.settings.moisture.swelling_strain * self.groove if self.settings.moisture.enabled else 0.0
         return self.expansion_per_k() * (t_winding_c - 20.0) + swelling
 
-    def parallel_elements(self) -> tuple[float, float]:
-        """(C_p in F, G_p in S) of the former across the winding now."""
+    def parallel_elements(self, frequency_hz: float) -> tuple[float, float]:
+        """(C_p in F, G_p in S) of the former across the winding now, at the bridge's frequency."""
         wet = self.settings.moisture
         c = wet.dry_capacitance_f
         g = 1.0 / wet.dry_parallel_resistance_ohm
         if wet.enabled:
             c += wet.moist_extra_capacitance_f * self.groove
             g += wet.groove_conductance_s * self.groove + wet.bulk_conductance_s * self.bulk
-        return c, g
+        return c, g * frequency_hz / wet.loss_reference_hz
