@@ -17,6 +17,10 @@ from ecds_lab.simulators.physics.field_solution import kernel, reflection
 from ecds_lab.simulators.physics.plate import Plate
 
 
+#: Grid cut-off: nodes with a x beyond this (e^{-2 a x} < 1e-13) are left out of the plate integral.
+CUTOFF = 15.0
+
+
 class FieldSensor:
     """Coil and plate of the faithful lab; ``impedance`` is called on every bridge reading."""
 
@@ -29,16 +33,17 @@ class FieldSensor:
         self._decay_key: tuple[float, float] = (math.nan, math.nan)
         self._decay = np.zeros(0)
 
-    def _reflection(self, omega: float, sigma: float, mu_r: float, scale: float) -> np.ndarray:
+    def _reflection(self, omega: float, sigma: float, mu_r: float, scale: float, nodes: int) -> np.ndarray:
+        """phi at the first ``nodes`` spatial frequencies (remembered per plate state and frequency)."""
         key = (omega, sigma, mu_r, scale)
         found = self._reflections.get(key)
-        if found is None:
+        if found is None or found.size < nodes:
             if len(self._reflections) > 16:
                 self._reflections.clear()
             assert self.plate is not None
-            found = reflection(self.kernel.a / scale, omega, sigma, mu_r, self.plate.settings.thickness_m)
+            found = reflection(self.kernel.a[:nodes] / scale, omega, sigma, mu_r, self.plate.settings.thickness_m)
             self._reflections[key] = found
-        return found
+        return found[:nodes]
 
     def plate_inductance(self, omega: float, x_m: float, t_plate_c: float, ambient_c: float, scale: float) -> complex:
         """Complex reflected inductance dZ / (j w) (H) of the plate at lift-off x: real part dL, -w imag dR."""
@@ -46,13 +51,17 @@ class FieldSensor:
         if plate is None or not math.isfinite(x_m):
             return 0j
         x_eff = x_m - plate.bending_shift_m(x_m, t_plate_c, ambient_c, self.mean_radius_m * scale)
-        phi = self._reflection(omega, plate.conductivity(t_plate_c), plate.permeability(t_plate_c), scale)
         if (x_eff, scale) != self._decay_key:
             if x_eff < self.kernel.min_lift_off_m * scale:
                 raise ValueError(f"coil-target distance {x_eff * 1e3:.2f} mm is below the field solution's "
                                  f"{self.kernel.min_lift_off_m * 1e3:.0f} mm minimum")
-            self._decay = self.kernel.weighted * np.exp(self.kernel.a * (-2.0 * x_eff / scale))
+            # Only the spatial frequencies where e^{-2 a x} is above 1e-13 of its start contribute.
+            nodes = int(np.searchsorted(self.kernel.a, CUTOFF * scale / x_eff)) + 1
+            a = self.kernel.a[:nodes]
+            self._decay = self.kernel.weighted[:nodes] * np.exp(a * (-2.0 * x_eff / scale))
             self._decay_key = (x_eff, scale)
+        phi = self._reflection(omega, plate.conductivity(t_plate_c), plate.permeability(t_plate_c), scale,
+                               self._decay.size)
         return scale * complex(np.dot(self._decay, phi))
 
     def series_branch(self, omega: float, x_m: float, t_winding_c: float, t_plate_c: float, ambient_c: float,

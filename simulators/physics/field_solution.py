@@ -30,7 +30,7 @@ from scipy.special import j0, j1, struve
 MU0 = 4e-7 * math.pi
 
 #: The plate term is tabulated for lift-offs down to this distance (e^{-2 a x} below 1e-12 at the top of the grid).
-MIN_LIFT_OFF_M = 5e-3
+MIN_LIFT_OFF_M = 10e-3
 
 
 @dataclass(frozen=True)
