@@ -62,7 +62,7 @@ def bessel_moment(u: np.ndarray) -> np.ndarray:
     return 0.5 * math.pi * u * (j1(u) * struve(0, u) - j0(u) * struve(1, u))
 
 
-def _gauss_panels(upper: float, panel_width: float, order: int = 12) -> tuple[np.ndarray, np.ndarray]:
+def _gauss_panels(upper: float, panel_width: float, order: int = 8) -> tuple[np.ndarray, np.ndarray]:
     """Nodes and weights on (0, upper]: Gauss-Legendre of ``order`` points on panels of ``panel_width``.
 
     Gauss panels resolve both the oscillation of I (period 2 pi / r2) and the steep e^{-2 a x} near
