@@ -86,7 +86,8 @@ class BridgeDrift(_Strict):
 
 
 class Effects(_Strict):
-    """Switches and sizes of every effect the simulated lab can add to the baseline ECM."""
+    """Switches and sizes of every effect the ECM physics can add to the baseline (``physics: ecm``;
+    only ``bridge_drift`` also applies to the field physics, whose parts are the coil/former/plate/slide/bridge blocks)."""
 
     target_tau_temperature: TargetTauTemperature = TargetTauTemperature()
     tau_displacement: TauDisplacement = TauDisplacement()
@@ -116,7 +117,10 @@ class Thermal(_Strict):
 
 
 class Noise(_Strict):
-    """Measurement noise: bridge (relative, per speed, at 1.5 V and no averaging), thermocouples, slide."""
+    """Measurement noise: bridge (relative, per speed, at 1.5 V and no averaging), thermocouples, slide.
+
+    With ``physics: field`` only ``thermocouple_k`` applies; the ``bridge`` and ``slide`` blocks size the rest.
+    """
 
     bridge_relative: dict[str, float] = {"fast": 200e-6, "medium": 60e-6, "slow": 20e-6}
     thermocouple_k: float = Field(0.02, ge=0)
