@@ -13,6 +13,7 @@ say why in "how".
 from __future__ import annotations
 
 import math
+from itertools import pairwise
 from pathlib import Path
 from typing import Any
 
@@ -194,7 +195,7 @@ def table2_rows(spectroscopy: Measurements) -> list[Row]:
     fits = []
     starts = np.flatnonzero(np.diff(spectroscopy.freq_hz) < 0) + 1
     bounds = [0, *starts.tolist(), len(spectroscopy)]
-    for a, b in zip(bounds[:-1], bounds[1:]):
+    for a, b in pairwise(bounds):
         part = spectroscopy.select((np.arange(len(spectroscopy)) >= a) & (np.arange(len(spectroscopy)) < b))
         fit = fit_parallel_rlc(part.freq_hz, part.ls_h, part.rs_ohm)
         fits.append((float(np.mean(part.t_coil_c)), fit))
