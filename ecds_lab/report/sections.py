@@ -32,6 +32,7 @@ from ecds_lab.report.markup import (
     table,
     value_error,
 )
+from ecds_lab.report.paper_section import paper_comparison_section
 from ecds_lab.report.render import Plot
 
 #: TS is quoted over the readings of the highest temperature step: rises above this share of the largest.
@@ -397,4 +398,5 @@ SECTIONS: tuple[tuple[str, str, Callable[[Findings], Parts]], ...] = (
     ("position", "Position error and temperature stability", position_section),
     ("heating", "Coil heating characterisation", heating_section),
     ("spectroscopy", "Impedance spectroscopy", spectroscopy_section),
+    ("paper", "The paper, reproduced", paper_comparison_section),
 )

@@ -16,7 +16,7 @@ from ecds_lab.cli import main
 from ecds_lab.config.experiment import SweepConfig
 from ecds_lab.instruments.kinds import KINDS, drivers_for_role
 from ecds_lab.drivers.hm8118 import FREQUENCIES_HZ
-from ecds_lab.simulators.config import TargetBending
+from ecds_lab.simulators.physics.plate import Bending
 from ecds_lab.errors import ConfigError
 from ecds_lab.runner.session import prepare, run_experiment
 
@@ -42,10 +42,10 @@ def unknown_key(copy, tmp_path, experiments) -> BadConfig:  # noqa: ANN001
 
 def unknown_key_in_station(copy, tmp_path, experiments) -> BadConfig:  # noqa: ANN001
     station = copy("stations/simulated_lab.yaml",
-                   lambda d: d["simulated"]["lab"]["effects"].update(target_bending={"shift_um": 2.0}))
+                   lambda d: d["simulated"]["lab"]["plate"]["bending"].update(shift_um=2.0))
     return BadConfig(experiments / "displacement_sweep.yaml", station, station,
-                     ["field 'simulated.lab.effects.target_bending.shift_um'", "unknown key",
-                      "allowed: " + ", ".join(sorted(TargetBending.model_fields))])
+                     ["field 'simulated.lab.plate.bending.shift_um'", "unknown key",
+                      "allowed: " + ", ".join(sorted(Bending.model_fields))])
 
 
 def wrong_type(copy, tmp_path, experiments) -> BadConfig:  # noqa: ANN001
