@@ -99,11 +99,17 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
     """Serve the simulated lab's instruments on local ports until Ctrl-C (docs/simulate.md)."""
+    from ecds_lab.errors import ConfigError
+    from ecds_lab.instruments.kinds import ROLE_NAMES
     from ecds_lab.simulators.serve import LabServer
     from ecds_lab.station import load_station_config
 
     config, _ = load_station_config(args.station)
-    server = LabServer(config, port_base=args.port_base, serial=args.serial)
+    if config.simulated is None:
+        raise ConfigError("simulate: the station has no 'simulated' section; give a simulated station YAML "
+                          "(e.g. experiments/stations/simulated_lab.yaml)")
+    drivers = {role: getattr(config, role).driver for role in ROLE_NAMES}
+    server = LabServer(config.simulated.lab, drivers, port_base=args.port_base, serial=args.serial)
     try:
         print(server.describe())
         print("serving the simulated lab (time runs with the wall clock); Ctrl-C stops", flush=True)

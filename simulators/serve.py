@@ -25,13 +25,14 @@ import sys
 import threading
 import time
 import tty
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Literal
 
 from ecds_lab.clock import SimulatedClock
-from ecds_lab.config.station import StationConfig
 from ecds_lab.errors import ConfigError
 from ecds_lab.instruments.kinds import ROLE_NAMES, kind
+from ecds_lab.simulators.config import LabConfig
 from ecds_lab.simulators.emulator import LineEmulator
 from ecds_lab.simulators.lab import SimulatedLab
 
@@ -82,22 +83,19 @@ class Endpoint:
 class LabServer:
     """Serve a simulated station's instruments on local ports; ``serve_forever`` until stopped."""
 
-    def __init__(self, station: StationConfig, *, port_base: int = LXI_PORT, serial: SerialMode = "pty",
-                 host: str = HOST) -> None:
-        if station.simulated is None:
-            raise ConfigError("simulate: the station has no 'simulated' section; give a simulated station YAML "
-                              "(e.g. experiments/stations/simulated_lab.yaml)")
+    def __init__(self, lab: LabConfig, drivers: Mapping[str, str], *, port_base: int = LXI_PORT,
+                 serial: SerialMode = "pty", host: str = HOST) -> None:
+        """``drivers`` maps each role (bridge, slide, ...) to the instrument kind that serves it."""
         if serial not in ("pty", "tcp"):
             raise ValueError(f"serial must be 'pty' or 'tcp', got {serial!r}")
-        self.lab = SimulatedLab(station.simulated.lab, RunningClock())
+        self.lab = SimulatedLab(lab, RunningClock())
         self.host = host
         self.selector = selectors.DefaultSelector()
         self.endpoints: list[Endpoint] = []
         self._stop = threading.Event()
         for role in ROLE_NAMES:
-            instrument = getattr(station, role)
-            row = kind(instrument.driver)
-            self.endpoints.append(Endpoint(role, instrument.driver, row.emulator_class()(self.lab), row.simulated_link))
+            row = kind(drivers[role])
+            self.endpoints.append(Endpoint(role, drivers[role], row.emulator_class()(self.lab), row.simulated_link))
         next_port = port_base
         try:  # SCPI instruments take the first ports (5025, 5026, ...), serial ones over TCP the next
             for endpoint in sorted(self.endpoints, key=lambda e: e.link != "visa"):

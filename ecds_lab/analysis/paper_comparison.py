@@ -19,7 +19,8 @@ from typing import Any
 
 import numpy as np
 
-from ecds_lab.analysis.dataset import Measurements, load_measurements
+from ecds_lab.data.measurements import Measurements
+from ecds_lab.storage.data_file import open_data
 
 #: Full scale of the paper's sensor (Table 1: range 100 mm).
 FS_M = 0.100
@@ -225,7 +226,7 @@ RUN_STEMS = ("displacement_sweep", "coil_heating", "spectroscopy", "target_heati
 
 def paper_comparison(run_files: list[Path]) -> list[Row]:
     """Every row the demo's run files allow (found by the names the demo gives them)."""
-    return compare({p.stem: load_measurements(p) for p in run_files if p.stem in RUN_STEMS})
+    return compare({p.stem: open_data(p).data for p in run_files if p.stem in RUN_STEMS})
 
 
 def compare(runs: dict[str, Measurements]) -> list[Row]:

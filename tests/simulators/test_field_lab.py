@@ -34,7 +34,7 @@ def l_at(lab: SimulatedLab, x_mm: float, frequency_hz: float) -> float:
 
 def test_copper_vs_steel_sensitivity_from_the_demo_run_files(tmp_path):
     """Paper Sec. 2.2.2, Fig. 7: copper about 70 % more sensitive than steel at 15 kHz (issue: 1.3-2.2, 20-30 mm)."""
-    from ecds_lab.analysis.dataset import load_measurements
+    from ecds_lab.storage.data_file import open_data
     from ecds_lab.demo import CAMPAIGN
     from ecds_lab.runner.session import run_experiment
 
@@ -44,7 +44,7 @@ def test_copper_vs_steel_sensitivity_from_the_demo_run_files(tmp_path):
         if experiment in wanted:
             path = tmp_path / experiment.replace(".yaml", ".h5")
             run_experiment(EXPERIMENTS / experiment, EXPERIMENTS / "stations" / station, path, progress=False)
-            runs[path.stem] = load_measurements(path)
+            runs[path.stem] = open_data(path).data
     (row,) = sensitivity_rows(runs["displacement_sweep"], runs["target_heating_steel"])
     assert 1.3 <= row["ecds_lab"] <= 2.2
 
