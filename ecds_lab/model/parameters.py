@@ -7,8 +7,8 @@ parameter is of order one, whatever its unit (henry, 1/K^2, farad...).
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, replace
-from typing import Iterable, Mapping, Sequence
 
 import numpy as np
 

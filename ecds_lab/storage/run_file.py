@@ -20,9 +20,9 @@ import json
 import math
 import operator
 import time
+from collections.abc import Mapping, Sequence
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Mapping, Sequence
 
 import h5py
 import numpy as np

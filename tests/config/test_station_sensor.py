@@ -11,7 +11,7 @@ from ecds_lab.data.sensor import SensorConfig, load_sensor
 from ecds_lab.errors import ConfigError
 
 
-def station(yaml_copy, source: str, **top) -> StationConfig:  # noqa: ANN001 - the yaml_copy fixture
+def station(yaml_copy, source: str, **top) -> StationConfig:
     path = yaml_copy(source, lambda d: d.update(top))
     return load_yaml_model(path, StationConfig)
 

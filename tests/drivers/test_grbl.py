@@ -5,11 +5,11 @@ citing the gnea/grbl source that prints them."""
 from __future__ import annotations
 
 import pytest
-from ecds_lab.drivers.grbl import ALARMS, ERRORS, SERIAL_SETTINGS, Grbl, parse_status
-from ecds_lab.simulators.grbl import STOCK_HOMING_CYCLES
 
+from ecds_lab.drivers.grbl import ALARMS, ERRORS, SERIAL_SETTINGS, Grbl, parse_status
 from ecds_lab.errors import InstrumentError, InvalidSettingError
 from ecds_lab.instruments import Positioner
+from ecds_lab.simulators.grbl import STOCK_HOMING_CYCLES
 from ecds_lab.testing import expected_protocol
 
 ORIGIN_MM = 160.0

@@ -14,7 +14,7 @@ like 1/(1 - w^2 L C): strongly at 15 kHz, hardly at 500 Hz, and with hysteresis 
 
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 from scipy.special import expit

@@ -9,7 +9,7 @@ the range, from a linear trend to a rise concentrated near the coil. Beyond the 
 
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 from scipy.interpolate import CubicSpline
