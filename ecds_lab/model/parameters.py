@@ -91,7 +91,7 @@ class Scaling:
     def values(self, theta: np.ndarray) -> dict[str, float]:
         """All parameter values (fixed ones included) for a theta."""
         out = values_of(self.parameters)
-        out.update(zip(self.names, (self.start + self.scale * np.asarray(theta)).tolist()))
+        out.update(zip(self.names, (self.start + self.scale * np.asarray(theta)).tolist(), strict=True))
         return out
 
     def theta(self, values: Mapping[str, float]) -> np.ndarray:
