@@ -190,7 +190,7 @@ def test_basic_accuracy_is_a_fixed_error_within_the_specification():
 
 
 def test_settings_that_contradict_the_sensor_description_are_refused():
-    with pytest.raises(ValidationError, match="plate.material 'steel' differs from sensor.target 'copper'"):
+    with pytest.raises(ValidationError, match=r"plate\.material 'steel' differs from sensor\.target 'copper'"):
         LabConfig(physics="field", plate={"material": "steel"})
     with pytest.raises(ValidationError, match="belong to physics: ecm"):
         LabConfig(physics="field", effects={"target_bending": {"enabled": True}})
