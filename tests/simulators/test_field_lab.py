@@ -34,9 +34,9 @@ def l_at(lab: SimulatedLab, x_mm: float, frequency_hz: float) -> float:
 
 def test_copper_vs_steel_sensitivity_from_the_demo_run_files(tmp_path):
     """Paper Sec. 2.2.2, Fig. 7: copper about 70 % more sensitive than steel at 15 kHz (issue: 1.3-2.2, 20-30 mm)."""
-    from ecds_lab.storage.data_file import open_data
     from ecds_lab.demo import CAMPAIGN
     from ecds_lab.runner.session import run_experiment
+    from ecds_lab.storage.data_file import open_data
 
     wanted = {"displacement_sweep.yaml", "target_heating_steel.yaml"}
     runs = {}
