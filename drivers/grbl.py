@@ -37,8 +37,9 @@ What the firmware does that a naive driver trips over, and what this one does (d
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import Any, Callable, ClassVar, Literal, Mapping
+from typing import Any, ClassVar, Literal
 
 from ecds_lab.drivers.instrument import Instrument
 from ecds_lab.errors import InstrumentError, InvalidSettingError, TransportTimeout

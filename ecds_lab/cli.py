@@ -108,7 +108,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     if config.simulated is None:
         raise ConfigError("simulate: the station has no 'simulated' section; give a simulated station YAML "
                           "(e.g. experiments/stations/simulated_lab.yaml)")
-    drivers = {role: getattr(config, role).driver for role in ROLE_NAMES}
+    drivers: dict[str, str] = {role: getattr(config, role).driver for role in ROLE_NAMES}
     server = LabServer(config.simulated.lab, drivers, port_base=args.port_base, serial=args.serial)
     try:
         print(server.describe())

@@ -87,7 +87,8 @@ class BridgeDrift(_Strict):
 
 class Effects(_Strict):
     """Switches and sizes of every effect the ECM physics can add to the baseline (``physics: ecm``;
-    only ``bridge_drift`` also applies to the field physics, whose parts are the coil/former/plate/slide/bridge blocks)."""
+    only ``bridge_drift`` also applies to the field physics, whose parts are the coil/former/plate/slide/bridge
+    blocks)."""
 
     target_tau_temperature: TargetTauTemperature = TargetTauTemperature()
     tau_displacement: TauDisplacement = TauDisplacement()

@@ -125,7 +125,8 @@ class _Segment:
 
     def point(self, t: float) -> tuple[float, float, float]:
         s, _ = self.at(t)
-        return tuple(p + u * s for p, u in zip(self.start, self.unit))  # type: ignore[return-value]
+        x, y, z = (p + u * s for p, u in zip(self.start, self.unit, strict=True))
+        return x, y, z
 
 
 @dataclass
@@ -393,7 +394,7 @@ class GrblEmulator(LineEmulator):
         state = self._state_name()
         busy = state not in ("Idle", "Alarm")
         position = self._position(now)
-        mpos = ",".join(_mm(p - o) for p, o in zip(position, self.offset))
+        mpos = ",".join(_mm(p - o) for p, o in zip(position, self.offset, strict=True))
         mask = int(self.settings[10])
         report = f"<{state}|{'MPos' if mask & 1 else 'WPos'}:{mpos}"
         if mask & 2:
@@ -740,7 +741,7 @@ class GrblEmulator(LineEmulator):
         return limit if motion == 0 else min(feed, limit)
 
     def _axis_limited(self, target: tuple[float, float, float], base: int) -> float:
-        delta = [b - a for a, b in zip(self.fw.planned, target)]
+        delta = [b - a for a, b in zip(self.fw.planned, target, strict=True)]
         length = math.sqrt(sum(d * d for d in delta))
         if length == 0:
             return self.settings[base]
@@ -779,7 +780,7 @@ class GrblEmulator(LineEmulator):
         fw = self.fw
         while fw.blocks:
             block = fw.blocks[0]
-            delta = [b - a for a, b in zip(fw.pos, block.target)]
+            delta = [b - a for a, b in zip(fw.pos, block.target, strict=True)]
             length = math.sqrt(sum(d * d for d in delta))
             if length < 1e-9:
                 fw.blocks.pop(0)

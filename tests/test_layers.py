@@ -1,8 +1,8 @@
 """The package's layers import only downward, so no import cycle can form between them.
 
-errors, clock, shipped < data < transports, instruments < drivers, simulators < config < station < runner, storage < model
-< analysis < report < the commands (cli, demo, replay, live, testing). Every import in the source
-counts, including the ones inside functions.
+errors, clock, shipped < data < transports, instruments < drivers, simulators < config < station < runner,
+storage < model < analysis < report < the commands (cli, demo, replay, live, testing). Every import in
+the source counts, including the ones inside functions.
 """
 
 from __future__ import annotations
@@ -15,7 +15,8 @@ import pytest
 ROOT = Path(__file__).resolve().parent.parent
 
 #: Folder in the checkout -> the import name it installs as.
-SOURCES = {ROOT / "ecds_lab": "ecds_lab", ROOT / "drivers": "ecds_lab.drivers", ROOT / "simulators": "ecds_lab.simulators"}
+SOURCES = {ROOT / "ecds_lab": "ecds_lab", ROOT / "drivers": "ecds_lab.drivers",
+           ROOT / "simulators": "ecds_lab.simulators"}
 
 #: Layer of each part of ecds_lab; a module may import its own part and parts of a lower layer.
 LAYERS: dict[str, int] = {

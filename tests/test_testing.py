@@ -33,7 +33,9 @@ def test_pairs_in_order_pass_and_constructor_kwargs_reach_the_driver():
 
 
 def test_a_different_command_fails_at_once_naming_both():
-    with pytest.raises(ProtocolMismatch, match=r"pair 0: expected the command b'VAL\?\\r\\n', the driver sent b'VAL\?\\n'"), expected_protocol(Echo, [(b"VAL?\r\n", b"1\n")]) as echo:
+    with (pytest.raises(ProtocolMismatch,
+                        match=r"pair 0: expected the command b'VAL\?\\r\\n', the driver sent b'VAL\?\\n'"),
+          expected_protocol(Echo, [(b"VAL?\r\n", b"1\n")]) as echo):
         echo.value()
 
 
@@ -44,17 +46,20 @@ def test_link_settings_set_the_terminations():
 
 
 def test_unused_pairs_fail_on_exit():
-    with pytest.raises(ProtocolMismatch, match=r"1 expected pair\(s\) never used, first \(b'!', None\)"), expected_protocol(Echo, [(b"VAL?\n", b"1\n"), (b"!", None)]) as echo:
+    with (pytest.raises(ProtocolMismatch, match=r"1 expected pair\(s\) never used, first \(b'!', None\)"),
+          expected_protocol(Echo, [(b"VAL?\n", b"1\n"), (b"!", None)]) as echo):
         echo.value()
 
 
 def test_unread_reply_bytes_fail_on_exit():
-    with pytest.raises(ProtocolMismatch, match=r"never read by the driver: b'extra\\n'"), expected_protocol(Echo, [(b"VAL?\n", b"1\nextra\n")]) as echo:
+    with (pytest.raises(ProtocolMismatch, match=r"never read by the driver: b'extra\\n'"),
+          expected_protocol(Echo, [(b"VAL?\n", b"1\nextra\n")]) as echo):
         echo.value()
 
 
 def test_sending_past_the_last_pair_fails():
-    with pytest.raises(ProtocolMismatch, match=r"sent b'!' after all 0 expected pairs"), expected_protocol(Echo, []) as echo:
+    with (pytest.raises(ProtocolMismatch, match=r"sent b'!' after all 0 expected pairs"),
+          expected_protocol(Echo, []) as echo):
         echo.poke()
 
 

@@ -204,16 +204,17 @@ def table2_rows(spectroscopy: Measurements) -> list[Row]:
         t, fit = min(fits, key=lambda item: abs(item[0] - t_paper))
         where = f"parallel RLC fit of the spectrum at {t:.0f} °C (analysis.spectroscopy)"
         dl = fit.inductance_h / l_p - 1
-        rows.append(_row(f"Table 2 L_p at {t_paper:.0f} °C", round(l_p * 1e3, 4), fit.inductance_h * 1e3, "mH", abs(dl) < 0.05,
-                         where + "; within 5 % to agree", "the lab's L is the winding's geometric L (Dodd & Deeds, "
+        rows.append(_row(f"Table 2 L_p at {t_paper:.0f} °C", round(l_p * 1e3, 4), fit.inductance_h * 1e3, "mH",
+                         abs(dl) < 0.05, where + "; within 5 % to agree",
+                         "the lab's L is the winding's geometric L (Dodd & Deeds, "
                          "the paper's nominal 110-150 mm x 3 mm, 500 turns: 53.6 mH), which moves only with expansion; "
                          "the paper's prototype has randomly distributed turns and its L_p falls 4 % on drying, "
                          "which a lumped C and loss across the winding does not produce"))
         dc = fit.capacitance_f / c_p - 1
-        rows.append(_row(f"Table 2 C_p at {t_paper:.0f} °C", round(c_p * 1e12, 4), fit.capacitance_f * 1e12, "pF", abs(dc) < 0.1,
-                         where + "; within 10 % to agree"))
-        rows.append(_row(f"Table 2 R_p at {t_paper:.0f} °C", round(r_p * 1e-3, 4), fit.parallel_resistance_ohm * 1e-3, "kΩ",
-                         _approx(fit.parallel_resistance_ohm, r_p), where + "; within a factor 1.5 to agree",
+        rows.append(_row(f"Table 2 C_p at {t_paper:.0f} °C", round(c_p * 1e12, 4), fit.capacitance_f * 1e12, "pF",
+                         abs(dc) < 0.1, where + "; within 10 % to agree"))
+        rows.append(_row(f"Table 2 R_p at {t_paper:.0f} °C", round(r_p * 1e-3, 4), fit.parallel_resistance_ohm * 1e-3,
+                         "kΩ", _approx(fit.parallel_resistance_ohm, r_p), where + "; within a factor 1.5 to agree",
                          "the lab's former loss is dielectric (conductance growing with frequency) while the fit "
                          "assumes a constant R_p, and the lab's drying at the spectroscopy's hold times does not "
                          "follow the paper's exactly"))

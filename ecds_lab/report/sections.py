@@ -128,7 +128,8 @@ def runs_section(findings: Findings) -> Parts:
                 points += f" of {run.points} rows; {run.planned_points} planned points"
             status = badge(run.status or "unknown", "good" if run.status == "completed" else "bad")
             row = [item.name, lines([run.experiment or "—", f"kind: {run.kind or '—'}"]),
-                   lines([run.station or "—", f"target: {item.target}", item.sensor_note or f"sensor: {item.sensor.name}"])]
+                   lines([run.station or "—", f"target: {item.target}",
+                          item.sensor_note or f"sensor: {item.sensor.name}"])]
             if not shared:
                 row.append(lines([f"{role}: {ident}" for role, ident in sorted(run.identities.items())] or ["—"]))
             row += [status, lines([_started(run.start_time), _duration(item)]), points,

@@ -20,9 +20,9 @@ import json
 import math
 import operator
 import time
+from collections.abc import Mapping, Sequence
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Mapping, Sequence
 
 import h5py
 import numpy as np
@@ -169,7 +169,7 @@ class RunWriter:
             return
         group = self._file["entry/transcripts"][role]
         text_ds, events_ds = group["text"], group["events"]
-        clock_s, wall_s, kinds, texts = zip(*events)
+        clock_s, wall_s, kinds, texts = zip(*events, strict=True)
         encoded = [text.encode("utf-8", errors="replace") for text in texts]
         base = text_ds.shape[0]
         table = np.empty((len(events), 4))

@@ -67,7 +67,8 @@ class BridgeModel:
         try:
             base = n.relative_at_1khz[speed]
         except KeyError:
-            raise ValueError(f"bridge speed {speed!r} has no noise figure (have {sorted(n.relative_at_1khz)})")
+            raise ValueError(f"bridge speed {speed!r} has no noise figure "
+                             f"(have {sorted(n.relative_at_1khz)})") from None
         shape = math.sqrt(1000.0 / frequency_hz) if frequency_hz < 1000.0 else max(1.0, frequency_hz / 100e3)
         return base * shape * 1.5 / voltage_v / math.sqrt(max(1, averages))
 

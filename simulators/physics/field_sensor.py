@@ -16,7 +16,6 @@ from ecds_lab.simulators.physics.coil import CoilSettings
 from ecds_lab.simulators.physics.field_solution import kernel, reflection
 from ecds_lab.simulators.physics.plate import Plate
 
-
 #: Grid cut-off: nodes with a x beyond this (e^{-2 a x} < 1e-13) are left out of the plate integral.
 CUTOFF = 15.0
 

@@ -5,11 +5,11 @@ citing the gnea/grbl source that prints them."""
 from __future__ import annotations
 
 import pytest
-from ecds_lab.drivers.grbl import ALARMS, ERRORS, SERIAL_SETTINGS, Grbl, parse_status
-from ecds_lab.simulators.grbl import STOCK_HOMING_CYCLES
 
+from ecds_lab.drivers.grbl import ALARMS, ERRORS, SERIAL_SETTINGS, Grbl, parse_status
 from ecds_lab.errors import InstrumentError, InvalidSettingError
 from ecds_lab.instruments import Positioner
+from ecds_lab.simulators.grbl import STOCK_HOMING_CYCLES
 from ecds_lab.testing import expected_protocol
 
 ORIGIN_MM = 160.0
@@ -373,25 +373,26 @@ def test_protocol_connect_takes_a_late_second_banner():
 
 def test_protocol_connect_reports_lost_settings():
     # settings.c: a failed EEPROM read prints error:7 (STATUS_SETTING_READ_FAIL) and restores defaults
-    with protocol([(None, b"error:7\r\n" + BANNER)]) as grbl, pytest.raises(InstrumentError, match=r"error:7.*stock \$ settings"):
+    with (protocol([(None, b"error:7\r\n" + BANNER)]) as grbl,
+          pytest.raises(InstrumentError, match=r"error:7.*stock \$ settings")):
         grbl.connect()
 
 
 def test_protocol_identity_is_dollar_i():
     # report.c report_build_info: [VER:...], [OPT:...], then ok
-    pairs = CONNECT + [(b"$I\n", b"[VER:1.1h.20190830:]\r\n[OPT:V,15,128]\r\nok\r\n")]
+    pairs = [*CONNECT, (b"$I\n", b"[VER:1.1h.20190830:]\r\n[OPT:V,15,128]\r\nok\r\n")]
     with protocol(pairs) as grbl:
         assert grbl.identity() == "Grbl 1.1h.20190830 [OPT:V,15,128]"
 
 
 def test_protocol_unlock_is_dollar_x():
     # system.c '$X' in Alarm: MESSAGE_ALARM_UNLOCK, then ok
-    with protocol(CONNECT + [(b"$X\n", b"[MSG:Caution: Unlocked]\r\nok\r\n")]) as grbl:
+    with protocol([*CONNECT, (b"$X\n", b"[MSG:Caution: Unlocked]\r\nok\r\n")]) as grbl:
         grbl.unlock()
 
 
 def test_protocol_home_is_dollar_h_with_ok_at_the_end():
-    with protocol(CONNECT + [(b"$H\n", b"ok\r\n")]) as grbl:
+    with protocol([*CONNECT, (b"$H\n", b"ok\r\n")]) as grbl:
         grbl.home()
 
 
@@ -399,19 +400,20 @@ def test_protocol_failed_homing_reads_the_reset_through():
     # limits.c: ALARM:9 (EXEC_ALARM_HOMING_FAIL_APPROACH) + mc_reset; system.c still returns STATUS_OK for $H,
     # so "ok" precedes main.c's banner; protocol.c then prints the alarm lock
     reply = b"ALARM:9\r\nok\r\n" + BANNER + LOCKED
-    with protocol(CONNECT + [(b"$H\n", reply), (b"?", ALARM_STATUS)]) as grbl:
+    with protocol([*CONNECT, (b"$H\n", reply), (b"?", ALARM_STATUS)]) as grbl:
         with pytest.raises(InstrumentError, match=r"ALARM:9.*HOMING_CYCLE_0 \(1<<X_AXIS\)"):
             grbl.home()
         assert grbl.status().state == "Alarm"
 
 
 def test_protocol_homing_disabled_is_error_5():
-    with protocol(CONNECT + [(b"$H\n", b"error:5\r\n")]) as grbl, pytest.raises(InstrumentError, match="error:5"):
+    with protocol([*CONNECT, (b"$H\n", b"error:5\r\n")]) as grbl, pytest.raises(InstrumentError, match="error:5"):
         grbl.home()
 
 
 def test_protocol_move_is_one_g1_line_then_polls():
-    pairs = CONNECT + [
+    pairs = [
+        *CONNECT,
         (b"?", IDLE_AT_PULLOFF),
         (b"G90 G1 X-10.000 F600\n", b"ok\r\n"),  # ok when planned, not when done (motion_control.c mc_line)
         (b"?", b"<Run|MPos:-9.800,0.000,0.000|FS:120,0>\r\n"),
@@ -424,13 +426,14 @@ def test_protocol_move_is_one_g1_line_then_polls():
 def test_protocol_move_that_times_out_is_flushed():
     # no ok (a hold queues the line, protocol.c): Ctrl-X empties the serial buffer and planner (main.c), so
     # the G1 cannot run after a later '~'; the reset's banner keeps the link in step
-    pairs = CONNECT + [(b"?", IDLE_AT_PULLOFF), (b"G90 G1 X-10.000 F600\n", None), (b"\x18", BANNER)]
+    pairs = [*CONNECT, (b"?", IDLE_AT_PULLOFF), (b"G90 G1 X-10.000 F600\n", None), (b"\x18", BANNER)]
     with protocol(pairs, approach="direct") as grbl, pytest.raises(InstrumentError, match="flushed"):
         grbl.move_to(0.150)
 
 
 def test_protocol_resume_waits_for_hold_0():
-    pairs = CONNECT + [
+    pairs = [
+        *CONNECT,
         (b"!", None),
         (b"?", b"<Hold:1|MPos:-5.000,0.000,0.000|FS:300,0>\r\n"),  # protocol.c: still decelerating
         (b"?", b"<Hold:0|MPos:-5.450,0.000,0.000|FS:0,0>\r\n"),  # SUSPEND_HOLD_COMPLETE: '~' now counts
@@ -444,8 +447,8 @@ def test_protocol_resume_waits_for_hold_0():
 
 def test_protocol_resume_waits_when_the_hold_has_not_begun():
     # the '?' can be served before the '!' in the same pass of protocol_exec_rt_system (report first)
-    pairs = CONNECT + [(b"!", None), (b"?", b"<Run|MPos:-5.000,0.000,0.000|FS:600,0>\r\n"),
-                       (b"?", b"<Hold:0|MPos:-6.000,0.000,0.000|FS:0,0>\r\n"), (b"~", None)]
+    pairs = [*CONNECT, (b"!", None), (b"?", b"<Run|MPos:-5.000,0.000,0.000|FS:600,0>\r\n"),
+             (b"?", b"<Hold:0|MPos:-6.000,0.000,0.000|FS:0,0>\r\n"), (b"~", None)]
     with protocol(pairs) as grbl:
         grbl.connect()
         grbl.feed_hold()
@@ -454,13 +457,13 @@ def test_protocol_resume_waits_when_the_hold_has_not_begun():
 
 def test_protocol_soft_reset_skips_a_stray_ok():
     # the status of the line a reset interrupted is printed before the banner (protocol.c main loop)
-    pairs = CONNECT + [(b"\x18", b"ok\r\n" + BANNER + LOCKED), (b"?", ALARM_STATUS)]
+    pairs = [*CONNECT, (b"\x18", b"ok\r\n" + BANNER + LOCKED), (b"?", ALARM_STATUS)]
     with protocol(pairs) as grbl:
         assert grbl.soft_reset() == "Grbl 1.1h ['$' for help]"
 
 
 def test_protocol_soft_reset_while_moving_reports_alarm_3():
-    pairs = CONNECT + [(b"\x18", b"ALARM:3\r\n" + BANNER + LOCKED), (b"?", ALARM_STATUS)]
+    pairs = [*CONNECT, (b"\x18", b"ALARM:3\r\n" + BANNER + LOCKED), (b"?", ALARM_STATUS)]
     with protocol(pairs) as grbl, pytest.raises(InstrumentError, match=r"ALARM:3"):
         grbl.soft_reset()
 
@@ -468,7 +471,8 @@ def test_protocol_soft_reset_while_moving_reports_alarm_3():
 def test_protocol_reset_after_alarm_2_waits_for_the_prompt():
     # limits.c limits_soft_check -> ALARM:2; protocol.c prints it, waits 500 ms (report_alarm_message),
     # then "[MSG:Reset to continue]" and only then listens for a reset; the line's ok follows the reset
-    pairs = CONNECT + [
+    pairs = [
+        *CONNECT,
         (b"?", IDLE_AT_PULLOFF),
         (b"G90 G1 X5.000 F600\n", b"ALARM:2\r\n"),
         (None, b"[MSG:Reset to continue]\r\n"),
@@ -482,8 +486,8 @@ def test_protocol_reset_after_alarm_2_waits_for_the_prompt():
 
 
 def test_protocol_stop_is_hold_then_reset():
-    pairs = CONNECT + [(b"!", None), (b"?", b"<Hold:0|MPos:-5.000,0.000,0.000|FS:0,0>\r\n"),
-                       (b"\x18", BANNER), (b"?", b"<Idle|MPos:-5.000,0.000,0.000|FS:0,0>\r\n")]
+    pairs = [*CONNECT, (b"!", None), (b"?", b"<Hold:0|MPos:-5.000,0.000,0.000|FS:0,0>\r\n"),
+             (b"\x18", BANNER), (b"?", b"<Idle|MPos:-5.000,0.000,0.000|FS:0,0>\r\n")]
     with protocol(pairs) as grbl:
         grbl.connect()
         grbl.stop()

@@ -8,9 +8,9 @@ served through the drivers (replay transports); a station naming no sensor is sa
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from html import escape
 from pathlib import Path
-from typing import Callable
 
 import h5py
 import pytest

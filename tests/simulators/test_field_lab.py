@@ -34,9 +34,9 @@ def l_at(lab: SimulatedLab, x_mm: float, frequency_hz: float) -> float:
 
 def test_copper_vs_steel_sensitivity_from_the_demo_run_files(tmp_path):
     """Paper Sec. 2.2.2, Fig. 7: copper about 70 % more sensitive than steel at 15 kHz (issue: 1.3-2.2, 20-30 mm)."""
-    from ecds_lab.storage.data_file import open_data
     from ecds_lab.demo import CAMPAIGN
     from ecds_lab.runner.session import run_experiment
+    from ecds_lab.storage.data_file import open_data
 
     wanted = {"displacement_sweep.yaml", "target_heating_steel.yaml"}
     runs = {}
@@ -190,7 +190,7 @@ def test_basic_accuracy_is_a_fixed_error_within_the_specification():
 
 
 def test_settings_that_contradict_the_sensor_description_are_refused():
-    with pytest.raises(ValidationError, match="plate.material 'steel' differs from sensor.target 'copper'"):
+    with pytest.raises(ValidationError, match=r"plate\.material 'steel' differs from sensor\.target 'copper'"):
         LabConfig(physics="field", plate={"material": "steel"})
     with pytest.raises(ValidationError, match="belong to physics: ecm"):
         LabConfig(physics="field", effects={"target_bending": {"enabled": True}})

@@ -9,8 +9,8 @@ import pytest
 from scipy.integrate import quad
 from scipy.special import j1
 
-from ecds_lab.simulators.physics.field_sensor import FieldSensor
 from ecds_lab.simulators.physics.coil import CoilSettings
+from ecds_lab.simulators.physics.field_sensor import FieldSensor
 from ecds_lab.simulators.physics.field_solution import CoilKernel, Winding, bessel_moment, kernel, reflection
 from ecds_lab.simulators.physics.filaments import image_mutual, self_inductance
 from ecds_lab.simulators.physics.plate import Plate, PlateSettings

@@ -120,7 +120,7 @@ def test_rows_across_chunk_boundaries_read_back_exactly_and_missing_columns_are_
     block = np.arange(45 * len(COLUMNS), dtype=float).reshape(45, len(COLUMNS))
     writer.append_rows(block[:7])  # a resumed run's copy: blocks that start, end and span chunks
     for row in block[7:40]:
-        writer.append(dict(zip(COLUMN_NAMES, row)))
+        writer.append(dict(zip(COLUMN_NAMES, row, strict=True)))
     writer.append_rows(block[40:])
     writer.append({"time_s": 99.0, "ls_h": 1e-4})
     live = read_run(path).points
