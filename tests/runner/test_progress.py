@@ -5,11 +5,11 @@ from __future__ import annotations
 import fcntl
 import os
 import pty
-import struct
-import termios
 import re
+import struct
 import subprocess
 import sys
+import termios
 import time
 
 from ecds_lab.runner.plan import build_plan
