@@ -74,13 +74,23 @@ def _cmd_watch(args: argparse.Namespace) -> int:
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
-    from ecds_lab.storage.data_file import open_data
-
-    data = open_data(args.run).data
     output = args.output or Path(args.run).with_suffix(".csv")
-    data.to_csv(output)
-    print(f"{len(data)} rows -> {output}")
+    rows = _export(args, output)
+    print(f"{rows} rows -> {output}")
     return 0
+
+
+def _export(args: argparse.Namespace, output: Path) -> int:
+    """A run file: every column (or --columns) and the units sidecar; a CSV: the import columns."""
+    from ecds_lab.data.files import file_kind
+    from ecds_lab.storage.data_file import open_data
+    from ecds_lab.storage.export import columns_from, export_run
+
+    if file_kind(args.run) == "run":
+        return export_run(args.run, output, columns_from(args.columns))
+    data = open_data(args.run).data
+    data.to_csv(output)
+    return len(data)
 
 
 def _effects(text: str | None) -> list[str]:
@@ -191,9 +201,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("run", type=Path, help="run file (.h5); it may not exist yet")
     p.add_argument("--port", type=int, default=0, help="port (default: a free one, printed)")
 
-    p = command("export", _cmd_export, "write a run's points in the CSV import format")
+    p = command("export", _cmd_export, "write a run's readings as CSV: the import format's columns first, "
+                "then every other column; units in RUN.units.json")
     p.add_argument("run", type=Path)
     p.add_argument("-o", "--output", type=Path)
+    p.add_argument("--columns", help="comma-separated columns to write (default: all)")
     return parser
 
 
