@@ -6,7 +6,7 @@ Units and descriptions go to a JSON sidecar (a units row would break the import 
 Numbers: the shortest text that reads back as the stored float (Python's repr) when that text has at
 most 15 significant digits; a value carrying arithmetic noise in its 16th-17th digit (a simulated
 time 6.739999999999998, a power V*I 55.428867600000004) is written to 15 digits (6.74, 55.4288676),
-within 1e-15 of the stored value. Any text written reads back as a float that is written as the
+within 5e-15 (relative) of the stored value. Any text written reads back as a float that is written as the
 same text again (15 digits survive decimal -> binary -> decimal), so exports round-trip exactly.
 No parquet: pyarrow is a heavy dependency for a format the CSV and the HDF5 file already cover.
 """

@@ -19,7 +19,7 @@ from ecds_lab.storage.reader import read_run
                                    float("inf"), 2.5e300, 6.739999999999998, 1795442683.8988607])
 def test_numbers_drop_float_noise_and_round_trip(value):
     text = number(value)
-    assert (float(text) == value or abs(float(text) - value) <= 1e-15 * abs(value)) and len(text) <= len(repr(value))
+    assert (float(text) == value or abs(float(text) - value) <= 5e-15 * abs(value)) and len(text) <= len(repr(value))
     assert number(float(text)) == text  # written, read, written again: the same text
     assert float(text) == value or len(repr(value).replace("-", "").replace(".", "").lstrip("0")) > 15
 
@@ -44,7 +44,7 @@ def test_export_writes_every_column_with_a_units_sidecar_and_re_imports(shipped_
     for name in ("t_coil_c", "ls_h", "rs_ohm"):
         np.testing.assert_array_equal([float(r[header.index(name)]) for r in body], table[:, INDEX[name]], name)
     for name in ("time_s", "wall_time_s", "coil_heater_w"):
-        np.testing.assert_allclose([float(r[header.index(name)]) for r in body], table[:, INDEX[name]], rtol=1e-15)
+        np.testing.assert_allclose([float(r[header.index(name)]) for r in body], table[:, INDEX[name]], rtol=5e-15)
     assert not any(s in cell for row in body for cell in row for s in ("0000000000", "9999999999"))
     imported = Measurements.from_csv(output)
     assert len(imported) == len(body) and np.isinf(imported.x_m).all()
