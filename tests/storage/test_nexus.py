@@ -3,10 +3,13 @@
 from __future__ import annotations
 
 import os
+import re
+import shutil
 import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import h5py
 import numpy as np
@@ -103,3 +106,16 @@ def test_a_killed_sweep_shows_the_points_measured_so_far_in_its_default_plot(tmp
         np.testing.assert_array_equal(signal_ds[: len(first)], first[:, INDEX["ls_h"]])
         np.testing.assert_array_equal(axis[: len(first)], first[:, INDEX["x_commanded_mm"]])
         assert np.isfinite(signal_ds[: len(first)]).all()
+
+
+@pytest.mark.parametrize(("experiment", "station"), [(SWEEP, None), ("coil_heating.yaml", None),
+                                                     ("spectroscopy.yaml", None)])
+def test_punx_finds_no_errors(shipped_run, experiment, station):
+    """punx (pip install punx) validates against the NeXus definitions it ships; skipped where absent."""
+    punx = shutil.which("punx") or (Path(sys.executable).parent / "punx")
+    if not Path(punx).exists():
+        pytest.skip("punx is not installed (pip install punx)")
+    path = shipped_run(experiment, station).path
+    report = subprocess.run([str(punx), "validate", str(path)], capture_output=True, text=True, timeout=300)
+    counts = dict(re.findall(r"^(ERROR|OK)\s+(\d+)\s", report.stdout, re.MULTILINE))
+    assert counts.get("ERROR") == "0" and int(counts.get("OK", "0")) > 100, report.stdout[-3000:]
