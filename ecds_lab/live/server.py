@@ -79,7 +79,7 @@ def make_server(path: Path, port: int = 0) -> ThreadingHTTPServer:
 
 def url_of(server: ThreadingHTTPServer) -> str:
     host, port = server.server_address[:2]
-    return f"http://{host}:{port}/"
+    return f"http://{host!s}:{port}/" if isinstance(host, str) else f"http://{host.decode()}:{port}/"
 
 
 def serve_in_background(path: Path, port: int = 0) -> ThreadingHTTPServer:

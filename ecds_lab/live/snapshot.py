@@ -45,12 +45,12 @@ class Snapshot:
         return {name: (None if not math.isfinite(v) else float(v)) for name, v in zip(COLUMN_NAMES, row, strict=True)}
 
     def to_json(self) -> dict[str, object]:
+        from ecds_lab.live.figures import plotted_points
+
         rows = len(self.points)
-        ls = self.column("ls_h") if rows else np.empty(0)
-        x = self.column("x_commanded_mm") if rows else np.empty(0)
         return {"file": str(self.path), "status": self.status, "kind": self.kind, "name": self.name,
                 "rows": rows, "expected_rows": self.expected_rows,
-                "plotted_points": int(np.count_nonzero(np.isfinite(ls) & np.isfinite(x))) if rows else 0,
+                "plotted_points": plotted_points(self),
                 "fraction": min(rows / self.expected_rows, 1.0) if self.expected_rows else 0.0,
                 "remaining_s": self.remaining_s, "error": self.error, "latest": self.latest(),
                 "modified_s_ago": self.modified_s_ago}
