@@ -18,6 +18,10 @@ import numpy as np
 from ecds_lab.data.columns import COLUMN_NAMES, INDEX, PLANNED_POINT
 from ecds_lab.runner.progress import PlanEstimate
 
+#: A 'running' file unchanged this long is shown as stalled: its writer may have died (a killed run's
+#: file keeps saying 'running'), or it waits on something slow; the page says which it cannot tell.
+STALLED_AFTER_S = 300.0
+
 
 @dataclass
 class Snapshot:
@@ -75,6 +79,10 @@ def read_snapshot(path: Path) -> Snapshot:
     snap.status = attrs.get("status", "unknown")
     snap.kind, snap.name, snap.error = attrs.get("kind", ""), attrs.get("experiment", ""), attrs.get("error", "")
     snap.modified_s_ago = max(time.time() - os.path.getmtime(path), 0.0)
+    if snap.status == "running" and snap.modified_s_ago > STALLED_AFTER_S:
+        snap.status = "stalled"
+        snap.error = (f"no new data for {snap.modified_s_ago / 60:.0f} min: the run may have been killed "
+                      "(its file then keeps every row written so far; resume it with ecds-lab run --resume)")
     if snap.status == "running" and "experiment_yaml" in attrs:
         _estimate(snap, attrs["experiment_yaml"])
     else:
