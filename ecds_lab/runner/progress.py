@@ -159,7 +159,7 @@ def summary(plan: Plan) -> str:
              f"slide {MOVE_MM_PER_S:g} mm/s)",
              "  temperatures: " + (f"{min(temperatures):g} C to {max(temperatures):g} C" if temperatures
                                    else "no heating"),
-             f"  slide travel: {sum(s.travel_mm for s in steps):.1f} mm (after homing)"]
+             f"  slide travel: {sum(s.travel_mm for s in steps):.1f} mm between planned positions"]
     return "\n".join(lines)
 
 

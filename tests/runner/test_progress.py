@@ -66,3 +66,17 @@ def test_the_eta_on_the_coil_heating_run_is_within_30_percent_from_a_quarter_on(
     # the bar ends on the rows the run wrote, its total being those rows
     done, total = later[-1][1:3]
     assert done == total > 300
+
+
+def test_the_dry_run_summary_counts_steps_readings_duration_temperatures_and_travel(experiments_dir):
+    sweep = build_plan(load_experiment(experiments_dir / "displacement_sweep.yaml"))
+    text = sweep.summary()
+    assert "248 MeasurePoint" in text and "1 Home" in text
+    assert "readings: 248 planned, about 0 logged" in text and "temperatures: no heating" in text
+    assert "slide travel: 160.0 mm" in text  # 20 -> 100 mm and back
+    heating = build_plan(load_experiment(experiments_dir / "coil_heating.yaml"))
+    text = heating.summary()
+    assert "5 WaitSteady" in text and "1 CoolDown" in text and "temperatures: 40 C to 130 C" in text
+    minutes = float(re.search(r"estimated duration: ([\d.]+) min", text).group(1))
+    assert abs(minutes * 60 - PlanEstimate(heating).total_s()) < 6
+    assert heating.describe().endswith(text)
