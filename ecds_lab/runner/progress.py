@@ -33,9 +33,10 @@ if TYPE_CHECKING:
     from ecds_lab.clock import Clock
     from ecds_lab.runner.plan import Plan
 
-#: Nominal rates for the estimate only (a lab's real rates calibrate the heating waits as it runs).
-HEATING_K_PER_S = 4.0 / 60.0
-COOLING_K_PER_S = 2.0 / 60.0
+#: Nominal rates for the estimate only, round values near the simulated lab's: a lab's real heating waits
+#: calibrate the later ones as it runs; the cool-down, always last, keeps its nominal rate.
+HEATING_K_PER_S = 6.0 / 60.0
+COOLING_K_PER_S = 3.0 / 60.0
 START_TEMPERATURE_C = 22.0
 HOME_S = 5.0
 #: Categories whose nominal durations the run calibrates by what it observes.

@@ -61,8 +61,11 @@ def test_the_eta_on_the_coil_heating_run_is_within_30_percent_from_a_quarter_on(
     later = [(t, done, total, eta_m * 60 + eta_s) for t, done, total, _, _, eta_m, eta_s in samples
              if t >= 0.25 * actual]
     assert len(later) >= 10, text.decode(errors="replace")[-1500:]
-    for t, _, _, eta in later:
-        assert abs(t + eta - actual) <= 0.3 * actual, (t, eta, actual)
+    errors = [abs(t + eta - actual) / actual for t, _, _, eta in later]
+    median = sorted(errors)[len(errors) // 2]
+    print(f"\nrun {actual:.1f} s; ETA error from 25 % on: max {max(errors):.0%}, median {median:.0%}")
+    for (t, _, _, eta), error in zip(later, errors, strict=True):
+        assert error <= 0.3, (t, eta, actual)
     # the bar ends on the rows the run wrote, its total being those rows
     done, total = later[-1][1:3]
     assert done == total > 300
