@@ -11,7 +11,9 @@ The root ``@default`` leads to ``/entry`` and its ``@default`` to a plot that su
   coil/target heating  Ls against time, temperatures in their own NXdata
   spectroscopy         |Z| against frequency
 A sweep's rows come x by x, each position giving ``readings`` rows per frequency in plan order,
-so the rows of one frequency are a regular strided block selection of the table.
+so the rows of one frequency are a regular strided block selection of the table. A heating run's
+rows mix frequencies irregularly (logged readings, readings in place, sweeps), so its per-frequency
+Ls(t) series are written live too: a heating run writes a row every few seconds at most.
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ from ecds_lab.data.columns import COLUMNS, INDEX
 _UNLIMITED = h5py.h5s.UNLIMITED
 _LIVE_CHUNK = 1024
 _TEMPERATURES = ("t_coil_c", "t_target_c", "t_ambient_c")
+_SHAPED_KINDS = ("displacement_sweep", "coil_heating", "target_heating")
 
 
 @dataclass(frozen=True)
@@ -45,10 +48,11 @@ ALL_ROWS = RowPattern()
 
 @dataclass(frozen=True)
 class SweepShape:
-    """What fixes the row order of a displacement sweep: its frequencies and readings per point."""
+    """What the layout needs of the recorded experiment: the frequencies it measures at, in plan order,
+    and for a displacement sweep the readings per point (which fix its row order)."""
 
     frequencies_hz: tuple[float, ...]
-    readings_per_point: int
+    readings_per_point: int = 1
 
     def rows_of(self, index: int) -> RowPattern:
         """The rows measured at the ``index``-th frequency."""
@@ -90,7 +94,8 @@ class NexusLayout:
     """Creates the plottable groups of a new run file and keeps the live-written ones up to date."""
 
     def __init__(self, root: h5py.File, table: h5py.Dataset, kind: str, sweep: SweepShape | None) -> None:
-        self._live: list[h5py.Dataset] = []
+        self._spectrum: list[h5py.Dataset] = []
+        self._series: list[tuple[float, list[h5py.Dataset]]] = []
         entry = root["entry"]
         root.attrs.update({"NX_class": "NXroot", "default": "entry"})
         entry.create_dataset("start_time", data=entry.attrs.get("start_time") or now_iso())
@@ -119,34 +124,58 @@ class NexusLayout:
                 names.append(name)
             return names[0]
         if kind in ("coil_heating", "target_heating"):
-            ls = _nxdata(entry, "ls_vs_time", "ls_h", "time_s", title="Ls against time")
             temperatures = _nxdata(entry, "temperatures_vs_time", "t_coil_c", "time_s",
                                    auxiliary_signals=list(_TEMPERATURES[1:]), title="temperatures against time")
-            for group, columns in ((ls, ("ls_h", "time_s")), (temperatures, (*_TEMPERATURES, "time_s"))):
-                for column in columns:
-                    column_view(group, column, table, column)
-            return "ls_vs_time"
+            for column in (*_TEMPERATURES, "time_s"):
+                column_view(temperatures, column, table, column)
+            if sweep is None:
+                ls = _nxdata(entry, "ls_vs_time", "ls_h", "time_s", title="Ls against time, all frequencies")
+                for column in ("ls_h", "time_s"):
+                    column_view(ls, column, table, column)
+                return "ls_vs_time"
+            names = []
+            for freq in sweep.frequencies_hz:
+                name = f"ls_vs_time_{freq:g}_hz"
+                group = _nxdata(entry, name, "ls_h", "time_s", auxiliary_signals=["t_coil_c", "t_target_c"],
+                                title=f"Ls against time at {freq:g} Hz")
+                self._series.append((freq, [self._live_field(group, column) for column in
+                                            ("ls_h", "time_s", "t_coil_c", "t_target_c")]))
+                names.append(name)
+            return names[0]
         if kind == "spectroscopy":
             group = _nxdata(entry, "impedance_vs_frequency", "z_abs_ohm", "freq_hz", title="|Z| against frequency")
-            for name, unit in (("z_abs_ohm", "Ohm"), ("freq_hz", "Hz")):
-                field = group.create_dataset(name, shape=(0,), maxshape=(None,), dtype="<f8", chunks=(_LIVE_CHUNK,))
-                field.attrs["units"] = unit
-                self._live.append(field)
+            self._spectrum = [self._live_field(group, "z_abs_ohm", "Ohm"), self._live_field(group, "freq_hz")]
             return "impedance_vs_frequency"
         return "data"
 
+    @staticmethod
+    def _live_field(group: h5py.Group, name: str, unit: str | None = None) -> h5py.Dataset:
+        field = group.create_dataset(name, shape=(0,), maxshape=(None,), dtype="<f8", chunks=(_LIVE_CHUNK,))
+        field.attrs["units"] = unit if unit is not None else next(c.unit for c in COLUMNS if c.name == name)
+        return field
+
     def rows_written(self, rows: Sequence[Sequence[float]] | np.ndarray) -> None:
-        """Extend the live-written fields by the rows just appended to the table (spectroscopy only)."""
-        if not self._live:
+        """Extend the live-written fields by the rows just appended to the table (heating, spectroscopy)."""
+        if not self._series and not self._spectrum:
             return
         rows = np.asarray(rows, dtype=float)
         freq = rows[:, INDEX["freq_hz"]]
-        z = np.hypot(rows[:, INDEX["rs_ohm"]], 2 * np.pi * freq * rows[:, INDEX["ls_h"]])
-        for field, values in zip(self._live, (z, freq), strict=True):
-            n = field.shape[0]
-            field.resize((n + len(values),))
-            field[n:] = values
-            field.flush()
+        if self._spectrum:
+            z = np.hypot(rows[:, INDEX["rs_ohm"]], 2 * np.pi * freq * rows[:, INDEX["ls_h"]])
+            for field, values in zip(self._spectrum, (z, freq), strict=True):
+                _extend(field, values)
+        for series_freq, fields in self._series:
+            mine = rows[freq == series_freq]
+            if len(mine):
+                for field in fields:
+                    _extend(field, mine[:, INDEX[field.name.rsplit("/", 1)[1]]])
+
+
+def _extend(field: h5py.Dataset, values: np.ndarray) -> None:
+    n = field.shape[0]
+    field.resize((n + len(values),))
+    field[n:] = values
+    field.flush()
 
 
 def finish(entry: h5py.Group) -> None:
@@ -157,8 +186,8 @@ def finish(entry: h5py.Group) -> None:
 
 
 def sweep_shape(metadata: Mapping[str, str]) -> SweepShape | None:
-    """A displacement sweep's frequencies and readings from the experiment YAML a run file records."""
-    if metadata.get("kind") != "displacement_sweep" or not metadata.get("experiment_yaml"):
+    """The frequencies (and a sweep's readings per point) of the experiment YAML a run file records."""
+    if metadata.get("kind") not in _SHAPED_KINDS or not metadata.get("experiment_yaml"):
         return None
     from ecds_lab.config.experiment import EXPERIMENT_ADAPTER
     from ecds_lab.config.loading import parse_yaml, validate
@@ -169,6 +198,8 @@ def sweep_shape(metadata: Mapping[str, str]) -> SweepShape | None:
     except Exception:  # a writer given odd metadata still writes a valid file, just without per-frequency plots
         return None
     sweep = getattr(experiment, "sweep", None)
-    if sweep is None:
-        return None
-    return SweepShape(tuple(sweep.frequencies_hz), sweep.readings_per_point)
+    heating = getattr(experiment, "heating", None)
+    frequencies = [*getattr(experiment, "frequencies_hz", []), *(sweep.frequencies_hz if sweep else []),
+                   *(getattr(heating, "log_frequencies_hz", None) or [])]
+    readings = sweep.readings_per_point if sweep is not None else 1
+    return SweepShape(tuple(dict.fromkeys(float(f) for f in frequencies)), readings)

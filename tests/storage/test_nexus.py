@@ -56,6 +56,7 @@ def test_a_sweep_file_plots_ls_against_x_for_one_frequency_by_default(shipped_ru
 
 @pytest.mark.parametrize(("experiment", "station", "signal", "axis"), [
     ("coil_heating.yaml", None, "ls_h", "time_s"),
+    ("target_heating_steel.yaml", "stations/simulated_lab_steel.yaml", "ls_h", "time_s"),
     ("spectroscopy.yaml", None, "z_abs_ohm", "freq_hz"),
 ])
 def test_heating_and_spectroscopy_files_default_to_their_own_plot(shipped_run, experiment, station, signal, axis):
@@ -64,6 +65,13 @@ def test_heating_and_spectroscopy_files_default_to_their_own_plot(shipped_run, e
         signal_ds, axis_ds = signal_and_axis(default_plot(f))
         table = f["entry/points"][()]
         assert signal_ds.name.endswith(signal) and axis_ds.name.endswith(axis)
+        if signal == "ls_h":  # heating: Ls against time at one frequency, temperatures beside it
+            mine = table[table[:, INDEX["freq_hz"]] == table[0, INDEX["freq_hz"]]]
+            np.testing.assert_array_equal(signal_ds[()], mine[:, INDEX["ls_h"]])
+            np.testing.assert_array_equal(axis_ds[()], mine[:, INDEX["time_s"]])
+            assert list(default_plot(f).attrs["auxiliary_signals"]) == ["t_coil_c", "t_target_c"]
+            assert len(f["entry/temperatures_vs_time/t_coil_c"]) == len(table)
+            table = mine
         assert len(signal_ds) == len(axis_ds) == len(table) > 0
         assert np.isfinite(axis_ds[()]).all() and np.isfinite(signal_ds[()]).all()
         if signal == "z_abs_ohm":
