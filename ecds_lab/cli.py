@@ -68,6 +68,8 @@ def _cmd_watch(args: argparse.Namespace) -> int:
     print(f"live view of {args.run}: {url_of(server)} (Ctrl-C to stop)", flush=True)
     try:
         server.serve_forever()
+    except KeyboardInterrupt:
+        print("live view stopped")
     finally:
         server.server_close()
     return 0
