@@ -6,8 +6,8 @@ import argparse
 import json
 import logging
 import sys
+from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Callable, Sequence
 
 from ecds_lab import __version__
 from ecds_lab.errors import EcdsLabError
@@ -152,6 +152,32 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_simulate(args: argparse.Namespace) -> int:
+    """Serve the simulated lab's instruments on local ports until Ctrl-C (docs/simulate.md)."""
+    from ecds_lab.simulators.serve import LabServer
+    from ecds_lab.station import load_station_config
+
+    config, _ = load_station_config(args.station)
+    server = LabServer(config, port_base=args.port_base, serial=args.serial)
+    try:
+        print(server.describe())
+        print("serving the simulated lab (time runs with the wall clock); Ctrl-C stops", flush=True)
+        server.serve_forever()
+    finally:
+        server.close()
+    return 0
+
+
+def _simulate_parser(command: Callable[..., argparse.ArgumentParser]) -> None:
+    p = command("simulate", _cmd_simulate, "serve the simulated lab's instruments to any client: SCPI instruments "
+                "on raw sockets (5025 and up), serial ones on pseudo-terminals, until Ctrl-C")
+    p.add_argument("--station", type=Path, help="simulated station YAML (default: the shipped simulated lab)")
+    p.add_argument("--port-base", type=int, default=5025, metavar="PORT",
+                   help="first TCP port (default 5025, the LXI raw-socket port); 0 lets the system choose")
+    p.add_argument("--serial", choices=("pty", "tcp"), default="pty",
+                   help="serial instruments on pseudo-terminals (default) or TCP ports for pyserial's socket://")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="ecds-lab", description="Run an eddy current displacement sensor lab "
                                      "(HM8118, GRBL slide, DAQ970A, HMP) and explain its data.")
@@ -198,6 +224,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = command("replay", _cmd_replay, "re-run a recorded session through the drivers from its transcript")
     p.add_argument("run", type=Path)
+
+    _simulate_parser(command)
 
     p = command("watch", _cmd_watch, "serve a live web page of a run file on 127.0.0.1 while it is written")
     p.add_argument("run", type=Path, help="run file (.h5); it may not exist yet")

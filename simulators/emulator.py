@@ -37,6 +37,10 @@ class LineEmulator(ABC):
         self._order = itertools.count()
         #: Set to a bytearray to capture every byte the host sends (protocol tests assert on it).
         self.wire: bytearray | None = None
+        #: The host keeps the instrument's pauses between commands. A simulated station with pacing
+        #: switched off sets this False, and an instrument that loses commands sent too fast (the
+        #: HM8118) then takes them all.
+        self.paced_host = True
 
     # -- the port side ------------------------------------------------------------------------
     def receive(self, data: bytes) -> None:
