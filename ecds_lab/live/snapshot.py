@@ -82,7 +82,8 @@ def read_snapshot(path: Path) -> Snapshot:
     if snap.status == "running" and snap.modified_s_ago > STALLED_AFTER_S:
         snap.status = "stalled"
         snap.error = (f"no new data for {snap.modified_s_ago / 60:.0f} min: the run may have been killed "
-                      "(its file then keeps every row written so far; resume it with ecds-lab run --resume)")
+                      "(its file then keeps every row written so far; resume it with ecds-lab run --resume; "
+                      f"h5dump and a plain h5py open need `h5clear -s {path}` first)")
     if snap.status == "running" and "experiment_yaml" in attrs:
         _estimate(snap, attrs["experiment_yaml"])
     else:
