@@ -1,4 +1,4 @@
-"""The ``ecds-lab`` command line (DESIGN.md): run, demo, fit, diagnose, report, replay, export."""
+"""The ``ecds-lab`` command line (DESIGN.md): run, demo, fit, diagnose, report, replay, export, watch."""
 
 from __future__ import annotations
 
@@ -22,22 +22,77 @@ def _cmd_run(args: argparse.Namespace) -> int:
         *_, plan = prepare(args.experiment, args.station)
         print(plan.describe())
         return 0
+    if args.watch:
+        args.output = args.output or _default_output(args)
+        _start_watch(args.output)
     result = run_experiment(args.experiment, args.station, args.output, resume=args.resume,
                             overwrite=args.overwrite, progress=not args.quiet)
     print(f"{result.status}: {result.points} points in {result.path} ({result.wall_s:.1f} s)")
     if result.error:
         print(f"error: {result.error}", file=sys.stderr)
+    if args.watch:
+        _keep_watching()
     return 0 if result.status == "completed" else 1
 
 
-def _cmd_export(args: argparse.Namespace) -> int:
-    from ecds_lab.storage.data_file import open_data
+def _keep_watching() -> None:
+    """After ``run --watch``: the live page stays up, showing how the run ended, until Ctrl-C."""
+    import time
 
-    data = open_data(args.run).data
-    output = args.output or Path(args.run).with_suffix(".csv")
-    data.to_csv(output)
-    print(f"{len(data)} rows -> {output}")
+    print("the live view stays up (Ctrl-C to stop)", flush=True)
+    try:
+        while True:
+            time.sleep(3600)
+    except KeyboardInterrupt:
+        pass
+
+
+def _default_output(args: argparse.Namespace) -> Path:
+    from ecds_lab.runner.session import default_output
+
+    return default_output(args.experiment, args.resume)
+
+
+def _start_watch(path: Path) -> None:
+    """``run --watch``: serve the live page of the run file in the background and print its address."""
+    from ecds_lab.live.server import serve_in_background, url_of
+
+    print(f"live view of {path}: {url_of(serve_in_background(Path(path)))}", flush=True)
+
+
+def _cmd_watch(args: argparse.Namespace) -> int:
+    """Serve the live page of a run file until Ctrl-C."""
+    from ecds_lab.live.server import make_server, url_of
+
+    server = make_server(args.run, args.port)
+    print(f"live view of {args.run}: {url_of(server)} (Ctrl-C to stop)", flush=True)
+    try:
+        server.serve_forever()
+    except KeyboardInterrupt:
+        print("live view stopped")
+    finally:
+        server.server_close()
     return 0
+
+
+def _cmd_export(args: argparse.Namespace) -> int:
+    output = args.output or Path(args.run).with_suffix(".csv")
+    rows = _export(args, output)
+    print(f"{rows} rows -> {output}")
+    return 0
+
+
+def _export(args: argparse.Namespace, output: Path) -> int:
+    """A run file: every column (or --columns) and the units sidecar; a CSV: the import columns."""
+    from ecds_lab.data.files import file_kind
+    from ecds_lab.storage.data_file import open_data
+    from ecds_lab.storage.export import columns_from, export_run
+
+    if file_kind(args.run) == "run":
+        return export_run(args.run, output, columns_from(args.columns))
+    data = open_data(args.run).data
+    data.to_csv(output)
+    return len(data)
 
 
 def _effects(text: str | None) -> list[str]:
@@ -149,6 +204,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--overwrite", action="store_true", help="replace an existing output file")
     p.add_argument("--dry-run", action="store_true", help="print the plan; touch no instrument")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--watch", action="store_true", help="serve a live page of the run on 127.0.0.1 (see watch)")
 
     p = command("demo", _cmd_demo, "the whole paper campaign on the simulated lab, then analysis and report")
     p.add_argument("-o", "--output", type=Path, default=Path("ecds-demo"), help="output folder")
@@ -177,9 +233,15 @@ def build_parser() -> argparse.ArgumentParser:
 
     _simulate_parser(command)
 
-    p = command("export", _cmd_export, "write a run's points in the CSV import format")
+    p = command("watch", _cmd_watch, "serve a live web page of a run file on 127.0.0.1 while it is written")
+    p.add_argument("run", type=Path, help="run file (.h5); it may not exist yet")
+    p.add_argument("--port", type=int, default=0, help="port (default: a free one, printed)")
+
+    p = command("export", _cmd_export, "write a run's readings as CSV: the import format's columns first, "
+                "then every other column; units in RUN.units.json")
     p.add_argument("run", type=Path)
     p.add_argument("-o", "--output", type=Path)
+    p.add_argument("--columns", help="comma-separated columns to write (default: all)")
     return parser
 
 

@@ -6,12 +6,13 @@ Layout (NeXus-flavoured, so generic viewers find their way):
   /entry/points              (N x C) float64 table, one row per reading, appended and flushed
                              per point (SWMR: a viewer can read it live; a killed run keeps
                              every row written)
-  /entry/data                NXdata: one 1-D dataset per column (signal ls_h, axis x_commanded_mm)
+  /entry/data                NXdata: one 1-D view per column (signal ls_h, axis x_commanded_mm);
+                             it, the NXlogs and a plot per run kind (root @default): storage/nexus.py
   /entry/instrument/<role>   identity, driver, settings
   /entry/instrument/thermocouples/<name>   NXlog (time, value)
   /entry/transcripts/<role>  every command and reply: events (clock_s, wall_s, kind, end) + text bytes
-The table is the source of truth; NXdata, NXlogs and the status are completed at close
-(a killed run's file says status 'running' and the reader reports it as interrupted).
+The table is the source of truth; NXdata and NXlogs are views onto it, live during the run; the
+status and end_time are completed at close (a killed run's file says status 'running').
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ from ecds_lab.data.columns import COLUMN_NAMES, COLUMNS, INDEX
 from ecds_lab.data.run_metadata import SENSOR_ATTRIBUTE, sensor_attribute
 from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.errors import RunFileError
+from ecds_lab.storage.nexus import NexusLayout, finish, sweep_shape
 from ecds_lab.transports.transcript import KINDS, Transcript
 
 #: The points table is flushed every row, and each row rewrites its whole chunk: small chunks
@@ -68,7 +70,7 @@ class RunWriter:
     def _create_layout(self, metadata: Mapping[str, str], identities: Mapping[str, str]) -> None:
         entry = self._file.create_group("entry")
         entry.attrs.update({"NX_class": "NXentry", "status": "running", "start_time": _now_iso(),
-                            "software": f"ecds-lab {__version__}", "default": "data"})
+                            "software": f"ecds-lab {__version__}"})
         for key, value in metadata.items():
             entry.attrs[key] = value
         table = entry.create_dataset("points", shape=(0, len(COLUMNS)), maxshape=(None, len(COLUMNS)),
@@ -76,24 +78,12 @@ class RunWriter:
         table.attrs["columns"] = list(COLUMN_NAMES)
         table.attrs["units"] = [c.unit for c in COLUMNS]
         self._table = table
-        data = entry.create_group("data")
-        data.attrs.update({"NX_class": "NXdata", "signal": "ls_h", "axes": ["x_commanded_mm"]})
-        for column in COLUMNS:
-            ds = data.create_dataset(column.name, shape=(0,), maxshape=(None,), dtype="f8", chunks=(_COLUMN_CHUNK,))
-            ds.attrs.update({"units": column.unit, "long_name": column.description})
         instrument = entry.create_group("instrument")
         instrument.attrs["NX_class"] = "NXinstrument"
         for role, identity in identities.items():
             group = instrument.create_group(role)
             group.attrs.update({"NX_class": "NXcollection", "identity": identity})
-        thermocouples = instrument.create_group("thermocouples")
-        thermocouples.attrs["NX_class"] = "NXcollection"
-        for name in ("coil", "target", "ambient"):
-            log = thermocouples.create_group(name)
-            log.attrs["NX_class"] = "NXlog"
-            for field, unit in (("time", "s"), ("value", "degC")):
-                log.create_dataset(field, shape=(0,), maxshape=(None,), dtype="f8",
-                                   chunks=(_COLUMN_CHUNK,)).attrs["units"] = unit
+        self._nexus = NexusLayout(self._file, table, metadata.get("kind", ""), sweep_shape(metadata))
         records = entry.create_group("transcripts")
         records.attrs.update({"NX_class": "NXcollection", "kinds": list(KINDS)})
         for role in self._transcripts:
@@ -143,6 +133,7 @@ class RunWriter:
             done += take
         table.flush()
         self.rows = first + count
+        self._nexus.rows_written(rows)
 
     @property
     def roles(self) -> tuple[str, ...]:
@@ -188,7 +179,7 @@ class RunWriter:
 
     # -- the end ----------------------------------------------------------------------------
     def close(self, status: str, error: str = "", extra: Mapping[str, str] | None = None) -> None:
-        """Write the remaining transcripts, leave SWMR, then complete NXdata, NXlogs and the status."""
+        """Write the remaining transcripts, leave SWMR, then record the status and end time."""
         if self._file is None:
             return
         self.write_transcripts()
@@ -196,18 +187,9 @@ class RunWriter:
         self._file = None
         with h5py.File(self.path, "a", libver="latest") as f:
             entry = f["entry"]
-            table = entry["points"][()]
-            for name in COLUMN_NAMES:
-                ds = entry["data"][name]
-                ds.resize((len(table),))
-                ds[:] = table[:, INDEX[name]]
-            for name in ("coil", "target", "ambient"):
-                log = entry["instrument/thermocouples"][name]
-                values = table[:, INDEX[f"t_{name}_c"]]
-                for field, column in (("time", table[:, INDEX["time_s"]]), ("value", values)):
-                    log[field].resize((len(table),))
-                    log[field][:] = column
+            table = entry["points"]
             entry.attrs.update({"status": status, "end_time": _now_iso(), "points": len(table)})
+            finish(entry)
             if error:
                 entry.attrs["error"] = error
             for key, value in (extra or {}).items():
