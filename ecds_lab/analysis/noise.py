@@ -1,4 +1,15 @@
-"""How noisy are the data? Estimated from the data themselves, so structure can be told from noise."""
+"""How noisy are the data? Estimated from the data themselves, so structure can be told from noise.
+
+One estimator for the whole analysis (fit and diagnosis report the same noise):
+
+1. Repeats: pairs of successive readings of one state (same recording, frequency, distance and
+   direction, close in time and temperature). Their difference holds only the bridge's noise.
+2. Without enough repeats: the residual minus a flexible smooth of itself (a running median of
+   ``SMOOTH_WINDOW`` successive readings of one recording, frequency and kind of reading), scaled
+   robustly. A running median follows slopes, bends and steps of the residual (structure the
+   model leaves), so structure cannot inflate the estimate the way successive differences do,
+   and single glitches cannot either.
+"""
 
 from __future__ import annotations
 
@@ -6,6 +17,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.ndimage import median_filter
 
 from ecds_lab.analysis.dataset import Measurements
 
@@ -13,11 +25,17 @@ from ecds_lab.analysis.dataset import Measurements
 MAX_GAP_S = 300.0
 MAX_TEMPERATURE_STEP_K = 0.3
 MIN_PAIRS = 20
+#: Readings in the running median of the smooth (odd).
+SMOOTH_WINDOW = 5
+#: For white Gaussian noise of unit sigma, 1.4826 MAD of (r - running median of 5) is 0.727
+#: (Monte Carlo, 2e6 samples): the estimate is divided by it.
+SMOOTH_MAD_FACTOR = 0.727
+MIN_SMOOTH_READINGS = 12
 
 
 @dataclass(frozen=True)
 class NoiseEstimate:
-    """Noise of one reading in ppm of L, how it was found, and from how many pairs."""
+    """Noise of one reading in ppm of L, how it was found, and from how many pairs (or readings)."""
 
     ppm: float
     method: str
@@ -30,27 +48,56 @@ def _robust_sigma(differences: np.ndarray) -> float:
     return float(1.4826 * mad / math.sqrt(2))
 
 
-def estimate_noise(data: Measurements, residuals_ppm: np.ndarray) -> NoiseEstimate:
-    """Repeatability from pairs of successive readings of one state (same recording, frequency,
-    distance and direction, close in time and temperature), using model residuals so slow
-    changes the model already explains do not count as noise. Without enough repeats, the
-    successive differences of the residual in time order (per recording and frequency).
-    """
+def reading_groups(data: Measurements) -> list[np.ndarray]:
+    """Row indices of each series of like readings in time order: one recording, one frequency, and
+    the coil in air or facing the target (a smooth of the residual runs along each)."""
+    key = np.lexsort((data.time_s, data.in_air, data.freq_hz, data.segment))
+    seg, freq, air = data.segment[key], data.freq_hz[key], data.in_air[key]
+    breaks = np.flatnonzero((seg[1:] != seg[:-1]) | (freq[1:] != freq[:-1]) | (air[1:] != air[:-1])) + 1
+    return np.split(key, breaks)
+
+
+def smooth_residual(data: Measurements, residuals_ppm: np.ndarray, window: int = SMOOTH_WINDOW) -> np.ndarray:
+    """Running median of the residual along each series of like readings (``reading_groups``)."""
+    r = np.asarray(residuals_ppm, float)
+    out = r.copy()
+    for rows in reading_groups(data):
+        if len(rows) >= 3:
+            out[rows] = median_filter(r[rows], size=min(window, len(rows) - (1 - len(rows) % 2)), mode="nearest")
+    return out
+
+
+def _repeat_pairs(data: Measurements, residuals_ppm: np.ndarray) -> np.ndarray:
+    """Differences of successive residuals of one state (see the module docstring)."""
     order = np.lexsort((data.time_s, data.direction, data.x_commanded_m, data.freq_hz, data.segment))
     r = residuals_ppm[order]
-    keys = [a[order] for a in (data.segment, data.freq_hz, data.x_commanded_m, data.direction)]
-    same = np.ones(len(r) - 1, bool) if len(r) > 1 else np.zeros(0, bool)
-    for key in keys:
-        same &= key[1:] == key[:-1]
+    if len(r) < 2:
+        return np.zeros(0)
+    same = np.ones(len(r) - 1, bool)
+    for key in (data.segment, data.freq_hz, data.x_commanded_m, data.direction):
+        k = key[order]
+        same &= (k[1:] == k[:-1]) | (np.isinf(k[1:]) & np.isinf(k[:-1])) if k.dtype.kind == "f" else k[1:] == k[:-1]
     t, tc, tt = (a[order] for a in (data.time_s, data.t_coil_c, data.t_target_c))
     same &= np.abs(np.diff(t)) <= MAX_GAP_S
     same &= (np.abs(np.diff(tc)) <= MAX_TEMPERATURE_STEP_K) & (np.abs(np.diff(tt)) <= MAX_TEMPERATURE_STEP_K)
-    if same.sum() >= MIN_PAIRS:
-        return NoiseEstimate(_robust_sigma(np.diff(r)[same]), "repeated readings", int(same.sum()))
-    order = np.lexsort((data.time_s, data.freq_hz, data.segment))
-    r, seg, freq = residuals_ppm[order], data.segment[order], data.freq_hz[order]
-    same = (seg[1:] == seg[:-1]) & (freq[1:] == freq[:-1])
-    if same.sum() < 3:
-        return NoiseEstimate(float(np.std(residuals_ppm)), "residual spread (too few readings)", 0)
-    return NoiseEstimate(_robust_sigma(np.diff(r)[same]), "successive differences of the residual",
-                         int(same.sum()))
+    return np.diff(r)[same]
+
+
+def estimate_noise(data: Measurements, residuals_ppm: np.ndarray) -> NoiseEstimate:
+    """Noise of one reading (ppm of L): from repeats where they exist, else from the residual about
+    a flexible smooth of itself (see the module docstring). ``residuals_ppm`` are model residuals,
+    so slow changes the model already explains do not count as noise either way."""
+    r = np.asarray(residuals_ppm, float)
+    pairs = _repeat_pairs(data, r)
+    if len(pairs) >= MIN_PAIRS:
+        return NoiseEstimate(_robust_sigma(pairs), "repeated readings", len(pairs))
+    usable = [rows for rows in reading_groups(data) if len(rows) >= SMOOTH_WINDOW]
+    count = sum(len(rows) for rows in usable)
+    if count < MIN_SMOOTH_READINGS:
+        spread = float(1.4826 * np.median(np.abs(r - np.median(r)))) if len(r) else math.nan
+        return NoiseEstimate(spread, "robust spread of the residual (too few readings)", len(r))
+    smooth = smooth_residual(data, r)
+    rows = np.concatenate(usable)
+    d = (r - smooth)[rows]
+    sigma = 1.4826 * float(np.median(np.abs(d - np.median(d)))) / SMOOTH_MAD_FACTOR
+    return NoiseEstimate(sigma, "residual about a running median of itself", count)

@@ -21,6 +21,13 @@ name of the model to its value. History-dependent effects (moisture, thermal lag
 integrate along time within each ``data.segment``.
 
 To add an effect: subclass ``Effect`` and enter it in ``EFFECTS`` with ``@register``.
+Users add their own without editing ecds-lab (``ecds_lab.model.plugins``): a Python file
+(``--effects-from FILE.py``) or an installed package (entry point group ``ecds_lab.effects``).
+
+What the diagnosis needs to weigh a claim, declared by each effect: ``plausible`` (parameter ->
+(low, high) in SI: the physically possible size), ``key_parameters`` (those that must be clearly
+determined for the effect to be named; default: all its parameters) and ``reveal`` (the
+measurement that shows the effect best, suggested when the data cannot separate it from another).
 """
 
 from __future__ import annotations
@@ -38,7 +45,7 @@ if TYPE_CHECKING:
 
 #: The effect names DESIGN.md fixes (the contract of ``--effects`` and of the diagnosis).
 EFFECT_NAMES = ("target_tau_temperature", "tau_displacement", "target_bending",
-                "parasitic_capacitance", "thermal_lag", "slide_backlash")
+                "parasitic_capacitance", "thermal_lag", "slide_backlash", "former_expansion")
 
 
 @dataclass(frozen=True)
@@ -58,6 +65,13 @@ class Effect:
     alternative_starts: ClassVar[tuple[dict[str, float], ...]] = ()
     #: One line saying what the effect explains (for diagnoses and reports).
     explains: ClassVar[str] = ""
+    #: Physically possible range of parameters (SI, name -> (low, high)); a fit outside is not claimed.
+    plausible: ClassVar[dict[str, tuple[float, float]]] = {}
+    #: Parameters that must be clearly determined (not at a bound, stderr well below the value) for
+    #: the effect to be named; empty: every parameter of the effect.
+    key_parameters: ClassVar[tuple[str, ...]] = ()
+    #: The measurement that shows this effect best (suggested when the data cannot separate it).
+    reveal: ClassVar[str] = ""
 
     def __init__(self, sensor: SensorConfig) -> None:
         self.sensor = sensor
@@ -69,6 +83,11 @@ class Effect:
     def unidentifiable(self, data: "Measurements") -> dict[str, str]:
         """Parameters these data cannot determine (name -> reason); they are fixed at their start."""
         return {}
+
+    def identifies(self, data: "Measurements") -> set[str]:
+        """Baseline parameters this effect makes determinable in these data although the baseline
+        alone would not (e.g. tau_T at one frequency once it changes with target temperature)."""
+        return set()
 
     def effective_distance(self, x_m: np.ndarray, data: "Measurements", p: Mapping[str, float]) -> np.ndarray:
         return x_m
@@ -109,7 +128,9 @@ def register(cls: type[Effect]) -> type[Effect]:
 def library() -> dict[str, type[Effect]]:
     """The registered effects, the library's modules imported (they register themselves)."""
     import ecds_lab.model.library  # noqa: F401  (registers the library's effects)
+    from ecds_lab.model.plugins import load_entry_points
 
+    load_entry_points()
     return EFFECTS
 
 
@@ -120,4 +141,5 @@ def make_effect(name: str, sensor: SensorConfig) -> Effect:
     known = ", ".join(sorted(EFFECTS)) or "none yet"
     if name in EFFECT_NAMES:
         raise ValueError(f"effect {name!r} is named in DESIGN.md but not implemented; implemented: {known}")
-    raise ValueError(f"unknown effect {name!r}; known effects: {known}")
+    raise ValueError(f"unknown effect {name!r}; known effects: {known} (add your own with --effects-from FILE.py "
+                     "or an installed package's 'ecds_lab.effects' entry point)")

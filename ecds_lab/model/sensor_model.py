@@ -54,6 +54,9 @@ class SensorModel:
         """Parameters these data cannot determine (name -> reason), from the baseline and every effect."""
         out = baseline_unidentifiable(data)
         for effect in self.effects:
+            for name in effect.identifies(data):
+                out.pop(name, None)
+        for effect in self.effects:
             out.update(effect.unidentifiable(data))
         return out
 

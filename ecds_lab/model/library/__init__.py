@@ -7,6 +7,7 @@ stage hooks). To add an effect: write a module like these, with its parameters
 
 from __future__ import annotations
 
+from ecds_lab.model.library.former_expansion import FormerExpansion
 from ecds_lab.model.library.parasitic_capacitance import ParasiticCapacitance
 from ecds_lab.model.library.slide_backlash import SlideBacklash
 from ecds_lab.model.library.target_bending import TargetBending
@@ -14,4 +15,5 @@ from ecds_lab.model.library.target_tau_temperature import TargetTauTemperature
 from ecds_lab.model.library.tau_displacement import TauDisplacement
 from ecds_lab.model.library.thermal_lag import ThermalLag
 
-LIBRARY = (TargetTauTemperature, TauDisplacement, TargetBending, ParasiticCapacitance, ThermalLag, SlideBacklash)
+LIBRARY = (TargetTauTemperature, TauDisplacement, TargetBending, ParasiticCapacitance, ThermalLag, SlideBacklash,
+           FormerExpansion)

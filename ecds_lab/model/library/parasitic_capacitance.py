@@ -27,6 +27,11 @@ from ecds_lab.model.parameters import Parameter
 class ParasiticCapacitance(Effect):
     name = "parasitic_capacitance"
     explains = "moisture in the former changes the coil's parallel capacitance as heating dries it"
+    #: Table 2: the moist former adds ~15 pF; tens of pF at most.
+    plausible = {"moist_dC": (-50e-12, 50e-12)}
+    key_parameters = ("moist_dC",)
+    reveal = ("hold the coil hot for an hour at 15 kHz, then cool it: drying changes L early in the heating "
+              "and leaves a hysteresis on cooling")
     alternative_starts = ({"drying_rate": 1e-4}, {"drying_rate": 1e-2},
                           *({"drying_order": 0.0, "drying_rate": 3e-4, "drying_onset": onset, "drying_width": 1.0}
                             for onset in (60.0, 90.0)))

@@ -18,6 +18,9 @@ from ecds_lab.model.parameters import Parameter
 class SlideBacklash(Effect):
     name = "slide_backlash"
     explains = "the slide stops short by half its backlash, on the side it approached from"
+    #: A lead screw's play: up to a few hundred micrometres (PHYSICS.md: accuracy tens of um).
+    plausible = {"backlash": (-500e-6, 500e-6)}
+    reveal = "approach every position from both directions (a forward and a backward sweep)"
 
     def parameters(self) -> list[Parameter]:
         return [Parameter("backlash", 0.0, -1e-3, 1e-3, "m", "slide backlash (play between directions)", 2e-5)]

@@ -20,6 +20,11 @@ from ecds_lab.model.parameters import Parameter
 class TargetBending(Effect):
     name = "target_bending"
     explains = "the hot target bends, shifting the effective distance"
+    #: A plate heated from behind bows by micrometres per kelvin (tens of um over 100 K), not millimetres.
+    plausible = {"bending": (-20e-6, 20e-6), "bending_quadratic": (-0.2e-6, 0.2e-6)}
+    key_parameters = ("bending",)
+    reveal = ("measure at 500 Hz as well as 15 kHz with the target hot: bending shifts the distance alike at "
+              "both frequencies, a conductivity change alters the eddy-current screening mostly at 500 Hz")
 
     def parameters(self) -> list[Parameter]:
         return [

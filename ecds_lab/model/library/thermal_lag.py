@@ -19,6 +19,9 @@ from ecds_lab.model.parameters import Parameter
 class ThermalLag(Effect):
     name = "thermal_lag"
     explains = "the winding lags the coil thermocouple during temperature changes"
+    #: A winding under a few mm of former: seconds to an hour behind its thermocouple.
+    plausible = {"lag_tau": (2.0, 5000.0)}
+    reveal = "hold the coil hot for an hour and record the approach to steady state at a fixed distance"
     alternative_starts = ({"lag_tau": 15.0}, {"lag_tau": 600.0}, {"lag_tau": 2400.0})
 
     def parameters(self) -> list[Parameter]:
