@@ -201,8 +201,12 @@ def _solve(model: SensorModel, data: Measurements, params: Sequence[Parameter],
     lower, upper = scaling.bounds()
     theta0 = np.clip(np.zeros(len(scaling.names)), lower + 1e-9, upper - 1e-9)
     tolerance, budget = (1e-10, 30) if screening else (1e-12, 200)
+    # tr_solver="lsmr": the trust-region steps by an iterative solver on J, no dense SVD of the tall
+    # Jacobian per iteration (LAPACK's SVD of an n x k matrix is slow, and cost grows with n).
     result = least_squares(residuals, theta0, bounds=(lower, upper), method="trf", x_scale=1.0,
-                           ftol=tolerance, xtol=tolerance, gtol=tolerance, max_nfev=budget * (len(theta0) + 1))
+                           tr_solver="lsmr", tr_options={"atol": 1e-12, "btol": 1e-12, "maxiter": 20 * len(theta0)},
+                           ftol=tolerance, xtol=tolerance, gtol=tolerance,
+                           max_nfev=budget * (len(theta0) + 1))
     return result, scaling
 
 
@@ -270,18 +274,23 @@ def _result(model: SensorModel, data: Measurements, solved: tuple[Any, Scaling],
 
 
 def _covariance(jac: np.ndarray, residuals: np.ndarray, dof: int) -> np.ndarray:
-    """s^2 (J^T J)^-1 by SVD (directions the data do not constrain get infinite variance)."""
+    """s^2 (J^T J)^-1 from the eigen-decomposition of the column-normalised k x k normal matrix
+    (directions the data do not constrain get infinite variance); no SVD of the tall n x k Jacobian."""
     k = jac.shape[1]
     if k == 0:
         return np.zeros((0, 0))
     if dof <= 0:
         return np.full((k, k), np.inf)
     s2 = float(residuals @ residuals) / dof
-    _, sing, vt = np.linalg.svd(jac, full_matrices=False)
-    tiny = sing <= sing[0] * 1e-12 if sing.size and sing[0] > 0 else np.ones_like(sing, bool)
-    inv = np.where(tiny, np.inf, 1.0 / np.where(tiny, 1.0, sing) ** 2)
+    norms = np.sqrt(np.einsum("ij,ij->j", jac, jac))
+    norms = np.where(norms > 0, norms, 1.0)
+    normal = (jac.T @ jac) / np.outer(norms, norms)
+    eigenvalues, vectors = np.linalg.eigh(normal)
+    top = eigenvalues.max(initial=0.0)
+    tiny = eigenvalues <= top * 1e-24 if top > 0 else np.ones_like(eigenvalues, bool)
+    inv = np.where(tiny, np.inf, 1.0 / np.where(tiny, 1.0, eigenvalues))
     with np.errstate(invalid="ignore"):
-        cov = (vt.T * inv) @ vt
+        cov = (vectors * inv) @ vectors.T / np.outer(norms, norms)
     cov[~np.isfinite(cov)] = np.inf
     return s2 * cov
 

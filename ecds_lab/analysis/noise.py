@@ -5,7 +5,7 @@ One estimator for the whole analysis (fit and diagnosis report the same noise):
 1. Repeats: pairs of successive readings of one state (same recording, frequency, distance and
    direction, close in time and temperature). Their difference holds only the bridge's noise.
 2. Without enough repeats: the residual minus a flexible smooth of itself (a running median of
-   ``SMOOTH_WINDOW`` successive readings of one recording, frequency and kind of reading), scaled
+   ``SMOOTH_WINDOW`` successive readings of one run of like readings, ``reading_groups``), scaled
    robustly. A running median follows slopes, bends and steps of the residual (structure the
    model leaves), so structure cannot inflate the estimate the way successive differences do,
    and single glitches cannot either.
@@ -49,11 +49,14 @@ def _robust_sigma(differences: np.ndarray) -> float:
 
 
 def reading_groups(data: Measurements) -> list[np.ndarray]:
-    """Row indices of each series of like readings in time order: one recording, one frequency, and
-    the coil in air or facing the target (a smooth of the residual runs along each)."""
+    """Row indices of each run of like readings in time order: one recording, one frequency, the coil
+    in air or facing the target, one direction of approach, no long pause (a smooth runs along each;
+    a sweep's turning points are ends of runs, so a peak of the residual there is not cut off)."""
     key = np.lexsort((data.time_s, data.in_air, data.freq_hz, data.segment))
-    seg, freq, air = data.segment[key], data.freq_hz[key], data.in_air[key]
-    breaks = np.flatnonzero((seg[1:] != seg[:-1]) | (freq[1:] != freq[:-1]) | (air[1:] != air[:-1])) + 1
+    seg, freq, air, direction, t = (a[key] for a in (data.segment, data.freq_hz, data.in_air, data.direction,
+                                                      data.time_s))
+    breaks = np.flatnonzero((seg[1:] != seg[:-1]) | (freq[1:] != freq[:-1]) | (air[1:] != air[:-1])
+                            | (direction[1:] != direction[:-1]) | (np.diff(t) > MAX_GAP_S)) + 1
     return np.split(key, breaks)
 
 
