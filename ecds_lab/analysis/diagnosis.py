@@ -315,9 +315,19 @@ def _round(screen: Measurements, clean: Measurements, current: Step, names: list
     for i, candidate in enumerate(ranked[:LEADING]):
         if candidate.rmse_ppm > ADEQUATE_RATIO * noise.ppm or candidate.not_better:
             ranked[i] = _refined(screen, candidate, base, noise, weight, len(clean))
-    base_cv = _cv_rmse(screen, base, folds) if folds is not None else None
     for candidate in ranked:
-        _check(candidate, base, base_cv, folds, screen)
+        _check(candidate)
+    ranked.sort(key=lambda c: (not c.passes, _evidence(c)))
+    base_cv = _cv_rmse(screen, base, folds) if folds is not None and ranked and ranked[0].passes else None
+    leader = None
+    for candidate in ranked:  # held-out error, lazily: for the leader and whatever might tie with it
+        if not candidate.passes or folds is None:
+            continue
+        if leader is not None and leader.chi2_gain - candidate.chi2_gain >= SEPARATION_CHI2:
+            break
+        _check_held_out(candidate, base_cv, folds, screen)
+        if candidate.passes and leader is None:
+            leader = candidate
     ranked.sort(key=lambda c: (not c.passes, _evidence(c)))
     return ranked, untestable, base_cv
 
@@ -383,9 +393,8 @@ def _full_fit(clean: Measurements, candidate: Candidate, sensor: SensorConfig) -
 
 
 # -- the checks a claim must pass -----------------------------------------------------------------
-def _check(candidate: Candidate, base: FitResult, base_cv: float | None, folds: np.ndarray | None,
-           data: Measurements) -> None:
-    """Fill ``checks`` and ``rejected``: evidence, held-out error, identifiability, plausible size."""
+def _check(candidate: Candidate) -> None:
+    """Fill ``checks`` and ``rejected``: evidence, identifiability, plausible size."""
     reasons = candidate.rejected
     checks = candidate.checks
     checks["evidence"] = (not candidate.not_better) and candidate.delta_bic_signature <= DECISIVE_DELTA_BIC
@@ -400,13 +409,16 @@ def _check(candidate: Candidate, base: FitResult, base_cv: float | None, folds: 
     plausible, why = _plausible(candidate)
     checks["plausible"] = plausible
     reasons += why
-    if folds is not None and all(checks.values()):
-        candidate.base_cv_rmse_ppm = base_cv
-        candidate.cv_rmse_ppm = _cv_rmse(data, candidate.fit, folds)
-        checks["held_out"] = base_cv is not None and candidate.cv_rmse_ppm < base_cv
-        if not checks["held_out"]:
-            reasons.append(f"held-out error {candidate.cv_rmse_ppm:.1f} ppm is not below the current model's "
-                           f"{base_cv:.1f} ppm")
+
+
+def _check_held_out(candidate: Candidate, base_cv: float | None, folds: np.ndarray, data: Measurements) -> None:
+    """The grouped held-out error must fall below the current model's."""
+    candidate.base_cv_rmse_ppm = base_cv
+    candidate.cv_rmse_ppm = _cv_rmse(data, candidate.fit, folds)
+    candidate.checks["held_out"] = base_cv is not None and candidate.cv_rmse_ppm < base_cv
+    if not candidate.checks["held_out"]:
+        candidate.rejected.append(f"held-out error {candidate.cv_rmse_ppm:.1f} ppm is not below the current "
+                                  f"model's {base_cv:.1f} ppm")
 
 
 def _identified(candidate: Candidate) -> tuple[bool, list[str]]:

@@ -18,6 +18,7 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 from scipy.optimize import least_squares
 
+from ecds_lab.analysis.blas_threads import one_blas_thread
 from ecds_lab.analysis.dataset import Measurements
 from ecds_lab.model import ecm
 from ecds_lab.model.baseline import MIN_SPAN_ALPHA_K, MIN_SPAN_BETA_K
@@ -200,13 +201,12 @@ def _solve(model: SensorModel, data: Measurements, params: Sequence[Parameter],
         return _Trivial(r), scaling
     lower, upper = scaling.bounds()
     theta0 = np.clip(np.zeros(len(scaling.names)), lower + 1e-9, upper - 1e-9)
-    tolerance, budget = (1e-10, 30) if screening else (1e-12, 200)
-    # tr_solver="lsmr": the trust-region steps by an iterative solver on J, no dense SVD of the tall
-    # Jacobian per iteration (LAPACK's SVD of an n x k matrix is slow, and cost grows with n).
-    result = least_squares(residuals, theta0, bounds=(lower, upper), method="trf", x_scale=1.0,
-                           tr_solver="lsmr", tr_options={"atol": 1e-12, "btol": 1e-12, "maxiter": 20 * len(theta0)},
-                           ftol=tolerance, xtol=tolerance, gtol=tolerance,
-                           max_nfev=budget * (len(theta0) + 1))
+    tolerance, budget = (1e-10, 15) if screening else (1e-12, 200)
+    # The trust-region step factors the tall n x k Jacobian (cost linear in n); on one BLAS thread,
+    # since threads only contend on a matrix this thin (``blas_threads``).
+    with one_blas_thread():
+        result = least_squares(residuals, theta0, bounds=(lower, upper), method="trf", x_scale=1.0,
+                               ftol=tolerance, xtol=tolerance, gtol=tolerance, max_nfev=budget * (len(theta0) + 1))
     return result, scaling
 
 
@@ -274,8 +274,9 @@ def _result(model: SensorModel, data: Measurements, solved: tuple[Any, Scaling],
 
 
 def _covariance(jac: np.ndarray, residuals: np.ndarray, dof: int) -> np.ndarray:
-    """s^2 (J^T J)^-1 from the eigen-decomposition of the column-normalised k x k normal matrix
-    (directions the data do not constrain get infinite variance); no SVD of the tall n x k Jacobian."""
+    """s^2 (J^T J)^-1 from the eigen-decomposition of the column-normalised k x k normal matrix (no SVD
+    of the tall n x k Jacobian). Directions the data do not constrain give infinite variance to the
+    parameters that take part in them, and only to those."""
     k = jac.shape[1]
     if k == 0:
         return np.zeros((0, 0))
@@ -283,15 +284,17 @@ def _covariance(jac: np.ndarray, residuals: np.ndarray, dof: int) -> np.ndarray:
         return np.full((k, k), np.inf)
     s2 = float(residuals @ residuals) / dof
     norms = np.sqrt(np.einsum("ij,ij->j", jac, jac))
-    norms = np.where(norms > 0, norms, 1.0)
+    dead = ~(norms > 0)
+    norms = np.where(dead, 1.0, norms)
     normal = (jac.T @ jac) / np.outer(norms, norms)
     eigenvalues, vectors = np.linalg.eigh(normal)
     top = eigenvalues.max(initial=0.0)
-    tiny = eigenvalues <= top * 1e-24 if top > 0 else np.ones_like(eigenvalues, bool)
-    inv = np.where(tiny, np.inf, 1.0 / np.where(tiny, 1.0, eigenvalues))
-    with np.errstate(invalid="ignore"):
-        cov = (vectors * inv) @ vectors.T / np.outer(norms, norms)
-    cov[~np.isfinite(cov)] = np.inf
+    tiny = eigenvalues <= top * 1e-14 if top > 0 else np.ones_like(eigenvalues, bool)
+    kept = vectors[:, ~tiny]
+    cov = (kept / eigenvalues[~tiny]) @ kept.T / np.outer(norms, norms)
+    unconstrained = dead | (np.abs(vectors[:, tiny]) > 0.01).any(axis=1)
+    cov[unconstrained, :] = np.inf
+    cov[:, unconstrained] = np.inf
     return s2 * cov
 
 
