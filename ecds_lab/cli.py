@@ -7,10 +7,13 @@ import json
 import logging
 import sys
 from pathlib import Path
-from typing import Callable, Sequence
+from typing import TYPE_CHECKING, Callable, Sequence
 
 from ecds_lab import __version__
 from ecds_lab.errors import EcdsLabError
+
+if TYPE_CHECKING:
+    from ecds_lab.analysis.dataset import Measurements
 
 log = logging.getLogger("ecds_lab")
 
@@ -58,22 +61,38 @@ def _sensor(data: Path, sensor: Path | None):  # noqa: ANN202 - SensorConfig, im
     return SensorConfig()
 
 
+def _load_user_effects(files: Sequence[Path] | None) -> None:
+    """Register the effects of every ``--effects-from`` file (installed packages' come with the library)."""
+    from ecds_lab.model.plugins import load_effects_file
+
+    for path in files or ():
+        load_effects_file(path)
+
+
+def _campaign(paths: Sequence[Path]) -> "Measurements":
+    """Several DATA files as one campaign (each its own recording)."""
+    from ecds_lab.analysis.dataset import Measurements, load_measurements
+
+    parts = [load_measurements(p) for p in paths]
+    return parts[0] if len(parts) == 1 else Measurements.concatenate(parts)
+
+
 def _cmd_fit(args: argparse.Namespace) -> int:
-    from ecds_lab.analysis.dataset import load_measurements
     from ecds_lab.analysis.summary import fit_summary, format_fit_summary
 
+    _load_user_effects(args.effects_from)
     effects = [e.strip() for e in (args.effects or "").split(",") if e.strip()]
-    summary = fit_summary(load_measurements(args.data), effects, _sensor(args.data, args.sensor))
+    summary = fit_summary(_campaign(args.data), effects, _sensor(args.data[0], args.sensor))
     print(json.dumps(summary, indent=2) if args.json else format_fit_summary(summary))
     return 0
 
 
 def _cmd_diagnose(args: argparse.Namespace) -> int:
-    from ecds_lab.analysis.dataset import load_measurements
     from ecds_lab.analysis.diagnosis import diagnose, format_diagnosis
 
+    _load_user_effects(args.effects_from)
     effects = [e.strip() for e in (args.effects or "").split(",") if e.strip()]
-    result = diagnose(load_measurements(args.data), effects, _sensor(args.data, args.sensor))
+    result = diagnose(_campaign(args.data), effects, _sensor(args.data[0], args.sensor))
     print(json.dumps(result, indent=2) if args.json else format_diagnosis(result))
     return 0
 
@@ -81,6 +100,7 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
 def _cmd_report(args: argparse.Namespace) -> int:
     from ecds_lab.report.html import write_report
 
+    _load_user_effects(args.effects_from)
     output = write_report([Path(p) for p in args.data], args.output)
     print(f"report -> {output}")
     return 0
@@ -126,21 +146,28 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", type=Path, default=Path("ecds-demo"), help="output folder")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
 
-    p = command("fit", _cmd_fit, "fit the model (baseline plus named effects) to DATA (.h5 run file or CSV)")
-    p.add_argument("data", type=Path)
+    p = command("fit", _cmd_fit, "fit the model (baseline plus named effects) to DATA (.h5 run files or CSVs: one "
+                "campaign)")
+    p.add_argument("data", type=Path, nargs="+")
     p.add_argument("--effects", help="comma-separated effect names to add to the baseline")
+    p.add_argument("--effects-from", type=Path, action="append", metavar="FILE.py",
+                   help="a Python file of your own effects (Effect subclasses); may be given several times")
     p.add_argument("--sensor", type=Path, help="sensor YAML (default: the paper's prototype, copper target)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
 
-    p = command("diagnose", _cmd_diagnose, "where the model fails on DATA and which effect is missing")
-    p.add_argument("data", type=Path)
+    p = command("diagnose", _cmd_diagnose, "where the model fails on DATA (one campaign) and which effect is missing")
+    p.add_argument("data", type=Path, nargs="+")
     p.add_argument("--effects", help="effects already added to the baseline (diagnose what is still missing)")
+    p.add_argument("--effects-from", type=Path, action="append", metavar="FILE.py",
+                   help="a Python file of your own effects (Effect subclasses); may be given several times")
     p.add_argument("--sensor", type=Path, help="sensor YAML (default: the paper's prototype, copper target)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
 
     p = command("report", _cmd_report, "write a self-contained HTML report with plots")
     p.add_argument("data", type=Path, nargs="+", help="run files or CSV")
     p.add_argument("-o", "--output", type=Path, default=Path("report.html"))
+    p.add_argument("--effects-from", type=Path, action="append", metavar="FILE.py",
+                   help="a Python file of your own effects (Effect subclasses); may be given several times")
 
     p = command("replay", _cmd_replay, "re-run a recorded session through the drivers from its transcript")
     p.add_argument("run", type=Path)
