@@ -46,11 +46,14 @@ STRUCTURE_SIGNIFICANCE = 8.0
 STRUCTURE_RATIO = 1.03
 #: BIC gain (negative) on the effect's signature readings that counts as clear evidence.
 DECISIVE_DELTA_BIC = -10.0
+#: ... and a fall of the residual sum of squares by this many noise variances (scaled to the campaign).
+MIN_CHI2_GAIN = 25.0
 #: A key parameter is identified when |value| exceeds this many standard errors ...
 MIN_Z = 3.0
 #: ... and lies farther than this share of its range from either bound.
 BOUND_MARGIN = 1e-3
-#: Two passing effects whose chi-square (in noise units) differ by less than this are not separated.
+#: Two passing effects whose chi-square gains (in noise units) differ by less than this (plus a tenth
+#: of the larger) are not separated.
 SEPARATION_CHI2 = 10.0
 #: The signature of an effect: readings whose prediction it moves by at least this share of the noise.
 SIGNATURE_SHARE = 0.5
@@ -244,9 +247,14 @@ def run_diagnosis(data: Measurements, effects: Sequence[str] = (), sensor: Senso
         current.candidates = ranked
         passing = [c for c in ranked if c.passes]
         if not passing:
+            if len(steps) == 1:
+                undetermined = [c.effect for c in ranked if c.checks.get("evidence") and c.checks.get("plausible")
+                                and not c.checks.get("identifiable")]
+                if undetermined:
+                    alternatives.append(undetermined)
             break
         best = passing[0]
-        tied = [c for c in passing[1:] if best.chi2_gain - c.chi2_gain < SEPARATION_CHI2]
+        tied = [c for c in passing[1:] if _tied(best, c)]
         if tied:
             alternatives.append([best.effect] + [c.effect for c in tied])
             break
@@ -323,13 +331,19 @@ def _round(screen: Measurements, clean: Measurements, current: Step, names: list
     for candidate in ranked:  # held-out error, lazily: for the leader and whatever might tie with it
         if not candidate.passes or folds is None:
             continue
-        if leader is not None and leader.chi2_gain - candidate.chi2_gain >= SEPARATION_CHI2:
-            break
+        if leader is not None and not _tied(leader, candidate):
+            continue
         _check_held_out(candidate, base_cv, folds, screen)
         if candidate.passes and leader is None:
             leader = candidate
     ranked.sort(key=lambda c: (not c.passes, _evidence(c)))
     return ranked, untestable, base_cv
+
+
+def _tied(a: Candidate, b: Candidate) -> bool:
+    """The data cannot prefer one of two effects: their chi-square gains differ by less than
+    SEPARATION_CHI2 plus a tenth of the larger (the gains are estimates from the same noise)."""
+    return abs(a.chi2_gain - b.chi2_gain) < SEPARATION_CHI2 + 0.1 * max(a.chi2_gain, b.chi2_gain)
 
 
 def _evidence(candidate: Candidate) -> float:
@@ -349,7 +363,26 @@ def _candidate(data: Measurements, model: SensorModel, name: str, base: FitResul
     own = {p.name for p in model.effects[-1].parameters()}
     values = {k: v for k, v in base.values.items() if k not in own}
     fitted = fit_model(model, data, start={**values, **(start or {})}, multistart=False, screening=True)
+    fitted = _unreleased(fitted, base, data)
     return _scored(name, fitted, base, noise, weight, n_full)
+
+
+def _unreleased(fitted: FitResult, base: FitResult, data: Measurements) -> FitResult:
+    """Baseline parameters the effect made free (``Effect.identifies``) are kept only when the data
+    constrain them (standard error below half the value), otherwise fixed where the fit left them;
+    secondary parameters of the effect the data leave wholly undetermined are fixed at their
+    defaults. Neither then blurs the effect's key parameters."""
+    released = [n for n in fitted.free_names if n not in base.free_names and n in base.values]
+    loose = {n: fitted.values[n] for n in released
+             if not fitted.stderr.get(n, math.inf) < 0.5 * abs(fitted.values[n])}
+    effect = fitted.model.effects[-1]
+    keys = effect.key_parameters or ()
+    defaults = {q.name: q.value for q in effect.parameters()}
+    loose.update({n: defaults[n] for n in defaults  # secondary parameters the data cannot fix at all
+                  if n in fitted.free_names and n not in keys and not math.isfinite(fitted.stderr.get(n, math.inf))})
+    if not loose:
+        return fitted
+    return fit_model(fitted.model, data, start=fitted.values, fixed=loose, multistart=False, screening=True)
 
 
 def _scored(name: str, fitted: FitResult, base: FitResult, noise: NoiseEstimate, weight: float,
@@ -397,12 +430,13 @@ def _check(candidate: Candidate) -> None:
     """Fill ``checks`` and ``rejected``: evidence, identifiability, plausible size."""
     reasons = candidate.rejected
     checks = candidate.checks
-    checks["evidence"] = (not candidate.not_better) and candidate.delta_bic_signature <= DECISIVE_DELTA_BIC
+    checks["evidence"] = ((not candidate.not_better) and candidate.delta_bic_signature <= DECISIVE_DELTA_BIC
+                          and candidate.chi2_gain >= MIN_CHI2_GAIN)
     if candidate.not_better:
         reasons.append("the fit with it ends no better than without it")
     elif not checks["evidence"]:
-        reasons.append(f"BIC gain {candidate.delta_bic_signature:+.1f} on its signature is not clear "
-                       f"(needs {DECISIVE_DELTA_BIC:+g})")
+        reasons.append(f"BIC gain {candidate.delta_bic_signature:+.1f} on its signature and chi-square gain "
+                       f"{candidate.chi2_gain:.1f} are not clear (needs {DECISIVE_DELTA_BIC:+g} and {MIN_CHI2_GAIN:g})")
     identified, why = _identified(candidate)
     checks["identifiable"] = identified
     reasons += why
@@ -603,8 +637,13 @@ def explain(result: Diagnosis) -> str:
     if result.claimed:
         lines.append(f"Fit with --effects {','.join(result.effects + result.claimed)}.")
     for group in result.alternatives:
-        lines.append(f"The data cannot tell {' from '.join(group)}: each explains them about equally well, so "
-                     "neither is claimed. " + " ".join(f"To separate them: {s}." for s in result.suggested_measurements))
+        if len(group) == 1:
+            lines.append(f"{group[0]} would explain part of it, but these data do not determine its size, so it is "
+                         "not claimed. " + " ".join(f"To see it: {s}." for s in result.suggested_measurements))
+        else:
+            lines.append(f"The data cannot tell {' from '.join(group)}: each explains them about equally well (or "
+                         "neither is determined), so none is claimed. "
+                         + " ".join(f"To separate them: {s}." for s in result.suggested_measurements))
     final_ratio = final.rmse_ppm / noise if noise > 0 else math.inf
     if result.verdict == "inconclusive" and not result.alternatives:
         untested = "; ".join(f"{k}: {v}" for k, v in result.untestable.items())

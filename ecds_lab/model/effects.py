@@ -10,7 +10,8 @@ Stages (all arrays have one entry per data row, SI units):
 1. effective inputs: ``effective_distance(x_m, data, p)``,
    ``winding_temperature(t_c, data, p)``, ``target_temperature(t_c, data, p)``
 2. target time constant: ``target_tau(tau_s, inputs, data, p)``
-3. baseline ECM, Eq. (2)-(5) (no hook)
+3. baseline ECM, Eq. (2)-(5), then ``series_inductance(l_h, inputs, data, p)``: L of the series
+   branch, for anything else that couples to the coil (e.g. a metal object near the slide)
 4. coil parasitics: ``coil_capacitance(c_f, inputs, data, p)``,
    ``parallel_conductance(g_s, inputs, data, p)``
 5. the bridge's apparent series inductance (no hook)
@@ -101,6 +102,10 @@ class Effect:
     def target_tau(self, tau_s: np.ndarray, inputs: Inputs, data: "Measurements",
                    p: Mapping[str, float]) -> np.ndarray:
         return tau_s
+
+    def series_inductance(self, l_h: np.ndarray, inputs: Inputs, data: "Measurements",
+                          p: Mapping[str, float]) -> np.ndarray:
+        return l_h
 
     def coil_capacitance(self, c_f: np.ndarray, inputs: Inputs, data: "Measurements",
                          p: Mapping[str, float]) -> np.ndarray:

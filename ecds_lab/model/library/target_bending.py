@@ -40,7 +40,11 @@ class TargetBending(Effect):
         if span < 5:
             return {n: f"target temperature span {span:.1f} K < 5 K with the target present"
                     for n in ("bending", "bending_quadratic", "bending_x")}
-        return {"bending_quadratic": f"target temperature span {span:.1f} K < 30 K"} if span < 30 else {}
+        levels = len(np.unique(np.round(data.t_target_c[finite] / 5.0)))
+        if span < 30 or levels < 3:
+            return {"bending_quadratic": f"target temperature span {span:.1f} K over {levels} levels of 5 K "
+                                         "(a curvature needs 30 K and 3 levels)"}
+        return {}
 
     def effective_distance(self, x_m: np.ndarray, data, p: Mapping[str, float]) -> np.ndarray:  # noqa: ANN001
         d_t = data.t_target_c - self.sensor.reference_temperature_c

@@ -37,8 +37,8 @@ class TargetTauTemperature(Effect):
         fixed = {}
         if span < 5.0:
             fixed.update(tau_tempco=f"target temperature span {span:.1f} K < 5 K", tau_tempco2="as tau_tempco")
-        elif span < 30.0:
-            fixed["tau_tempco2"] = f"target temperature span {span:.1f} K < 30 K"
+        elif span < 30.0 or len(np.unique(np.round(data.t_target_c / 5.0))) < 3:
+            fixed["tau_tempco2"] = f"target temperature span {span:.1f} K < 30 K or fewer than 3 levels of 5 K"
         return fixed
 
     def identifies(self, data) -> set[str]:  # noqa: ANN001
