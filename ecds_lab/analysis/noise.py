@@ -4,11 +4,14 @@ One estimator for the whole analysis (fit and diagnosis report the same noise):
 
 1. Repeats: pairs of successive readings of one state (same recording, frequency, distance and
    direction, close in time and temperature). Their difference holds only the bridge's noise.
-2. Without enough repeats: the residual minus a flexible smooth of itself (a running median of
-   ``SMOOTH_WINDOW`` successive readings of one run of like readings, ``reading_groups``), scaled
-   robustly. A running median follows slopes, bends and steps of the residual (structure the
-   model leaves), so structure cannot inflate the estimate the way successive differences do,
-   and single glitches cannot either.
+2. Without enough repeats: the residual minus a flexible smooth of itself (a local quadratic over
+   ``NOISE_WINDOW`` successive readings of one run of like readings, ``reading_groups``: a
+   Savitzky-Golay filter), scaled robustly (MAD). The smooth follows slopes and bends of the
+   residual (structure the model leaves), so structure cannot inflate the estimate the way
+   successive differences do, and the MAD keeps single glitches from inflating it either.
+
+``smooth_residual`` (a running median) is the reference glitches are judged against
+(``analysis.outliers``): a median is not pulled toward a glitch.
 """
 
 from __future__ import annotations
@@ -18,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.ndimage import median_filter
+from scipy.signal import savgol_filter
 
 from ecds_lab.analysis.dataset import Measurements
 
@@ -25,11 +29,13 @@ from ecds_lab.analysis.dataset import Measurements
 MAX_GAP_S = 300.0
 MAX_TEMPERATURE_STEP_K = 0.3
 MIN_PAIRS = 20
-#: Readings in the running median of the smooth (odd).
+#: Readings in the running median glitches are judged against (odd).
 SMOOTH_WINDOW = 5
-#: For white Gaussian noise of unit sigma, 1.4826 MAD of (r - running median of 5) is 0.727
-#: (Monte Carlo, 2e6 samples): the estimate is divided by it.
-SMOOTH_MAD_FACTOR = 0.727
+#: Readings in the local quadratic of the noise estimate (odd); for white Gaussian noise of unit sigma
+#: the residual about it has sigma sqrt(1 - 1/3) = 0.8165 (the centre weight of a 7-point quadratic is
+#: 1/3; Monte Carlo, 1e6 samples: 0.817): the estimate is divided by it.
+NOISE_WINDOW = 7
+NOISE_SMOOTH_FACTOR = 0.8165
 MIN_SMOOTH_READINGS = 12
 
 
@@ -94,13 +100,11 @@ def estimate_noise(data: Measurements, residuals_ppm: np.ndarray) -> NoiseEstima
     pairs = _repeat_pairs(data, r)
     if len(pairs) >= MIN_PAIRS:
         return NoiseEstimate(_robust_sigma(pairs), "repeated readings", len(pairs))
-    usable = [rows for rows in reading_groups(data) if len(rows) >= SMOOTH_WINDOW]
+    usable = [rows for rows in reading_groups(data) if len(rows) >= NOISE_WINDOW]
     count = sum(len(rows) for rows in usable)
     if count < MIN_SMOOTH_READINGS:
         spread = float(1.4826 * np.median(np.abs(r - np.median(r)))) if len(r) else math.nan
         return NoiseEstimate(spread, "robust spread of the residual (too few readings)", len(r))
-    smooth = smooth_residual(data, r)
-    rows = np.concatenate(usable)
-    d = (r - smooth)[rows]
-    sigma = 1.4826 * float(np.median(np.abs(d - np.median(d)))) / SMOOTH_MAD_FACTOR
-    return NoiseEstimate(sigma, "residual about a running median of itself", count)
+    d = np.concatenate([r[rows] - savgol_filter(r[rows], NOISE_WINDOW, 2, mode="interp") for rows in usable])
+    sigma = 1.4826 * float(np.median(np.abs(d - np.median(d)))) / NOISE_SMOOTH_FACTOR
+    return NoiseEstimate(sigma, "residual about a local quadratic smooth of itself", count)
