@@ -320,9 +320,10 @@ def _round(screen: Measurements, clean: Measurements, current: Step, names: list
             continue
         ranked.append(_candidate(screen, model, name, base, noise, weight, len(clean)))
     ranked.sort(key=_evidence)
-    for i, candidate in enumerate(ranked[:LEADING]):
-        if candidate.rmse_ppm > ADEQUATE_RATIO * noise.ppm or candidate.not_better:
-            ranked[i] = _refined(screen, candidate, base, noise, weight, len(clean))
+    if current.rmse_ppm > ADEQUATE_RATIO * noise.ppm:  # at the noise, another valley cannot be decisive
+        for i, candidate in enumerate(ranked[:LEADING]):
+            if candidate.rmse_ppm > ADEQUATE_RATIO * noise.ppm or candidate.not_better:
+                ranked[i] = _refined(screen, candidate, base, noise, weight, len(clean))
     for candidate in ranked:
         _check(candidate)
     ranked.sort(key=lambda c: (not c.passes, _evidence(c)))
