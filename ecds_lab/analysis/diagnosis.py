@@ -320,9 +320,14 @@ def _round(screen: Measurements, clean: Measurements, current: Step, names: list
             continue
         ranked.append(_candidate(screen, model, name, base, noise, weight, len(clean)))
     ranked.sort(key=_evidence)
-    if current.rmse_ppm > ADEQUATE_RATIO * noise.ppm:  # at the noise, another valley cannot be decisive
+    # Alternative starts where another valley could change the outcome: not once the model or the
+    # leading candidate is at the noise, and not for candidates far behind the leader.
+    leader_gain = max((c.chi2_gain for c in ranked), default=0.0)
+    solved = any(c.rmse_ppm <= ADEQUATE_RATIO * noise.ppm and not c.not_better for c in ranked[:1])
+    if current.rmse_ppm > ADEQUATE_RATIO * noise.ppm and not solved:
         for i, candidate in enumerate(ranked[:LEADING]):
-            if candidate.rmse_ppm > ADEQUATE_RATIO * noise.ppm or candidate.not_better:
+            if candidate.not_better or (candidate.rmse_ppm > ADEQUATE_RATIO * noise.ppm
+                                        and candidate.chi2_gain >= 0.1 * leader_gain):
                 ranked[i] = _refined(screen, candidate, base, noise, weight, len(clean))
     for candidate in ranked:
         _check(candidate)

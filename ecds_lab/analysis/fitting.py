@@ -107,7 +107,7 @@ def fit_model(model: SensorModel, data: Measurements, *, start: Mapping[str, flo
     ``start`` overrides start values; ``multistart`` None tries more starts only when needed.
     ``rows`` (a boolean mask) fits only those rows while the model still runs over every row,
     so effects with a memory see the whole history (held-out validation uses this).
-    ``screening`` stops at a relative cost change of 1e-10 and a smaller evaluation budget: enough
+    ``screening`` stops at a relative cost change of 1e-8 and a smaller evaluation budget: enough
     to compare candidate models, without polishing a model that does not fit to the last digit.
     """
     if len(data) == 0:
@@ -201,7 +201,7 @@ def _solve(model: SensorModel, data: Measurements, params: Sequence[Parameter],
         return _Trivial(r), scaling
     lower, upper = scaling.bounds()
     theta0 = np.clip(np.zeros(len(scaling.names)), lower + 1e-9, upper - 1e-9)
-    tolerance, budget = (1e-10, 15) if screening else (1e-12, 200)
+    tolerance, budget = (1e-8, 15) if screening else (1e-12, 200)
     # The trust-region step factors the tall n x k Jacobian (cost linear in n); on one BLAS thread,
     # since threads only contend on a matrix this thin (``blas_threads``).
     with one_blas_thread():
