@@ -66,7 +66,7 @@ def run_campaign(folder: Path) -> list[Path]:
     return paths
 
 
-def timed(action, repeat: int) -> tuple[float, object]:  # noqa: ANN001
+def timed(action, repeat: int) -> tuple[float, object]:
     times, result = [], None
     for _ in range(repeat):
         began = time.perf_counter()
@@ -94,10 +94,10 @@ def main() -> None:
             readings = sum(len(i.data) for i in inputs)
             main_group = target_groups([i for i in inputs if not i.is_spectroscopy])[0]
             output = folder / f"report-{source}.html"
-            whole, _ = timed(lambda: write_report(paths, output), args.repeat)
-            diagnosis_s, diagnosis = timed(lambda: run_diagnosis(main_group.data, sensor=main_group.fit.model.sensor),
+            whole, _ = timed(lambda p=paths, o=output: write_report(p, o), args.repeat)
+            diagnosis_s, diagnosis = timed(lambda g=main_group: run_diagnosis(g.data, sensor=g.fit.model.sensor),
                                            args.repeat)
-            rest, _ = timed(lambda: write_report(paths, output, diagnosis=diagnosis), args.repeat)
+            rest, _ = timed(lambda p=paths, o=output, d=diagnosis: write_report(p, o, diagnosis=d), args.repeat)
             print(f"{source}: {readings} readings in {len(paths)} file(s) -> {output.stat().st_size / 1e6:.1f} MB")
             print(f"  report as `ecds-lab report` writes it: {whole:.1f} s  (target: under "
                   f"{30 if source == 'large' else 15} s)")

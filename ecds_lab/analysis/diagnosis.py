@@ -21,8 +21,10 @@ is refitted on all readings.
 from __future__ import annotations
 
 import math
+from itertools import pairwise
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -30,8 +32,8 @@ from ecds_lab.analysis.associations import Association, residual_associations
 from ecds_lab.analysis.dataset import Measurements
 from ecds_lab.analysis.fitting import FitResult, fit_model
 from ecds_lab.analysis.noise import NoiseEstimate, estimate_noise, reading_groups
-from ecds_lab.analysis.phases import phase_labels
 from ecds_lab.analysis.outliers import Outlier, describe, find_glitches
+from ecds_lab.analysis.phases import phase_labels
 from ecds_lab.model.effects import Effect, library
 from ecds_lab.model.sensor import SensorConfig
 from ecds_lab.model.sensor_model import SensorModel
@@ -230,7 +232,7 @@ def run_diagnosis(data: Measurements, effects: Sequence[str] = (), sensor: Senso
     """
     sensor = sensor or SensorConfig()
     effects = list(effects)
-    clean, index, base, noise, outliers = _robust_fit(data, effects, sensor)
+    clean, _rows, base, noise, outliers = _robust_fit(data, effects, sensor)
     names = [n for n in (candidates if candidates is not None else library()) if n not in effects]
     screen = _screen(clean, screen_rows)
     folds = _folds(screen) if cross_validate else None
@@ -628,7 +630,7 @@ def explain(result: Diagnosis) -> str:
         return " ".join(lines)
     lines.append(f"{model[0].upper()}{model[1:]} leaves {first.rmse_ppm:.1f} ppm of residual, "
                  f"{ratio:.1f}x the {noise:.1f} ppm noise ({result.noise.method}).")
-    for before, step in zip(result.steps, result.steps[1:]):
+    for before, step in pairwise(result.steps):
         added = step.effects[-1]
         candidate = next(c for c in before.candidates if c.effect == added)
         effect = candidate.effect_object
@@ -668,8 +670,9 @@ def explain(result: Diagnosis) -> str:
 
 def format_diagnosis(report: dict[str, Any]) -> str:
     """Readable summary of the JSON object."""
-    lines = [f"verdict: {report['verdict']}   noise {report['noise_ppm']:.1f} ppm   "
-             f"baseline {report['baseline']['rmse_ppm']:.1f} ppm", "", "steps:"]
+    head = (f"verdict: {report['verdict']}   noise {report['noise_ppm']:.1f} ppm   "
+            f"baseline {report['baseline']['rmse_ppm']:.1f} ppm")
+    lines = [head, "", "steps:"]
     for step in report.get("steps", []):
         error = (f"  position error {step['position_error_mm']:.4f} mm ({step['position_error_fs_pct']:.3f} % FS)"
                  if step.get("position_error_mm") is not None and step.get("position_error_fs_pct") is not None

@@ -10,15 +10,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from ecds_lab.simulators import campaign
+from ecds_lab.simulators.config import LabConfig
+from ecds_lab.simulators.lab import SimulatedLab
 
 from ecds_lab.analysis.associations import residual_associations
 from ecds_lab.analysis.dataset import Measurements
 from ecds_lab.analysis.diagnosis import run_diagnosis
 from ecds_lab.analysis.fitting import fit
 from ecds_lab.cli import main
-from ecds_lab.simulators import campaign
-from ecds_lab.simulators.config import LabConfig
-from ecds_lab.simulators.lab import SimulatedLab
 
 POSITIONS_MM = tuple(float(x) for x in np.linspace(20.0, 100.0, 16))
 EXAMPLE = Path(__file__).resolve().parents[2] / "docs" / "examples" / "metal_object.py"

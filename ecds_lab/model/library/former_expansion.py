@@ -12,7 +12,8 @@ former's linear expansion coefficient a (gypsum 25e-6 /K, fired clay 7.5e-6 /K, 
 
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
+from typing import ClassVar
 
 import numpy as np
 
@@ -29,7 +30,7 @@ class FormerExpansion(Effect):
     name = "former_expansion"
     explains = "the former's thermal expansion scales the winding, so the coupling changes with coil temperature"
     #: Ceramics ~5-10e-6 /K, gypsum 25e-6 /K, plastics up to ~100e-6 /K; a former does not shrink when heated.
-    plausible = {"former_alpha": (-2e-6, 150e-6)}
+    plausible: ClassVar[dict[str, tuple[float, float]]] = {"former_alpha": (-2e-6, 150e-6)}
     reveal = ("sweep the distance with the coil hot and cold (coil-heated sweeps): the expansion changes L "
               "most near the target, a plain coil-temperature term alike at every distance")
 
@@ -37,7 +38,7 @@ class FormerExpansion(Effect):
         return [Parameter("former_alpha", 0.0, -1e-4, 3e-4, "1/K", "linear thermal expansion of the coil former",
                           5e-6)]
 
-    def unidentifiable(self, data) -> dict[str, str]:  # noqa: ANN001
+    def unidentifiable(self, data) -> dict[str, str]:
         finite = np.isfinite(data.x_m)
         span = float(np.ptp(data.t_coil_c[finite])) if finite.any() else 0.0
         positions = len(np.unique(np.round(data.x_m[finite], 6)))
@@ -46,6 +47,6 @@ class FormerExpansion(Effect):
                                     f"present (needs {MIN_SPAN_K:g} K and {MIN_POSITIONS})"}
         return {}
 
-    def effective_distance(self, x_m: np.ndarray, data, p: Mapping[str, float]) -> np.ndarray:  # noqa: ANN001
+    def effective_distance(self, x_m: np.ndarray, data, p: Mapping[str, float]) -> np.ndarray:
         scale = 1.0 + p["former_alpha"] * (data.t_coil_c - self.sensor.reference_temperature_c)
         return p["p1"] + (x_m - p["p1"]) / scale

@@ -14,7 +14,8 @@ like 1/(1 - w^2 L C): strongly at 15 kHz, hardly at 500 Hz, and with hysteresis 
 
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
+from typing import ClassVar
 
 import numpy as np
 from scipy.special import expit
@@ -28,7 +29,7 @@ class ParasiticCapacitance(Effect):
     name = "parasitic_capacitance"
     explains = "moisture in the former changes the coil's parallel capacitance as heating dries it"
     #: Table 2: the moist former adds ~15 pF; tens of pF at most.
-    plausible = {"moist_dC": (-50e-12, 50e-12)}
+    plausible: ClassVar[dict[str, tuple[float, float]]] = {"moist_dC": (-50e-12, 50e-12)}
     key_parameters = ("moist_dC",)
     reveal = ("hold the coil hot for an hour at 15 kHz, then cool it: drying changes L early in the heating "
               "and leaves a hysteresis on cooling")
@@ -46,7 +47,7 @@ class ParasiticCapacitance(Effect):
             Parameter("drying_order", 1.0, 0.0, 2.0, "1", "order n of dm/dt = -r m^n (0 linear, 1 exponential)", 0.2),
         ]
 
-    def unidentifiable(self, data) -> dict[str, str]:  # noqa: ANN001
+    def unidentifiable(self, data) -> dict[str, str]:
         span = float(np.ptp(data.t_coil_c)) if len(data) else 0.0
         if span < 10.0:
             return {n: f"coil temperature span {span:.1f} K < 10 K"
@@ -55,7 +56,7 @@ class ParasiticCapacitance(Effect):
             return {"moist_dG": "low frequencies only: the loss hardly changes L"}
         return {}
 
-    def moisture(self, data, p: Mapping[str, float]) -> np.ndarray:  # noqa: ANN001
+    def moisture(self, data, p: Mapping[str, float]) -> np.ndarray:
         """m(t) per recording, integrated with the drying rate at the mean temperature of each interval."""
         key = (id(data), p["drying_rate"], p["drying_onset"], p["drying_width"], p["drying_order"])
         if getattr(self, "_memo_key", None) == key:
@@ -70,10 +71,10 @@ class ParasiticCapacitance(Effect):
         self._memo_key, self._memo = key, out
         return out
 
-    def coil_capacitance(self, c_f: np.ndarray, inputs: Inputs, data, p: Mapping[str, float]) -> np.ndarray:  # noqa: ANN001
+    def coil_capacitance(self, c_f: np.ndarray, inputs: Inputs, data, p: Mapping[str, float]) -> np.ndarray:
         return c_f + p["moist_dC"] * self.moisture(data, p)
 
-    def parallel_conductance(self, g_s: np.ndarray, inputs: Inputs, data, p: Mapping[str, float]) -> np.ndarray:  # noqa: ANN001
+    def parallel_conductance(self, g_s: np.ndarray, inputs: Inputs, data, p: Mapping[str, float]) -> np.ndarray:
         return g_s + p["moist_dG"] * self.moisture(data, p)
 
 

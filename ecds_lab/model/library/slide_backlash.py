@@ -6,7 +6,8 @@ on the side it came from: x_eff = x - direction * b / 2 (direction +1 increasing
 
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
+from typing import ClassVar
 
 import numpy as np
 
@@ -19,15 +20,15 @@ class SlideBacklash(Effect):
     name = "slide_backlash"
     explains = "the slide stops short by half its backlash, on the side it approached from"
     #: A lead screw's play: up to a few hundred micrometres (PHYSICS.md: accuracy tens of um).
-    plausible = {"backlash": (-500e-6, 500e-6)}
+    plausible: ClassVar[dict[str, tuple[float, float]]] = {"backlash": (-500e-6, 500e-6)}
     reveal = "approach every position from both directions (a forward and a backward sweep)"
 
     def parameters(self) -> list[Parameter]:
         return [Parameter("backlash", 0.0, -1e-3, 1e-3, "m", "slide backlash (play between directions)", 2e-5)]
 
-    def unidentifiable(self, data) -> dict[str, str]:  # noqa: ANN001
+    def unidentifiable(self, data) -> dict[str, str]:
         directions = set(np.unique(data.direction[np.isfinite(data.x_m)]).tolist()) - {0}
         return {} if directions == {-1, 1} else {"backlash": "the data approach from one direction only"}
 
-    def effective_distance(self, x_m: np.ndarray, data, p: Mapping[str, float]) -> np.ndarray:  # noqa: ANN001
+    def effective_distance(self, x_m: np.ndarray, data, p: Mapping[str, float]) -> np.ndarray:
         return x_m - data.direction * p["backlash"] / 2

@@ -8,7 +8,8 @@ w = 1 + c (x - 60 mm) / 40 mm. b1 > 0: the plate comes closer as it heats.
 
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
+from typing import ClassVar
 
 import numpy as np
 
@@ -21,7 +22,7 @@ class TargetBending(Effect):
     name = "target_bending"
     explains = "the hot target bends, shifting the effective distance"
     #: A plate heated from behind bows by micrometres per kelvin (tens of um over 100 K), not millimetres.
-    plausible = {"bending": (-20e-6, 20e-6), "bending_quadratic": (-0.2e-6, 0.2e-6)}
+    plausible: ClassVar[dict[str, tuple[float, float]]] = {"bending": (-20e-6, 20e-6), "bending_quadratic": (-0.2e-6, 0.2e-6)}
     key_parameters = ("bending",)
     reveal = ("measure at 500 Hz as well as 15 kHz with the target hot: bending shifts the distance alike at "
               "both frequencies, a conductivity change alters the eddy-current screening mostly at 500 Hz")
@@ -34,7 +35,7 @@ class TargetBending(Effect):
             Parameter("bending_x", 0.0, -0.9, 0.9, "1", "change of the shift from 60 mm to 100 mm (relative)", 0.1),
         ]
 
-    def unidentifiable(self, data) -> dict[str, str]:  # noqa: ANN001
+    def unidentifiable(self, data) -> dict[str, str]:
         finite = np.isfinite(data.x_m)
         span = float(np.ptp(data.t_target_c[finite])) if finite.any() else 0.0
         if span < 5:
@@ -46,7 +47,7 @@ class TargetBending(Effect):
                                          "(a curvature needs 30 K and 3 levels)"}
         return {}
 
-    def effective_distance(self, x_m: np.ndarray, data, p: Mapping[str, float]) -> np.ndarray:  # noqa: ANN001
+    def effective_distance(self, x_m: np.ndarray, data, p: Mapping[str, float]) -> np.ndarray:
         d_t = data.t_target_c - self.sensor.reference_temperature_c
         weight = 1 + p["bending_x"] * np.where(np.isfinite(x_m), (x_m - 0.060) / 0.040, 0.0)
         return x_m - (p["bending"] * d_t + p["bending_quadratic"] * d_t**2) * weight

@@ -9,7 +9,8 @@ the range, from a linear trend to a rise concentrated near the coil. Beyond the 
 
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
+from typing import ClassVar
 
 import numpy as np
 from scipy.interpolate import CubicSpline
@@ -26,18 +27,18 @@ class TauDisplacement(Effect):
     name = "tau_displacement"
     explains = "the target's eddy-current time constant changes with distance"
     #: The field simulation gives ~20 % at 30 mm; beyond a factor e either way is not a time constant's change.
-    plausible = {name: (-1.0, 1.0) for name in FREE_KNOTS}
+    plausible: ClassVar[dict[str, tuple[float, float]]] = {name: (-1.0, 1.0) for name in FREE_KNOTS}
     reveal = "sweep the distance at 500 Hz as well as 15 kHz (tau_T(x) changes the screening most at 500 Hz)"
 
     def parameters(self) -> list[Parameter]:
         return [Parameter(name, 0.0, -2.0, 2.0, "1", f"ln(tau_T / tau_T at 60 mm) at {name[6:]}", 0.05)
                 for name in FREE_KNOTS]
 
-    def unidentifiable(self, data) -> dict[str, str]:  # noqa: ANN001
+    def unidentifiable(self, data) -> dict[str, str]:
         positions = len(np.unique(np.round(data.x_m[np.isfinite(data.x_m)], 6)))
         return {n: f"{positions} distinct positions" for n in FREE_KNOTS} if positions < 8 else {}
 
-    def target_tau(self, tau_s: np.ndarray, inputs: Inputs, data, p: Mapping[str, float]) -> np.ndarray:  # noqa: ANN001
+    def target_tau(self, tau_s: np.ndarray, inputs: Inputs, data, p: Mapping[str, float]) -> np.ndarray:
         values = np.zeros(len(KNOTS_M))
         for name, index in FREE_KNOTS.items():
             values[index] = p[name]

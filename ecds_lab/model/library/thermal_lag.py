@@ -6,7 +6,8 @@ winding trails by a time constant tau_lag: dT_w/dt = (T_tc - T_w) / tau_lag, per
 
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
+from typing import ClassVar
 
 import numpy as np
 
@@ -20,7 +21,7 @@ class ThermalLag(Effect):
     name = "thermal_lag"
     explains = "the winding lags the coil thermocouple during temperature changes"
     #: A winding under a few mm of former: seconds to an hour behind its thermocouple.
-    plausible = {"lag_tau": (2.0, 5000.0)}
+    plausible: ClassVar[dict[str, tuple[float, float]]] = {"lag_tau": (2.0, 5000.0)}
     reveal = "hold the coil hot for an hour and record the approach to steady state at a fixed distance"
     alternative_starts = ({"lag_tau": 15.0}, {"lag_tau": 600.0}, {"lag_tau": 2400.0})
 
@@ -28,11 +29,11 @@ class ThermalLag(Effect):
         return [Parameter("lag_tau", 60.0, 1.0, 7200.0, "s", "time constant of the winding behind the thermocouple",
                           100.0)]
 
-    def unidentifiable(self, data) -> dict[str, str]:  # noqa: ANN001
+    def unidentifiable(self, data) -> dict[str, str]:
         rate = np.abs(data.coil_temperature_rate_k_per_s())
         return {} if rate.max(initial=0.0) > 1e-3 else {"lag_tau": "the coil temperature never changes"}
 
-    def winding_temperature(self, t_c: np.ndarray, data, p: Mapping[str, float]) -> np.ndarray:  # noqa: ANN001
+    def winding_temperature(self, t_c: np.ndarray, data, p: Mapping[str, float]) -> np.ndarray:
         out = np.array(t_c, dtype=float)
         for rows in data.segment_rows:
             out[rows] = first_order_lag(data.time_s[rows], out[rows], p["lag_tau"])
