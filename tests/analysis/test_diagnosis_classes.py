@@ -19,6 +19,7 @@ from ecds_lab.analysis.dataset import Measurements
 from ecds_lab.analysis.diagnosis import run_diagnosis
 from ecds_lab.analysis.fitting import fit
 from ecds_lab.cli import main
+from ecds_lab.model.effects import EFFECTS
 
 POSITIONS_MM = tuple(float(x) for x in np.linspace(20.0, 100.0, 16))
 EXAMPLE = Path(__file__).resolve().parents[2] / "docs" / "examples" / "metal_object.py"
@@ -205,7 +206,16 @@ def metal_object_campaign(tmp_path: Path) -> Path:
     return path
 
 
-def test_the_user_effect_walkthrough(tmp_path, capsys):
+@pytest.fixture
+def own_registry():
+    """User effects registered by a test leave the registry with it (other tests diagnose the library)."""
+    saved = dict(EFFECTS)
+    yield
+    EFFECTS.clear()
+    EFFECTS.update(saved)
+
+
+def test_the_user_effect_walkthrough(tmp_path, capsys, own_registry):
     path = metal_object_campaign(tmp_path)
     assert main(["diagnose", str(path), "--json"]) == 0
     before = json.loads(capsys.readouterr().out)
@@ -236,10 +246,28 @@ def test_several_data_files_are_one_campaign(campaign_with, tmp_path, capsys):
     assert report["params"]["backlash"]["value"] == pytest.approx(40e-6, rel=0.2)
 
 
-def test_a_broken_effect_file_is_a_clear_error(tmp_path, capsys):
+def test_a_broken_effect_file_is_a_clear_error(tmp_path, capsys, own_registry):
     bad = tmp_path / "bad.py"
     bad.write_text("x = 1\n")
     data = tmp_path / "d.csv"
     campaign.displacement_sweep(lab_with(), (30, 60, 90), (15000.0,)).to_csv(data)
     assert main(["diagnose", str(data), "--effects-from", str(bad)]) == 2
     assert "defines no Effect subclass" in capsys.readouterr().err
+
+
+def test_an_installed_package_s_effects_come_through_the_entry_point_group(monkeypatch, own_registry):
+    """An entry point in group ``ecds_lab.effects`` naming an Effect class joins the registry."""
+    from importlib.metadata import EntryPoint
+
+    from ecds_lab.model import plugins
+
+    point = EntryPoint("bracket", "ecds_lab_test_bracket:MetalObject", plugins.ENTRY_POINT_GROUP)
+    module = type(json)("ecds_lab_test_bracket")
+    exec(compile(EXAMPLE.read_text(), str(EXAMPLE), "exec"), module.__dict__)
+    monkeypatch.setitem(__import__("sys").modules, "ecds_lab_test_bracket", module)
+    monkeypatch.setattr(plugins, "entry_points", lambda group: [point] if group == plugins.ENTRY_POINT_GROUP else [])
+    monkeypatch.setattr(plugins, "_loaded_entry_points", False)
+    assert plugins.load_entry_points() == ["metal_object"]
+    from ecds_lab.model.effects import library
+
+    assert "metal_object" in library()
