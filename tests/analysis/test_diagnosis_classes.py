@@ -4,7 +4,9 @@ the simulated lab's campaign functions, plus the honest-verdict cases and the us
 from __future__ import annotations
 
 import dataclasses
+import importlib.util
 import json
+import sys
 import shutil
 from pathlib import Path
 
@@ -262,9 +264,10 @@ def test_an_installed_package_s_effects_come_through_the_entry_point_group(monke
     from ecds_lab.model import plugins
 
     point = EntryPoint("bracket", "ecds_lab_test_bracket:MetalObject", plugins.ENTRY_POINT_GROUP)
-    module = type(json)("ecds_lab_test_bracket")
-    exec(compile(EXAMPLE.read_text(), str(EXAMPLE), "exec"), module.__dict__)
-    monkeypatch.setitem(__import__("sys").modules, "ecds_lab_test_bracket", module)
+    spec = importlib.util.spec_from_file_location("ecds_lab_test_bracket", EXAMPLE)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)  # the package a user would have installed
+    monkeypatch.setitem(sys.modules, "ecds_lab_test_bracket", module)
     monkeypatch.setattr(plugins, "entry_points", lambda group: [point] if group == plugins.ENTRY_POINT_GROUP else [])
     monkeypatch.setattr(plugins, "_loaded_entry_points", False)
     assert plugins.load_entry_points() == ["metal_object"]
