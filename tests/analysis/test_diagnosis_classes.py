@@ -6,8 +6,8 @@ from __future__ import annotations
 import dataclasses
 import importlib.util
 import json
-import sys
 import shutil
+import sys
 from pathlib import Path
 
 import numpy as np
