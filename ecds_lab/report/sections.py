@@ -33,6 +33,8 @@ from ecds_lab.report.markup import (
 )
 from ecds_lab.report.render import Plot
 
+#: Residual plots of the diagnosis' chain show at most this many readings (drawn at random).
+MAX_STEP_POINTS = 20_000
 #: TS is quoted over the readings of the highest temperature step: rises above this share of the largest.
 TOP_STEP_SHARE = 0.8
 
@@ -288,6 +290,10 @@ def _step_plot(diagnosis: Any, before: Any, after: Any) -> Html | Plot:
     caption = (f"{_chain_label(before.effects)} (red) → + {added} (blue): RMS {before.rmse_ppm:.1f} → "
                f"{after.rmse_ppm:.1f} ppm, position error {number(before.position_error_mm, 3)} → "
                f"{number(after.position_error_mm, 3)} mm.")
+    if len(data) > MAX_STEP_POINTS:  # a scatter of every reading of a huge campaign only costs time
+        shown = np.sort(np.random.default_rng(0).choice(len(data), MAX_STEP_POINTS, replace=False))
+        caption += f" {MAX_STEP_POINTS:,} of the {len(data):,} readings shown, at random."
+        data, r0, r1 = data.select(shown), r0[shown], r1[shown]
     return Plot(fm.before_after, (data, r0, r1, added, variables, diagnosis.noise_ppm), caption)
 
 
