@@ -99,11 +99,20 @@ def _effects(text: str | None) -> list[str]:
     return [e.strip() for e in (text or "").split(",") if e.strip()]
 
 
+def _load_user_effects(files: Sequence[Path] | None) -> None:
+    """Register the effects of every ``--effects-from`` file (installed packages' come with the library)."""
+    from ecds_lab.model.plugins import load_effects_file
+
+    for path in files or ():
+        load_effects_file(path)
+
+
 def _cmd_fit(args: argparse.Namespace) -> int:
     from ecds_lab.analysis.summary import fit_summary, format_fit_summary
-    from ecds_lab.storage.data_file import open_data
+    from ecds_lab.storage.data_file import open_campaign
 
-    opened = open_data(args.data, args.sensor)
+    _load_user_effects(args.effects_from)
+    opened = open_campaign(args.data, args.sensor)
     summary = {"sensor": opened.sensor_summary(), **fit_summary(opened.data, _effects(args.effects), opened.sensor)}
     _print(summary, opened.sensor_note, args.json, format_fit_summary)
     return 0
@@ -111,9 +120,10 @@ def _cmd_fit(args: argparse.Namespace) -> int:
 
 def _cmd_diagnose(args: argparse.Namespace) -> int:
     from ecds_lab.analysis.diagnosis import diagnose, format_diagnosis
-    from ecds_lab.storage.data_file import open_data
+    from ecds_lab.storage.data_file import open_campaign
 
-    opened = open_data(args.data, args.sensor)
+    _load_user_effects(args.effects_from)
+    opened = open_campaign(args.data, args.sensor)
     result = {"sensor": opened.sensor_summary(), **diagnose(opened.data, _effects(args.effects), opened.sensor)}
     _print(result, opened.sensor_note, args.json, format_diagnosis)
     return 0
@@ -132,6 +142,7 @@ def _print(result: dict, note: str | None, as_json: bool, as_text: Callable[[dic
 def _cmd_report(args: argparse.Namespace) -> int:
     from ecds_lab.report.html import write_report
 
+    _load_user_effects(args.effects_from)
     output = write_report([Path(p) for p in args.data], args.output)
     print(f"report -> {output}")
     return 0
@@ -210,16 +221,21 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", type=Path, default=Path("ecds-demo"), help="output folder")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
 
-    p = command("fit", _cmd_fit, "fit the model (baseline plus named effects) to DATA (.h5 run file or CSV)")
-    p.add_argument("data", type=Path)
+    p = command("fit", _cmd_fit, "fit the model (baseline plus named effects) to DATA (.h5 run files or CSVs: one "
+                "campaign)")
+    p.add_argument("data", type=Path, nargs="+")
     p.add_argument("--effects", help="comma-separated effect names to add to the baseline")
+    p.add_argument("--effects-from", type=Path, action="append", metavar="FILE.py",
+                   help="a Python file of your own effects (Effect subclasses); may be given several times")
     p.add_argument("--sensor", help="sensor YAML (a path, or a shipped name such as steel_target); "
                    "overrides the sensor a run file records (default: the recorded sensor, else the paper's prototype)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
 
-    p = command("diagnose", _cmd_diagnose, "where the model fails on DATA and which effect is missing")
-    p.add_argument("data", type=Path)
+    p = command("diagnose", _cmd_diagnose, "where the model fails on DATA (one campaign) and which effect is missing")
+    p.add_argument("data", type=Path, nargs="+")
     p.add_argument("--effects", help="effects already added to the baseline (diagnose what is still missing)")
+    p.add_argument("--effects-from", type=Path, action="append", metavar="FILE.py",
+                   help="a Python file of your own effects (Effect subclasses); may be given several times")
     p.add_argument("--sensor", help="sensor YAML (a path, or a shipped name such as steel_target); "
                    "overrides the sensor a run file records (default: the recorded sensor, else the paper's prototype)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
@@ -227,6 +243,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = command("report", _cmd_report, "write a self-contained HTML report with plots")
     p.add_argument("data", type=Path, nargs="+", help="run files or CSV")
     p.add_argument("-o", "--output", type=Path, default=Path("report.html"))
+    p.add_argument("--effects-from", type=Path, action="append", metavar="FILE.py",
+                   help="a Python file of your own effects (Effect subclasses); may be given several times")
 
     p = command("replay", _cmd_replay, "re-run a recorded session through the drivers from its transcript")
     p.add_argument("run", type=Path)

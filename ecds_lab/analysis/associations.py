@@ -5,7 +5,10 @@ frequency (an effect often differs between 500 Hz and 15 kHz). The score is the 
 residual's energy those bin means explain beyond what noise alone would explain by chance,
 so pure noise scores about 0 and a residual that is a clean function of the variable about 1.
 The frequency itself is scored on the offsets between frequencies, every other variable on the
-residual within each frequency.
+residual within each frequency. Variables that only count along a campaign (time, the coil's
+temperature rate) are scored on the variation within each phase (``analysis.phases``): the
+differences between phases are what the set-up did in between, and the state variables (x,
+temperatures, direction) are the ones to explain them.
 """
 
 from __future__ import annotations
@@ -14,6 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ecds_lab.analysis.phases import phase_labels, within_phase
 from ecds_lab.data.columns import VARIABLES, Variable
 from ecds_lab.data.measurements import Measurements
 
@@ -21,6 +25,8 @@ MAX_BINS = 10
 #: Time is confounded with every phase of a campaign, so it ranks first only when it explains
 #: clearly more than every physical variable (by this factor).
 TIME_MARGIN = 1.25
+#: Scored on the variation within each phase of the campaign.
+WITHIN_PHASE = ("time_s", "coil_rate_k_per_min")
 
 
 @dataclass(frozen=True)
@@ -92,12 +98,16 @@ def _describe(variable: Variable, data: Measurements, values: np.ndarray, r: np.
 
 def residual_associations(data: Measurements, residuals_ppm: np.ndarray, noise_ppm: float) -> list[Association]:
     """Score every variable by how much of the residual it explains; strongest first."""
-    r = np.asarray(residuals_ppm, float)
-    total = float(np.sum((r - r.mean()) ** 2)) or 1.0
-    within = sum(float(np.sum((r[g] - r[g].mean()) ** 2)) for g in (data.freq_hz == f for f in np.unique(data.freq_hz)))
+    full = np.asarray(residuals_ppm, float)
+    total = float(np.sum((full - full.mean()) ** 2)) or 1.0
+    within = sum(float(np.sum((full[g] - full[g].mean()) ** 2))
+                 for g in (data.freq_hz == f for f in np.unique(data.freq_hz)))
+    labels = phase_labels(data)
+    in_phase = within_phase(full, labels, data.freq_hz)
     out = []
     for variable in VARIABLES.values():
         values = variable.values(data)
+        r = in_phase if variable.name in WITHIN_PHASE else full
         between, dof = 0.0, 0
         groups = [np.ones(len(r), bool)] if variable.name == "freq_hz" else \
             [data.freq_hz == f for f in np.unique(data.freq_hz)]

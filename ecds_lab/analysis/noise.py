@@ -1,7 +1,17 @@
 """How noisy are the data? Estimated from the data themselves, so structure can be told from noise.
 
-The one noise estimator: every fit carries its estimate (``FitResult.noise``), so ``fit``,
-``diagnose`` and the report quote the same figure for the same data.
+One estimator for the whole analysis (fit and diagnosis report the same noise):
+
+1. Repeats: pairs of successive readings of one state (same recording, frequency, distance and
+   direction, close in time and temperature). Their difference holds only the bridge's noise.
+2. Without enough repeats: the residual minus a flexible smooth of itself (a local quadratic over
+   ``NOISE_WINDOW`` successive readings of one run of like readings, ``reading_groups``: a
+   Savitzky-Golay filter), scaled robustly (MAD). The smooth follows slopes and bends of the
+   residual (structure the model leaves), so structure cannot inflate the estimate the way
+   successive differences do, and the MAD keeps single glitches from inflating it either.
+
+``smooth_residual`` (a running median) is the reference glitches are judged against
+(``analysis.outliers``): a median is not pulled toward a glitch.
 """
 
 from __future__ import annotations
@@ -10,20 +20,30 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.ndimage import median_filter
+from scipy.signal import savgol_filter
 
 from ecds_lab.data.measurements import Measurements
 
 #: Successive readings of one state: at most this far apart in time, and this close in temperature.
+#: ``NoiseEstimate.method`` when repeated readings of one state gave the estimate.
+REPEATED = "repeated readings"
 MAX_GAP_S = 300.0
 MAX_TEMPERATURE_STEP_K = 0.3
 MIN_PAIRS = 20
-#: ``NoiseEstimate.method`` when repeated readings of one state gave the estimate.
-REPEATED = "repeated readings"
+#: Readings in the running median glitches are judged against (odd).
+SMOOTH_WINDOW = 5
+#: Readings in the local quadratic of the noise estimate (odd); for white Gaussian noise of unit sigma
+#: the residual about it has sigma sqrt(1 - 1/3) = 0.8165 (the centre weight of a 7-point quadratic is
+#: 1/3; Monte Carlo, 1e6 samples: 0.817): the estimate is divided by it.
+NOISE_WINDOW = 7
+NOISE_SMOOTH_FACTOR = 0.8165
+MIN_SMOOTH_READINGS = 12
 
 
 @dataclass(frozen=True)
 class NoiseEstimate:
-    """Noise of one reading in ppm of L, how it was found, and from how many pairs."""
+    """Noise of one reading in ppm of L, how it was found, and from how many pairs (or readings)."""
 
     ppm: float
     method: str
@@ -36,27 +56,57 @@ def _robust_sigma(differences: np.ndarray) -> float:
     return float(1.4826 * mad / math.sqrt(2))
 
 
-def estimate_noise(data: Measurements, residuals_ppm: np.ndarray) -> NoiseEstimate:
-    """Repeatability from pairs of successive readings of one state (same recording, frequency,
-    distance and direction, close in time and temperature), using model residuals so slow
-    changes the model already explains do not count as noise. Without enough repeats, the
-    successive differences of the residual in time order (per recording and frequency).
-    """
+def reading_groups(data: Measurements) -> list[np.ndarray]:
+    """Row indices of each run of like readings in time order: one recording, one frequency, the coil
+    in air or facing the target, one direction of approach, no long pause (a smooth runs along each;
+    a sweep's turning points are ends of runs, so a peak of the residual there is not cut off)."""
+    key = np.lexsort((data.time_s, data.in_air, data.freq_hz, data.segment))
+    seg, freq, air, direction, t = (a[key] for a in (data.segment, data.freq_hz, data.in_air, data.direction,
+                                                      data.time_s))
+    breaks = np.flatnonzero((seg[1:] != seg[:-1]) | (freq[1:] != freq[:-1]) | (air[1:] != air[:-1])
+                            | (direction[1:] != direction[:-1]) | (np.diff(t) > MAX_GAP_S)) + 1
+    return np.split(key, breaks)
+
+
+def smooth_residual(data: Measurements, residuals_ppm: np.ndarray, window: int = SMOOTH_WINDOW) -> np.ndarray:
+    """Running median of the residual along each series of like readings (``reading_groups``)."""
+    r = np.asarray(residuals_ppm, float)
+    out = r.copy()
+    for rows in reading_groups(data):
+        if len(rows) >= 3:
+            out[rows] = median_filter(r[rows], size=min(window, len(rows) - (1 - len(rows) % 2)), mode="nearest")
+    return out
+
+
+def _repeat_pairs(data: Measurements, residuals_ppm: np.ndarray) -> np.ndarray:
+    """Differences of successive residuals of one state (see the module docstring)."""
     order = np.lexsort((data.time_s, data.direction, data.x_commanded_m, data.freq_hz, data.segment))
     r = residuals_ppm[order]
-    keys = [a[order] for a in (data.segment, data.freq_hz, data.x_commanded_m, data.direction)]
-    same = np.ones(len(r) - 1, bool) if len(r) > 1 else np.zeros(0, bool)
-    for key in keys:
-        same &= key[1:] == key[:-1]
+    if len(r) < 2:
+        return np.zeros(0)
+    same = np.ones(len(r) - 1, bool)
+    for key in (data.segment, data.freq_hz, data.x_commanded_m, data.direction):
+        k = key[order]
+        same &= (k[1:] == k[:-1]) | (np.isinf(k[1:]) & np.isinf(k[:-1])) if k.dtype.kind == "f" else k[1:] == k[:-1]
     t, tc, tt = (a[order] for a in (data.time_s, data.t_coil_c, data.t_target_c))
     same &= np.abs(np.diff(t)) <= MAX_GAP_S
     same &= (np.abs(np.diff(tc)) <= MAX_TEMPERATURE_STEP_K) & (np.abs(np.diff(tt)) <= MAX_TEMPERATURE_STEP_K)
-    if same.sum() >= MIN_PAIRS:
-        return NoiseEstimate(_robust_sigma(np.diff(r)[same]), REPEATED, int(same.sum()))
-    order = np.lexsort((data.time_s, data.freq_hz, data.segment))
-    r, seg, freq = residuals_ppm[order], data.segment[order], data.freq_hz[order]
-    same = (seg[1:] == seg[:-1]) & (freq[1:] == freq[:-1])
-    if same.sum() < 3:
-        return NoiseEstimate(float(np.std(residuals_ppm)), "residual spread (too few readings)", 0)
-    return NoiseEstimate(_robust_sigma(np.diff(r)[same]), "successive differences of the residual",
-                         int(same.sum()))
+    return np.diff(r)[same]
+
+
+def estimate_noise(data: Measurements, residuals_ppm: np.ndarray) -> NoiseEstimate:
+    """Noise of one reading (ppm of L): from repeats where they exist, else from the residual about
+    a flexible smooth of itself (see the module docstring). ``residuals_ppm`` are model residuals,
+    so slow changes the model already explains do not count as noise either way."""
+    r = np.asarray(residuals_ppm, float)
+    pairs = _repeat_pairs(data, r)
+    if len(pairs) >= MIN_PAIRS:
+        return NoiseEstimate(_robust_sigma(pairs), REPEATED, len(pairs))
+    usable = [rows for rows in reading_groups(data) if len(rows) >= NOISE_WINDOW]
+    count = sum(len(rows) for rows in usable)
+    if count < MIN_SMOOTH_READINGS:
+        spread = float(1.4826 * np.median(np.abs(r - np.median(r)))) if len(r) else math.nan
+        return NoiseEstimate(spread, "robust spread of the residual (too few readings)", len(r))
+    d = np.concatenate([r[rows] - savgol_filter(r[rows], NOISE_WINDOW, 2, mode="interp") for rows in usable])
+    sigma = 1.4826 * float(np.median(np.abs(d - np.median(d)))) / NOISE_SMOOTH_FACTOR
+    return NoiseEstimate(sigma, "residual about a local quadratic smooth of itself", count)

@@ -1,18 +1,19 @@
 """Model effects: named additions to the baseline ECM, and the one registry of them.
 
-An effect is one small class: a ``name`` (the effect names of the README), its own
+An effect is one small class: a ``name`` (DESIGN.md's effect names), its own
 ``parameters()``, optionally ``unidentifiable(data)``, and any of the stage hooks
 below. ``SensorModel`` evaluates a fixed pipeline and calls every effect's hook at
 each stage, in the order the effects were given; a hook returns the changed quantity.
 
 Stages (all arrays have one entry per data row, SI units):
 
-1. effective inputs: ``effective_distance(x_m, data, p)``,
-   ``winding_temperature(t_c, data, p)``, ``target_temperature(t_c, data, p)``
-2. target time constant: ``target_tau(tau_s, inputs, data, p)``
-3. baseline ECM, Eq. (2)-(5) (no hook)
-4. coil parasitics: ``coil_capacitance(c_f, inputs, data, p)``,
-   ``parallel_conductance(g_s, inputs, data, p)``
+1. effective inputs: ``effective_distance(x_m, data: Measurements, p)``,
+   ``winding_temperature(t_c, data: Measurements, p)``, ``target_temperature(t_c, data: Measurements, p)``
+2. target time constant: ``target_tau(tau_s, inputs, data: Measurements, p)``
+3. baseline ECM, Eq. (2)-(5), then ``series_inductance(l_h, inputs, data: Measurements, p)``: L of the series
+   branch, for anything else that couples to the coil (e.g. a metal object near the slide)
+4. coil parasitics: ``coil_capacitance(c_f, inputs, data: Measurements, p)``,
+   ``parallel_conductance(g_s, inputs, data: Measurements, p)``
 5. the bridge's apparent series inductance (no hook)
 
 ``inputs`` carries the stage-1 results (``x_m``, ``t_winding_c``, ``t_target_c``),
@@ -21,6 +22,13 @@ name of the model to its value. History-dependent effects (moisture, thermal lag
 integrate along time within each ``data.segment``.
 
 To add an effect: subclass ``Effect`` and enter it in ``EFFECTS`` with ``@register``.
+Users add their own without editing ecds-lab (``ecds_lab.model.plugins``): a Python file
+(``--effects-from FILE.py``) or an installed package (entry point group ``ecds_lab.effects``).
+
+What the diagnosis needs to weigh a claim, declared by each effect: ``plausible`` (parameter ->
+(low, high) in SI: the physically possible size), ``key_parameters`` (those that must be clearly
+determined for the effect to be named; default: all its parameters) and ``reveal`` (the
+measurement that shows the effect best, suggested when the data cannot separate it from another).
 """
 
 from __future__ import annotations
@@ -35,9 +43,9 @@ from ecds_lab.data.measurements import Measurements
 from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.model.parameters import Parameter
 
-#: The effect names the README fixes (the contract of ``--effects`` and of the diagnosis).
+#: The effect names DESIGN.md fixes (the contract of ``--effects`` and of the diagnosis).
 EFFECT_NAMES = ("target_tau_temperature", "tau_displacement", "target_bending",
-                "parasitic_capacitance", "thermal_lag", "slide_backlash")
+                "parasitic_capacitance", "thermal_lag", "slide_backlash", "former_expansion")
 
 
 @dataclass(frozen=True)
@@ -57,6 +65,13 @@ class Effect:
     alternative_starts: ClassVar[tuple[dict[str, float], ...]] = ()
     #: One line saying what the effect explains (for diagnoses and reports).
     explains: ClassVar[str] = ""
+    #: Physically possible range of parameters (SI, name -> (low, high)); a fit outside is not claimed.
+    plausible: ClassVar[dict[str, tuple[float, float]]] = {}
+    #: Parameters that must be clearly determined (not at a bound, stderr well below the value) for
+    #: the effect to be named; empty: every parameter of the effect.
+    key_parameters: ClassVar[tuple[str, ...]] = ()
+    #: The measurement that shows this effect best (suggested when the data cannot separate it).
+    reveal: ClassVar[str] = ""
 
     def __init__(self, sensor: SensorConfig) -> None:
         self.sensor = sensor
@@ -68,6 +83,11 @@ class Effect:
     def unidentifiable(self, data: Measurements) -> dict[str, str]:
         """Parameters these data cannot determine (name -> reason); they are fixed at their start."""
         return {}
+
+    def identifies(self, data: Measurements) -> set[str]:
+        """Baseline parameters this effect makes determinable in these data although the baseline
+        alone would not (e.g. tau_T at one frequency once it changes with target temperature)."""
+        return set()
 
     def effective_distance(self, x_m: np.ndarray, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
         return x_m
@@ -81,6 +101,10 @@ class Effect:
     def target_tau(self, tau_s: np.ndarray, inputs: Inputs, data: Measurements,
                    p: Mapping[str, float]) -> np.ndarray:
         return tau_s
+
+    def series_inductance(self, l_h: np.ndarray, inputs: Inputs, data: Measurements,
+                          p: Mapping[str, float]) -> np.ndarray:
+        return l_h
 
     def coil_capacitance(self, c_f: np.ndarray, inputs: Inputs, data: Measurements,
                          p: Mapping[str, float]) -> np.ndarray:
@@ -108,15 +132,18 @@ def register(cls: type[Effect]) -> type[Effect]:
 def library() -> dict[str, type[Effect]]:
     """The registered effects, the library's modules imported (they register themselves)."""
     import ecds_lab.model.library  # noqa: F401  (registers the library's effects)
+    from ecds_lab.model.plugins import load_entry_points
 
+    load_entry_points()
     return EFFECTS
 
 
 def make_effect(name: str, sensor: SensorConfig) -> Effect:
-    """An effect by its contract name; unknown names fail listing the known ones."""
+    """An effect by its DESIGN.md name; unknown names fail listing the known ones."""
     if name in library():
         return EFFECTS[name](sensor)
     known = ", ".join(sorted(EFFECTS)) or "none yet"
     if name in EFFECT_NAMES:
-        raise ValueError(f"effect {name!r} is a known effect name but not implemented; implemented: {known}")
-    raise ValueError(f"unknown effect {name!r}; known effects: {known}")
+        raise ValueError(f"effect {name!r} is named in DESIGN.md but not implemented; implemented: {known}")
+    raise ValueError(f"unknown effect {name!r}; known effects: {known} (add your own with --effects-from FILE.py "
+                     "or an installed package's 'ecds_lab.effects' entry point)")

@@ -56,6 +56,9 @@ class SensorModel:
         """Parameters these data cannot determine (name -> reason), from the baseline and every effect."""
         out = baseline_unidentifiable(data)
         for effect in self.effects:
+            for name in effect.identifies(data):
+                out.pop(name, None)
+        for effect in self.effects:
             out.update(effect.unidentifiable(data))
         return out
 
@@ -88,6 +91,8 @@ class SensorModel:
         l_coil = ecm.coil_inductance(p["L0"], p["alpha"], p["beta"], d_coil)
         k2 = self.coupling_hat(inputs.x_m, p) ** 2
         l_true = ecm.ecds_inductance(l_coil, k2, omega, tau)
+        for effect in self.effects:
+            l_true = effect.series_inductance(l_true, inputs, data, p)
         r_coil = sensor.resistance_ohm * (1 + sensor.resistance_tempco_per_k * d_coil)
         r_true = ecm.ecds_resistance(r_coil, l_coil, k2, omega, tau)
         capacitance = np.full(n, p["C_p"])

@@ -10,6 +10,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from datetime import datetime
+from itertools import pairwise
 from typing import Any
 
 import numpy as np
@@ -35,6 +36,8 @@ from ecds_lab.report.markup import (
 from ecds_lab.report.paper_section import paper_comparison_section
 from ecds_lab.report.render import Plot
 
+#: Residual plots of the diagnosis' chain show at most this many readings (drawn at random).
+MAX_STEP_POINTS = 20_000
 #: TS is quoted over the readings of the highest temperature step: rises above this share of the largest.
 TOP_STEP_SHARE = 0.8
 
@@ -217,43 +220,93 @@ def diagnosis_section(findings: Findings) -> Parts:
     main = findings.main
     verdict = str(diagnosis.verdict)
     parts: Parts = [Html(f'<p>{badge(verdict.replace("_", " "), "good" if verdict == "adequate" else "bad")} '
-                  f"noise {diagnosis.noise_ppm:.1f} ppm, baseline residual {diagnosis.baseline.rms_ppm:.1f} ppm "
-                  f"of L ({main.material if main else ''} target data)</p>"),
+                  f"noise {diagnosis.noise_ppm:.1f} ppm ({diagnosis.noise.method}), baseline residual "
+                  f"{diagnosis.baseline.rms_ppm:.1f} ppm of L ({main.material if main else ''} target data)</p>"),
              paragraph(diagnosis.explanation, "explanation")]
+    steps = list(getattr(diagnosis, "steps", []))
+    if steps:
+        parts.append(_chain_table(steps))
+    if diagnosis.outliers:
+        parts.append(table(("row", "reading (mH)", "deviation (σ)", "reason"),
+                           [(str(o.row), f"{o.value * 1e3:.6g}", f"{o.residual_sigma:+.1f}", o.reason)
+                            for o in diagnosis.outliers],
+                           caption="Readings excluded from the fit as glitches (rows of the campaign, 0-based)"))
+    if diagnosis.alternatives or diagnosis.suggested_measurements:
+        items = [" / ".join(group) for group in diagnosis.alternatives]
+        parts.append(paragraph("The data cannot separate: " + "; ".join(items) + ". Suggested: "
+                               + " ".join(f"{s}." for s in diagnosis.suggested_measurements), "explanation"))
     candidates = list(diagnosis.candidates)
     if candidates:
         parts.append(Plot(fm.candidate_ranking, ([c.effect for c in candidates], [c.rmse_ppm for c in candidates],
                                                  [c.delta_bic for c in candidates], diagnosis.baseline.rms_ppm,
                                                  diagnosis.noise_ppm),
-                            "Each library effect added to the baseline in turn: residual RMS (left; dashed: "
-                            "baseline, dotted: noise) and ΔBIC (right; below zero the effect earns its extra "
-                            "parameters). Best first."))
-        rows = [(c.effect, number(c.rmse_ppm, 4), number(c.cv_rmse_ppm, 4), f"{c.delta_bic:+.1f}")
-                for c in candidates]
-        ranking = table(("effect", "RMS (ppm)", "held-out RMS (ppm)", "ΔBIC"), rows, caption="Candidates, best first")
+                            "Each effect added to the given model in turn: residual RMS (left; dashed: "
+                            "that model, dotted: noise) and ΔBIC (right; below zero the effect earns its extra "
+                            "parameters). Passing candidates first."))
+        rows = [(c.effect, number(c.rmse_ppm, 4), number(c.cv_rmse_ppm, 4), f"{c.delta_bic:+.1f}",
+                 "passes" if c.passes else "; ".join(c.rejected)) for c in candidates]
+        ranking = table(("effect", "RMS (ppm)", "held-out RMS (ppm)", "ΔBIC", "checks"), rows,
+                        caption="Candidates against the given model")
         associations = table(("variable", "score", "detail"),
                              [(a.variable, f"{a.score:.2f}", a.detail) for a in diagnosis.associations],
-                             caption="Where the residual lives (share of it each variable explains)")
+                             caption="Where the final model's residual lives (share of it each variable explains)")
         parts.append(side_by_side(ranking, associations))
-        parts.append(_before_after(diagnosis, main))
+    elif getattr(diagnosis, "untestable", None):
+        parts.append(table(("effect", "why these data cannot test it"), sorted(diagnosis.untestable.items()),
+                           caption="No effect could be tested"))
     else:
         parts.append(note("no candidate ranking: the diagnosis tried no effects"))
+    for before, after in pairwise(steps):
+        parts.append(_step_plot(diagnosis, before, after))
+    for i, step in enumerate(steps):
+        parts.append(_step_params(step, "given model" if i == 0 else "+ " + step.effects[-1]))
     return parts
 
 
-def _before_after(diagnosis: Any, main: TargetGroup | None) -> Html | Plot:
-    best = diagnosis.candidates[0]
-    data = getattr(diagnosis, "data", None) or (main.data if main else None)
-    before, after = np.asarray(diagnosis.baseline.residuals_ppm), np.asarray(best.fit.residuals_ppm)
-    if data is None or not (len(data) == len(before) == len(after)):
-        return note("no before/after residual plot: the diagnosis' residuals do not match the readings row by row")
+def _chain_label(effects: Sequence[str]) -> str:
+    return " + ".join(["baseline", *effects])
+
+
+def _chain_table(steps: Sequence[Any]) -> Html:
+    """The chain baseline → +effect → …: RMS, position error (mm and % FS) and BIC of every model."""
+    rows = [(_chain_label(s.effects), number(s.rmse_ppm, 4), number(s.position_error_mm, 3),
+             number(s.position_error_fs_pct, 3), f"{s.fit.bic:.1f}") for s in steps]
+    return table(("model", "RMS (ppm of L)", "position error RMS (mm)", "position error (% FS)", "BIC"), rows,
+                 caption="Watch the error fall: each step adds the effect the diagnosis claimed", css="chain")
+
+
+def _step_plot(diagnosis: Any, before: Any, after: Any) -> Html | Plot:
+    """Residuals of one step of the chain and of the next, against the most telling variables."""
+    data = diagnosis.data
+    r0, r1 = np.asarray(before.fit.residuals_ppm), np.asarray(after.fit.residuals_ppm)
+    if not (len(data) == len(r0) == len(r1)):
+        return note("no residual plot for this step: the residuals do not match the readings row by row")
     variables = [a.variable for a in diagnosis.associations if a.variable in fm.VARIABLES]
-    if "x_mm" not in variables:
-        variables.append("x_mm")
-    caption = (f"Residuals before (baseline, red) and after adding the best candidate, {best.effect} (blue), "
-               f"against the variables the residual is most associated with: RMS {diagnosis.baseline.rms_ppm:.1f} → "
-               f"{best.rmse_ppm:.1f} ppm.")
-    return Plot(fm.before_after, (data, before, after, best.effect, variables, diagnosis.noise_ppm), caption)
+    added = after.effects[-1]
+    for name in ("x_mm",):
+        if name not in variables:
+            variables.append(name)
+    caption = (f"{_chain_label(before.effects)} (red) → + {added} (blue): RMS {before.rmse_ppm:.1f} → "
+               f"{after.rmse_ppm:.1f} ppm, position error {number(before.position_error_mm, 3)} → "
+               f"{number(after.position_error_mm, 3)} mm.")
+    if len(data) > MAX_STEP_POINTS:  # a scatter of every reading of a huge campaign only costs time
+        shown = np.sort(np.random.default_rng(0).choice(len(data), MAX_STEP_POINTS, replace=False))
+        caption += f" {MAX_STEP_POINTS:,} of the {len(data):,} readings shown, at random."
+        data, r0, r1 = data.select(shown), r0[shown], r1[shown]
+    return Plot(fm.before_after, (data, r0, r1, added, variables, diagnosis.noise_ppm), caption)
+
+
+def _step_params(step: Any, title: str) -> Html:
+    """The parameter table of one model of the chain."""
+    fit = step.fit
+    rows = []
+    for p in fit.parameters:
+        stderr = None if p.fixed else fit.stderr.get(p.name)
+        how = fit.fixed.get(p.name, "fixed") if p.fixed else "fitted"
+        scale, unit = DISPLAY_UNITS.get(p.name, (1.0, p.unit))
+        rows.append((p.name, value_error(p.value, stderr, scale), unit, how))
+    return table(("parameter", "value", "unit", "status"), rows, css="params",
+                 caption=f"{_chain_label(step.effects)} ({title}): RMS {step.rmse_ppm:.1f} ppm")
 
 
 # -- position error ------------------------------------------------------------------------------

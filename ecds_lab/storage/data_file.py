@@ -8,13 +8,14 @@ assumed and ``sensor_note`` says so.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from ecds_lab.data.files import FileKind, file_kind
-from ecds_lab.data.measurements import Measurements
+from ecds_lab.data.measurements import DataError, Measurements
 from ecds_lab.data.run_metadata import RunMetadata
 from ecds_lab.data.sensor import DEFAULT_SENSOR_NOTE, SensorConfig, load_sensor
 from ecds_lab.errors import RunFileError
@@ -78,3 +79,34 @@ def no_readings(source: str) -> Measurements:
     """Measurements with no rows (a run that failed before its first reading)."""
     empty = np.zeros(0)
     return Measurements(empty, empty, empty, empty, empty, empty, empty, source=source)
+
+
+@dataclass(eq=False)
+class Campaign:
+    """Several data files analysed as one campaign: their readings joined, one sensor for all."""
+
+    files: list[DataFile]
+    data: Measurements
+
+    @property
+    def sensor(self) -> SensorConfig:
+        return self.files[0].sensor
+
+    @property
+    def sensor_note(self) -> str | None:
+        return self.files[0].sensor_note
+
+    def sensor_summary(self) -> dict[str, str]:
+        return self.files[0].sensor_summary()
+
+
+def open_campaign(paths: Sequence[str | Path], sensor: str | Path | None = None) -> Campaign:
+    """Open every file (each its own recording); files that record different sensors are refused by name."""
+    files = [open_data(p, sensor) for p in paths]
+    first = files[0]
+    for other in files[1:]:
+        if other.sensor != first.sensor:
+            raise DataError(f"{other.path}: measured with sensor {other.sensor.name!r}, but {first.path} with "
+                            f"{first.sensor.name!r}; analyse them separately, or name one sensor with --sensor")
+    data = first.data if len(files) == 1 else Measurements.concatenate([f.data for f in files])
+    return Campaign(files, data)

@@ -9,11 +9,12 @@ from ecds_lab.analysis.noise import estimate_noise
 from ecds_lab.data.measurements import Measurements
 
 
-def readings(n_positions: int, repeats: int, sigma_ppm: float, structure_ppm: float = 0.0) -> tuple:
+def readings(n_positions: int, repeats: int, sigma_ppm: float, structure_ppm: float = 0.0,
+             wavenumber_per_m: float = 200.0) -> tuple:
     rng = np.random.default_rng(3)
     x = np.repeat(np.linspace(0.02, 0.1, n_positions), repeats)
     t = np.arange(len(x)) * 2.0
-    residual = structure_ppm * np.sin(x * 200) + rng.normal(0, sigma_ppm, len(x))
+    residual = structure_ppm * np.sin(x * wavenumber_per_m) + rng.normal(0, sigma_ppm, len(x))
     data = Measurements(time_s=t, x_m=x, freq_hz=np.full(len(x), 15000.0), t_coil_c=np.full(len(x), 22.0),
                         t_target_c=np.full(len(x), 22.0), ls_h=np.full(len(x), 0.05), rs_ohm=np.full(len(x), 100.0))
     return data, residual
@@ -26,8 +27,23 @@ def test_repeated_readings_give_the_noise_despite_structure():
     assert estimate.ppm == pytest.approx(20.0, rel=0.15)
 
 
-def test_without_repeats_successive_differences_are_used():
+def test_without_repeats_the_residual_about_a_smooth_of_itself_is_used():
     data, residual = readings(400, 1, sigma_ppm=20.0, structure_ppm=5.0)
     estimate = estimate_noise(data, residual)
-    assert estimate.method == "successive differences of the residual"
+    assert estimate.method == "residual about a local quadratic smooth of itself"
     assert estimate.ppm == pytest.approx(20.0, rel=0.2)
+
+
+def test_structure_does_not_inflate_the_estimate_without_repeats():
+    """A residual that changes by several noise sigmas between successive readings (a sweep's shape)."""
+    data, residual = readings(400, 1, sigma_ppm=20.0, structure_ppm=400.0, wavenumber_per_m=600.0)
+    successive = np.std(np.diff(residual)) / np.sqrt(2)
+    estimate = estimate_noise(data, residual)
+    assert successive > 1.5 * 20.0  # what successive differences would have said
+    assert estimate.ppm == pytest.approx(20.0, rel=0.25)
+
+
+def test_glitches_do_not_inflate_the_estimate():
+    data, residual = readings(400, 1, sigma_ppm=20.0)
+    residual[[40, 200, 333]] += 5000.0
+    assert estimate_noise(data, residual).ppm == pytest.approx(20.0, rel=0.2)

@@ -19,12 +19,15 @@ import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from types import SimpleNamespace
 from typing import Any
 
+import numpy as np
 import pytest
 
+from ecds_lab.analysis.associations import Association
+from ecds_lab.analysis.diagnosis import Candidate, Diagnosis, Step
 from ecds_lab.analysis.fitting import fit
+from ecds_lab.analysis.noise import NoiseEstimate
 from ecds_lab.data.measurements import Measurements
 
 #: The shipped campaign, as ``ecds-lab demo`` runs it: (experiment, station).
@@ -50,28 +53,31 @@ def campaign_files(shipped_run: Callable[..., Any]) -> list[Path]:
     return [shipped_run(experiment, station).path for experiment, station in CAMPAIGN]
 
 
-def stand_in_diagnosis(data: Measurements, effect: str = "target_tau_temperature") -> SimpleNamespace:
-    """A diagnosis with the contract's shape (issue 7) from two real fits: the baseline and baseline + effect.
+def stand_in_diagnosis(data: Measurements, effect: str = "target_tau_temperature") -> Diagnosis:
+    """A diagnosis with the contract's shape (issue 15) from two real fits: the baseline and baseline + effect,
+    as the chain baseline -> + effect.
 
     The report's tests use it so they neither wait for nor depend on the full diagnosis (which
     fits every library effect); ``test_real_diagnosis_is_shown`` covers the real one.
     """
     base = fit(data)
     plus = fit(data, [effect])
-    candidate = SimpleNamespace(effect=effect, fit=plus, delta_bic=plus.bic - base.bic, rmse_ppm=plus.rms_ppm,
-                                cv_rmse_ppm=None)
-    other = SimpleNamespace(effect="slide_backlash", fit=base, delta_bic=12.0, rmse_ppm=base.rms_ppm,
-                            cv_rmse_ppm=base.rms_ppm * 1.1)
-    associations = [SimpleNamespace(variable="t_target_c", score=0.4, detail="residual rises with target temperature"),
-                    SimpleNamespace(variable="x_mm", score=0.1, detail="mostly near the coil")]
-    noise = base.noise_ppm or 20.0
-    return SimpleNamespace(noise_ppm=noise, baseline=base, candidates=[candidate, other], associations=associations,
-                           verdict="missing_effect", explanation="Stand-in explanation <for the test> & more.",
-                           data=data, to_json=lambda: {})
+    candidate = Candidate(effect, plus, plus.bic - base.bic, plus.bic - base.bic, 1e4,
+                          checks={"evidence": True, "identifiable": True, "plausible": True, "held_out": True})
+    other = Candidate("slide_backlash", base, 12.0, 12.0, 0.0, cv_rmse_ppm=base.rms_ppm * 1.1,
+                      checks={"evidence": False}, rejected=["no clear gain"])
+    associations = [Association("t_target_c", 0.4, "residual rises with target temperature"),
+                    Association("x_mm", 0.1, "mostly near the coil")]
+    noise = NoiseEstimate(base.noise_ppm or 20.0, "repeated readings", 100)
+    full_scale = float(np.ptp(data.x_mm[np.isfinite(data.x_m)]))
+    steps = [Step([], base, np.full(len(data), 0.01), full_scale, [candidate, other]),
+             Step([effect], plus, np.full(len(data), 0.005), full_scale)]
+    return Diagnosis(data, [], noise, steps, associations, "missing_effect",
+                     "Stand-in explanation <for the test> & more.")
 
 
 @pytest.fixture(scope="session")
-def stand_in() -> Callable[..., SimpleNamespace]:
+def stand_in() -> Callable[..., Diagnosis]:
     """``stand_in(data)``: a diagnosis with the contract's shape, see ``stand_in_diagnosis``."""
     return stand_in_diagnosis
 

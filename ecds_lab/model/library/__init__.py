@@ -1,14 +1,19 @@
 """The effect library: one small module per physical effect the baseline ECM leaves out.
 
-Each module defines one ``Effect`` subclass (see ``ecds_lab.model.effects`` for the stage hooks)
-and ``@register``s it. Importing this package imports every module in it, so the registry
-(``ecds_lab.model.effects.library()``) is what counts: adding an effect is adding a module.
+Each module defines one ``Effect`` subclass (see ``ecds_lab.model.effects`` for the
+stage hooks). To add an effect: write a module like these, with its parameters
+(unit, bounds, a prior scale) and the hook it changes, and list its class in ``LIBRARY``.
 """
 
 from __future__ import annotations
 
-import importlib
-import pkgutil
+from ecds_lab.model.library.former_expansion import FormerExpansion
+from ecds_lab.model.library.parasitic_capacitance import ParasiticCapacitance
+from ecds_lab.model.library.slide_backlash import SlideBacklash
+from ecds_lab.model.library.target_bending import TargetBending
+from ecds_lab.model.library.target_tau_temperature import TargetTauTemperature
+from ecds_lab.model.library.tau_displacement import TauDisplacement
+from ecds_lab.model.library.thermal_lag import ThermalLag
 
-for _module in sorted(pkgutil.iter_modules(__path__), key=lambda m: m.name):
-    importlib.import_module(f"{__name__}.{_module.name}")
+LIBRARY = (TargetTauTemperature, TauDisplacement, TargetBending, ParasiticCapacitance, ThermalLag, SlideBacklash,
+           FormerExpansion)

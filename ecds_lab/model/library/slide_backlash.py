@@ -7,6 +7,7 @@ on the side it came from: x_eff = x - direction * b / 2 (direction +1 increasing
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import ClassVar
 
 import numpy as np
 
@@ -19,6 +20,9 @@ from ecds_lab.model.parameters import Parameter
 class SlideBacklash(Effect):
     name = "slide_backlash"
     explains = "the slide stops short by half its backlash, on the side it approached from"
+    #: A lead screw's play: up to a few hundred micrometres (PHYSICS.md: accuracy tens of um).
+    plausible: ClassVar[dict[str, tuple[float, float]]] = {"backlash": (-500e-6, 500e-6)}
+    reveal = "approach every position from both directions (a forward and a backward sweep)"
 
     def parameters(self) -> list[Parameter]:
         return [Parameter("backlash", 0.0, -1e-3, 1e-3, "m", "slide backlash (play between directions)", 2e-5)]

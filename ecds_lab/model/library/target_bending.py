@@ -9,6 +9,7 @@ w = 1 + c (x - 60 mm) / 40 mm. b1 > 0: the plate comes closer as it heats.
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import ClassVar
 
 import numpy as np
 
@@ -21,6 +22,12 @@ from ecds_lab.model.parameters import Parameter
 class TargetBending(Effect):
     name = "target_bending"
     explains = "the hot target bends, shifting the effective distance"
+    #: A plate heated from behind bows by micrometres per kelvin (tens of um over 100 K), not millimetres.
+    plausible: ClassVar[dict[str, tuple[float, float]]] = {"bending": (-20e-6, 20e-6),
+                                                           "bending_quadratic": (-0.2e-6, 0.2e-6)}
+    key_parameters = ("bending",)
+    reveal = ("measure at 500 Hz as well as 15 kHz with the target hot: bending shifts the distance alike at "
+              "both frequencies, a conductivity change alters the eddy-current screening mostly at 500 Hz")
 
     def parameters(self) -> list[Parameter]:
         return [
@@ -36,7 +43,11 @@ class TargetBending(Effect):
         if span < 5:
             return {n: f"target temperature span {span:.1f} K < 5 K with the target present"
                     for n in ("bending", "bending_quadratic", "bending_x")}
-        return {"bending_quadratic": f"target temperature span {span:.1f} K < 30 K"} if span < 30 else {}
+        levels = len(np.unique(np.round(data.t_target_c[finite] / 5.0)))
+        if span < 30 or levels < 3:
+            return {"bending_quadratic": f"target temperature span {span:.1f} K over {levels} levels of 5 K "
+                                         "(a curvature needs 30 K and 3 levels)"}
+        return {}
 
     def effective_distance(self, x_m: np.ndarray, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
         d_t = data.t_target_c - self.sensor.reference_temperature_c

@@ -8,6 +8,7 @@ of conductivity and a linear rise of resistivity to within a fraction of a perce
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import ClassVar
 
 import numpy as np
 
@@ -20,6 +21,11 @@ from ecds_lab.model.parameters import Parameter
 class TargetTauTemperature(Effect):
     name = "target_tau_temperature"
     explains = "the target's eddy-current time constant changes with target temperature"
+    #: Conductivity of metals falls ~0.3-0.45 %/K; permeability changes of steel add to it: |a| <= 2 %/K.
+    plausible: ClassVar[dict[str, tuple[float, float]]] = {"tau_tempco": (-0.02, 0.02), "tau_tempco2": (-5e-5, 5e-5)}
+    key_parameters = ("tau_tempco",)
+    reveal = ("measure at 500 Hz as well as 15 kHz with the target hot: a conductivity change alters the "
+              "eddy-current screening mostly at the lower frequency")
 
     def parameters(self) -> list[Parameter]:
         return [
@@ -33,9 +39,16 @@ class TargetTauTemperature(Effect):
         fixed: dict[str, str] = {}
         if span < 5.0:
             fixed.update(tau_tempco=f"target temperature span {span:.1f} K < 5 K", tau_tempco2="as tau_tempco")
-        elif span < 30.0:
-            fixed["tau_tempco2"] = f"target temperature span {span:.1f} K < 30 K"
+        elif span < 30.0 or len(np.unique(np.round(data.t_target_c / 5.0))) < 3:
+            fixed["tau_tempco2"] = f"target temperature span {span:.1f} K < 30 K or fewer than 3 levels of 5 K"
         return fixed
+
+    def identifies(self, data: Measurements) -> set[str]:
+        """At one frequency tau_T is otherwise tied to the coupling gain; the curvature of f_T along a
+        temperature span of the target can tell it (the fit's standard error says how well)."""
+        finite = np.isfinite(data.x_m)
+        span = float(np.ptp(data.t_target_c[finite])) if finite.any() else 0.0
+        return {"tau_t"} if span >= 30.0 else set()
 
     def target_tau(self, tau_s: np.ndarray, inputs: Inputs, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
         d_t = inputs.t_target_c - self.sensor.reference_temperature_c

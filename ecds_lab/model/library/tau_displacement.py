@@ -3,14 +3,15 @@
 The eddy-current pattern, and so the target's effective L_T/R_T, changes as the coil comes
 closer (the paper's simulation: ~20 % at 30 mm). The form is not known a priori (the field
 simulation gives it), so ln(tau_T / tau0) is a smooth natural cubic spline in x through knots at
-20, 28, 40, 60 and 100 mm (denser near the coil, where the field changes fastest), zero at 60 mm
-(tau0 is the value there); it takes any smooth change over the range, from a linear trend to a rise
-concentrated near the coil. Beyond the knots it is constant.
+20, 28, 40, 60 and 100 mm (denser near the coil, where the field changes fastest), zero at 60 mm (tau0 is the value
+there); it takes any smooth change over
+the range, from a linear trend to a rise concentrated near the coil. Beyond the knots it is constant.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import ClassVar
 
 import numpy as np
 from scipy.interpolate import CubicSpline
@@ -27,6 +28,9 @@ FREE_KNOTS = {"tau_x_20mm": 0, "tau_x_28mm": 1, "tau_x_40mm": 2, "tau_x_100mm": 
 class TauDisplacement(Effect):
     name = "tau_displacement"
     explains = "the target's eddy-current time constant changes with distance"
+    #: The field simulation gives ~20 % at 30 mm; beyond a factor e either way is not a time constant's change.
+    plausible: ClassVar[dict[str, tuple[float, float]]] = {name: (-1.0, 1.0) for name in FREE_KNOTS}
+    reveal = "sweep the distance at 500 Hz as well as 15 kHz (tau_T(x) changes the screening most at 500 Hz)"
 
     def parameters(self) -> list[Parameter]:
         return [Parameter(name, 0.0, -2.0, 2.0, "1", f"ln(tau_T / tau_T at 60 mm) at {name[6:]}", 0.05)

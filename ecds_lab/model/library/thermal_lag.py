@@ -7,6 +7,7 @@ winding trails by a time constant tau_lag: dT_w/dt = (T_tc - T_w) / tau_lag, per
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import ClassVar
 
 import numpy as np
 
@@ -20,6 +21,9 @@ from ecds_lab.model.parameters import Parameter
 class ThermalLag(Effect):
     name = "thermal_lag"
     explains = "the winding lags the coil thermocouple during temperature changes"
+    #: A winding under a few mm of former: seconds to an hour behind its thermocouple.
+    plausible: ClassVar[dict[str, tuple[float, float]]] = {"lag_tau": (2.0, 5000.0)}
+    reveal = "hold the coil hot for an hour and record the approach to steady state at a fixed distance"
     alternative_starts = ({"lag_tau": 15.0}, {"lag_tau": 600.0}, {"lag_tau": 2400.0})
 
     def parameters(self) -> list[Parameter]:
