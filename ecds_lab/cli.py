@@ -5,7 +5,10 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import os
+import signal
 import sys
+import traceback
 from pathlib import Path
 from typing import Callable, Sequence
 
@@ -27,15 +30,28 @@ def _cmd_run(args: argparse.Namespace) -> int:
     print(f"{result.status}: {result.points} points in {result.path} ({result.wall_s:.1f} s)")
     if result.error:
         print(f"error: {result.error}", file=sys.stderr)
-    return 0 if result.status == "completed" else 1
+    return _run_exit_code(result.status, result.stopped_by)
+
+
+def _run_exit_code(status: str, stopped_by: int | None) -> int:
+    """0 completed; 128 + signal when a signal stopped the run (130 Ctrl-C, 143 SIGTERM, 129 SIGHUP); else 1."""
+    from ecds_lab.runner.safe_state import exit_code
+
+    if status == "completed":
+        return 0
+    if stopped_by is not None and status == "aborted":
+        return exit_code(stopped_by)
+    return 1
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
     from ecds_lab.storage.data_file import open_data
 
+    from ecds_lab.storage.outputs import write_output
+
     data = open_data(args.run).data
     output = args.output or Path(args.run).with_suffix(".csv")
-    data.to_csv(output)
+    write_output(output, [args.run], args.overwrite, data.to_csv)
     print(f"{len(data)} rows -> {output}")
     return 0
 
@@ -76,9 +92,12 @@ def _print(result: dict, note: str | None, as_json: bool, as_text: Callable[[dic
 
 def _cmd_report(args: argparse.Namespace) -> int:
     from ecds_lab.report.html import write_report
+    from ecds_lab.storage.outputs import check_output, write_output
 
-    output = write_report([Path(p) for p in args.data], args.output)
-    print(f"report -> {output}")
+    inputs = [Path(p) for p in args.data]
+    check_output(args.output, inputs, overwrite=args.overwrite)  # before minutes of analysis
+    write_output(args.output, inputs, args.overwrite, lambda path: write_report(inputs, path))
+    print(f"report -> {args.output}")
     return 0
 
 
@@ -139,6 +158,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = command("report", _cmd_report, "write a self-contained HTML report with plots")
     p.add_argument("data", type=Path, nargs="+", help="run files or CSV")
     p.add_argument("-o", "--output", type=Path, default=Path("report.html"))
+    p.add_argument("--overwrite", action="store_true", help="replace an existing output file (never an input)")
 
     p = command("replay", _cmd_replay, "re-run a recorded session through the drivers from its transcript")
     p.add_argument("run", type=Path)
@@ -146,21 +166,69 @@ def build_parser() -> argparse.ArgumentParser:
     p = command("export", _cmd_export, "write a run's points in the CSV import format")
     p.add_argument("run", type=Path)
     p.add_argument("-o", "--output", type=Path)
+    p.add_argument("--overwrite", action="store_true", help="replace an existing output file (never an input)")
     return parser
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    parser.add_argument("--debug", action="store_true",
+                        help="show the Python traceback of an unexpected error (also ECDS_LAB_DEBUG=1)")
+    args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING,
                         format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    return _guarded(args)
+
+
+def _guarded(args: argparse.Namespace) -> int:
+    """Run a command; every failure becomes one line on stderr and a non-zero exit, never a traceback.
+
+    Expected failures (bad input, a file or instrument problem) exit 2; a signal 128 + its number;
+    anything else is a bug: one line asking for a report, the traceback only with --debug.
+    """
+    from ecds_lab.runner.safe_state import StopSignal, exit_code, signal_name
+
+    name = f"ecds-lab {args.command}"
     try:
         return args.handler(args)
     except (EcdsLabError, ValueError) as exc:
-        print(f"ecds-lab {args.command}: {exc}", file=sys.stderr)
+        _say(f"{name}: {exc}")
+        return 2
+    except BrokenPipeError:
+        _quiet_stdout()  # the reader (head, less) has gone: nothing to say, nothing to flush
+        return 0
+    except OSError as exc:
+        where = f"{exc.filename}: " if exc.filename else ""
+        _say(f"{name}: {where}{exc.strerror or exc}")
         return 2
     except KeyboardInterrupt:
-        print(f"ecds-lab {args.command}: interrupted", file=sys.stderr)
-        return 130
+        _say(f"{name}: interrupted")
+        return exit_code(signal.SIGINT)
+    except StopSignal as stop:
+        _say(f"{name}: stopped by {signal_name(stop.signum)}")
+        return exit_code(stop.signum)
+    except Exception as exc:  # a bug: visible, but as one line unless asked for more
+        if getattr(args, "debug", False) or os.environ.get("ECDS_LAB_DEBUG") == "1":
+            traceback.print_exc()
+        _say(f"{name}: unexpected error {type(exc).__name__}: {exc} -- this is a bug in ecds-lab, please report "
+             "it (run again with --debug or ECDS_LAB_DEBUG=1 for the details)")
+        return 70
+
+
+def _say(line: str) -> None:
+    try:
+        print(line, file=sys.stderr)
+    except OSError:
+        pass
+
+
+def _quiet_stdout() -> None:
+    """Point stdout at /dev/null so the interpreter's final flush does not raise BrokenPipeError again."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):
+        pass
 
 
 if __name__ == "__main__":

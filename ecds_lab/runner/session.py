@@ -21,7 +21,8 @@ from ecds_lab.config.station import StationConfig
 from ecds_lab.data.columns import INDEX
 from ecds_lab.errors import ConfigError, RunFileError
 from ecds_lab.runner.plan import Plan, build_plan
-from ecds_lab.runner.runner import Runner, ctrl_c_deferred
+from ecds_lab.runner.runner import Runner
+from ecds_lab.runner.safe_state import ctrl_c_deferred, stop_signals_raise
 from ecds_lab.station import DEFAULT_STATION, open_station
 from ecds_lab.storage.reader import read_run
 from ecds_lab.storage.run_file import RunWriter, metadata_for
@@ -36,6 +37,8 @@ class RunResult:
     error: str
     points: int
     wall_s: float
+    #: The signal that stopped the run (SIGINT for Ctrl-C, SIGTERM, SIGHUP), or None.
+    stopped_by: int | None = None
 
 
 def load_experiment(path: Path | str, text: str | None = None):  # noqa: ANN201 - one of the experiment models
@@ -65,7 +68,18 @@ def default_output(experiment_path: Path, resume: Path | None) -> Path:
 def run_experiment(experiment_path: Path, station_path: Path | None = None, output: Path | None = None, *,
                    resume: Path | None = None, overwrite: bool = False, progress: bool = True,
                    station_overrides: dict | None = None) -> RunResult:
-    """Run an experiment into a run file; returns how it ended (the file is closed in every case)."""
+    """Run an experiment into a run file; returns how it ended (the file is closed in every case).
+
+    SIGTERM and SIGHUP are handled like Ctrl-C for the whole call (main thread only).
+    """
+    with stop_signals_raise():
+        return _run_experiment(experiment_path, station_path, output, resume=resume, overwrite=overwrite,
+                               progress=progress, station_overrides=station_overrides)
+
+
+def _run_experiment(experiment_path: Path, station_path: Path | None, output: Path | None, *,
+                    resume: Path | None, overwrite: bool, progress: bool,
+                    station_overrides: dict | None) -> RunResult:
     experiment, experiment_text, station_config, station_text, plan = prepare(experiment_path, station_path)
     if station_overrides:
         station_config = station_config.model_copy(update=station_overrides)
@@ -97,7 +111,7 @@ def run_experiment(experiment_path: Path, station_path: Path | None = None, outp
             writer.close(status, error)
     finally:
         station.close()
-    result = RunResult(output, status, error, writer.rows, time.monotonic() - started)
+    result = RunResult(output, status, error, writer.rows, time.monotonic() - started, runner.stopped_by)
     log.info("run %s: %d points in %s (%.1f s)", status, result.points, output, result.wall_s)
     return result
 
