@@ -12,6 +12,12 @@ Layout (NeXus-flavoured, so generic viewers find their way):
   /entry/transcripts/<role>  every command and reply: events (clock_s, wall_s, kind, end) + text bytes
 The table is the source of truth; NXdata, NXlogs and the status are completed at close
 (a killed run's file says status 'running' and the reader reports it as interrupted).
+
+Data safety: a writer lock beside the file (:mod:`~ecds_lab.storage.lock`) admits one writer per
+path; each point's transcript events are on disk before its row; the file is completed at close
+without reopening it (no window in which a kill leaves a complete run unreadable, and a live SWMR
+reader cannot block the close); a write that fails (full disk) raises RunFileError and the rows
+already flushed stay readable.
 """
 
 from __future__ import annotations
@@ -19,7 +25,6 @@ from __future__ import annotations
 import json
 import math
 import operator
-import time
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Mapping, Sequence
@@ -32,13 +37,13 @@ from ecds_lab.data.columns import COLUMN_NAMES, COLUMNS, INDEX
 from ecds_lab.data.run_metadata import SENSOR_ATTRIBUTE, sensor_attribute
 from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.errors import RunFileError
+from ecds_lab.storage.lock import WriterLock
 from ecds_lab.transports.transcript import KINDS, Transcript
 
 #: The points table is flushed every row, and each row rewrites its whole chunk: small chunks
 #: (32 rows, 5 KB) keep that cheap. Columns written once at close use large chunks.
 _TABLE_CHUNK_ROWS = 32
 _COLUMN_CHUNK = 4096
-_TRANSCRIPT_BATCH_S = 2.0
 _KIND_CODES = {kind: float(code) for code, kind in enumerate(KINDS)}
 _IN_COLUMN_ORDER = operator.itemgetter(*COLUMN_NAMES)
 
@@ -53,17 +58,37 @@ class RunWriter:
     def __init__(self, path: Path, *, metadata: Mapping[str, str], transcripts: Mapping[str, Transcript],
                  identities: Mapping[str, str] | None = None, overwrite: bool = False) -> None:
         self.path = Path(path)
-        if self.path.exists() and not overwrite:
-            raise RunFileError(f"{self.path} exists; choose another -o or pass --overwrite")
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        self._file = h5py.File(self.path, "w", libver="latest")
-        self._transcripts = dict(transcripts)
-        self._written_events = {role: 0 for role in self._transcripts}
-        self._last_transcript_write = time.monotonic()
-        self.rows = 0
-        self._create_layout(metadata, identities or {})
-        self._file.swmr_mode = True
+        self._file: h5py.File | None = None
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            self._lock = WriterLock(self.path)
+        except OSError as exc:
+            raise RunFileError(f"{self.path}: cannot write in {self.path.parent}: {exc.strerror or exc}") from exc
+        try:
+            if self.path.exists() and not overwrite:
+                raise RunFileError(f"{self.path} exists; choose another -o or pass --overwrite")
+            self._file = h5py.File(self.path, "w", libver="latest")
+            self._transcripts = dict(transcripts)
+            self._written_events = {role: 0 for role in self._transcripts}
+            self.rows = 0
+            self._create_layout(metadata, identities or {})
+            self._file.swmr_mode = True
+        except BaseException as exc:
+            self._abandon()
+            if isinstance(exc, OSError):
+                raise RunFileError(f"{self.path}: cannot create the run file: {exc}") from exc
+            raise
         self._tail = np.full((_TABLE_CHUNK_ROWS, len(COLUMNS)), np.nan, dtype="<f8")
+
+    def _abandon(self) -> None:
+        """Close the file handle whatever state it is in, and release the writer lock."""
+        if self._file is not None:
+            try:
+                self._file.close()
+            except Exception:  # noqa: S110 - a file that cannot even close has nothing left to save
+                pass
+            self._file = None
+        self._lock.release()
 
     def _create_layout(self, metadata: Mapping[str, str], identities: Mapping[str, str]) -> None:
         entry = self._file.create_group("entry")
@@ -112,9 +137,8 @@ class RunWriter:
             if unknown:
                 raise RunFileError(f"unknown run file column(s): {', '.join(sorted(unknown))}")
             row = tuple(values.get(name, math.nan) for name in COLUMN_NAMES)
+        self.write_transcripts()  # the traffic that produced this row is on disk before the row
         self._write_rows((row,))
-        if time.monotonic() - self._last_transcript_write > _TRANSCRIPT_BATCH_S:
-            self.write_transcripts()
 
     def append_rows(self, rows: np.ndarray) -> None:
         """Append a block of finished rows (used when a resumed run copies its predecessor)."""
@@ -130,19 +154,27 @@ class RunWriter:
         """
         table = self._table.id
         first, count = self.rows, len(rows)
-        table.set_extent((first + count, len(COLUMNS)))
-        done = 0
-        while done < count:
-            row = first + done
-            offset = row % _TABLE_CHUNK_ROWS
-            take = min(_TABLE_CHUNK_ROWS - offset, count - done)
-            if offset == 0:
-                self._tail.fill(np.nan)
-            self._tail[offset:offset + take] = rows[done:done + take]
-            table.write_direct_chunk((row - offset, 0), self._tail.tobytes())
-            done += take
-        table.flush()
+        try:
+            table.set_extent((first + count, len(COLUMNS)))
+            done = 0
+            while done < count:
+                row = first + done
+                offset = row % _TABLE_CHUNK_ROWS
+                take = min(_TABLE_CHUNK_ROWS - offset, count - done)
+                if offset == 0:
+                    self._tail.fill(np.nan)
+                self._tail[offset:offset + take] = rows[done:done + take]
+                table.write_direct_chunk((row - offset, 0), self._tail.tobytes())
+                done += take
+            table.flush()
+        except (OSError, RuntimeError) as exc:
+            raise self._write_failed(exc) from exc
         self.rows = first + count
+
+    def _write_failed(self, exc: BaseException) -> RunFileError:
+        """The error a failed write becomes (a full disk, a file-size limit, a vanished folder)."""
+        return RunFileError(f"{self.path}: writing the run file failed (disk full?): {exc}; "
+                            f"the {self.rows} rows written before are kept")
 
     @property
     def roles(self) -> tuple[str, ...]:
@@ -154,14 +186,16 @@ class RunWriter:
         self._append_events(role, events)
 
     def write_transcripts(self) -> None:
-        """Write transcript events recorded since the last call."""
-        for role, transcript in self._transcripts.items():
-            start = self._written_events[role]
-            new = transcript.events[start:]
-            if new:
-                self._append_events(role, new)
-                self._written_events[role] = start + len(new)
-        self._last_transcript_write = time.monotonic()
+        """Write (and flush) transcript events recorded since the last call."""
+        try:
+            for role, transcript in self._transcripts.items():
+                start = self._written_events[role]
+                new = transcript.events[start:]
+                if new:
+                    self._append_events(role, new)
+                    self._written_events[role] = start + len(new)
+        except (OSError, RuntimeError) as exc:
+            raise self._write_failed(exc) from exc
 
     def _append_events(self, role: str, events: Sequence[tuple[float, float, str, str]]) -> None:
         """Append (clock_s, wall_s, kind, text) events: a numeric table and the texts as one byte blob."""
@@ -188,30 +222,47 @@ class RunWriter:
 
     # -- the end ----------------------------------------------------------------------------
     def close(self, status: str, error: str = "", extra: Mapping[str, str] | None = None) -> None:
-        """Write the remaining transcripts, leave SWMR, then complete NXdata, NXlogs and the status."""
+        """Write the remaining transcripts, complete NXdata, NXlogs and the status, and close.
+
+        All of it happens in the file as it is open (SWMR write): no reopen, so a kill at any moment
+        leaves at worst a file whose status still says running, and a reader holding the file open
+        cannot make the close fail. A failure here (full disk) is raised as RunFileError after the
+        file is closed as far as possible.
+        """
         if self._file is None:
             return
-        self.write_transcripts()
+        try:
+            self.write_transcripts()
+            self._complete(status, error, extra)
+            self._file.flush()
+        except (OSError, RuntimeError, RunFileError) as exc:
+            self._abandon()
+            raise exc if isinstance(exc, RunFileError) else self._write_failed(exc) from exc
         self._file.close()
         self._file = None
-        with h5py.File(self.path, "a", libver="latest") as f:
-            entry = f["entry"]
-            table = entry["points"][()]
-            for name in COLUMN_NAMES:
-                ds = entry["data"][name]
-                ds.resize((len(table),))
-                ds[:] = table[:, INDEX[name]]
-            for name in ("coil", "target", "ambient"):
-                log = entry["instrument/thermocouples"][name]
-                values = table[:, INDEX[f"t_{name}_c"]]
-                for field, column in (("time", table[:, INDEX["time_s"]]), ("value", values)):
-                    log[field].resize((len(table),))
-                    log[field][:] = column
-            entry.attrs.update({"status": status, "end_time": _now_iso(), "points": len(table)})
-            if error:
-                entry.attrs["error"] = error
-            for key, value in (extra or {}).items():
-                entry.attrs[key] = value
+        self._lock.release()
+
+    def _complete(self, status: str, error: str, extra: Mapping[str, str] | None) -> None:
+        """NXdata columns and NXlogs from the table, then (last) the status and how the run ended."""
+        assert self._file is not None
+        f = self._file
+        entry = f["entry"]
+        table = entry["points"][()]
+        for name in COLUMN_NAMES:
+            ds = entry["data"][name]
+            ds.resize((len(table),))
+            ds[:] = table[:, INDEX[name]]
+        for name in ("coil", "target", "ambient"):
+            log = entry["instrument/thermocouples"][name]
+            values = table[:, INDEX[f"t_{name}_c"]]
+            for field, column in (("time", table[:, INDEX["time_s"]]), ("value", values)):
+                log[field].resize((len(table),))
+                log[field][:] = column
+        entry.attrs.update({"status": status, "end_time": _now_iso(), "points": len(table)})
+        if error:
+            entry.attrs["error"] = error
+        for key, value in (extra or {}).items():
+            entry.attrs[key] = value
 
 
 def metadata_for(experiment_yaml: str, station_yaml: str, experiment_name: str, kind: str,
