@@ -44,12 +44,50 @@ from ecds_lab.transports.transcript import KINDS, Transcript
 #: (32 rows, 5 KB) keep that cheap. Columns written once at close use large chunks.
 _TABLE_CHUNK_ROWS = 32
 _COLUMN_CHUNK = 4096
+#: Transcripts are appended (and flushed) with every point, so their chunks are small too.
+_EVENT_CHUNK_ROWS = 64
+_TEXT_CHUNK = 2048
 _KIND_CODES = {kind: float(code) for code, kind in enumerate(KINDS)}
 _IN_COLUMN_ORDER = operator.itemgetter(*COLUMN_NAMES)
 
 
 def _now_iso() -> str:
     return datetime.now(timezone.utc).isoformat(timespec="seconds")
+
+
+class _Appender:
+    """Appends to a chunked dataset (1-D, or 2-D growing along rows), flushed per call.
+
+    Like the points table, the last chunk is kept in memory and written whole with
+    H5Dwrite_chunk: per point this costs a memory copy, not h5py's selection machinery.
+    """
+
+    def __init__(self, dataset: h5py.Dataset, fill: float) -> None:
+        self.id = dataset.id
+        self.chunk = dataset.chunks[0]
+        self.width = dataset.shape[1:]
+        self.length = dataset.shape[0]
+        self.fill = fill
+        self.tail = np.full((self.chunk, *self.width), fill, dtype=dataset.dtype)
+
+    def append(self, values: np.ndarray) -> None:
+        count = len(values)
+        if not count:
+            return
+        first = self.length
+        self.id.set_extent((first + count, *self.width))
+        done = 0
+        while done < count:
+            row = first + done
+            offset = row % self.chunk
+            take = min(self.chunk - offset, count - done)
+            if offset == 0:
+                self.tail.fill(self.fill)
+            self.tail[offset:offset + take] = values[done:done + take]
+            self.id.write_direct_chunk((row - offset, *(0 for _ in self.width)), self.tail.tobytes())
+            done += take
+        self.id.flush()
+        self.length = first + count
 
 
 class RunWriter:
@@ -69,6 +107,7 @@ class RunWriter:
                 raise RunFileError(f"{self.path} exists; choose another -o or pass --overwrite")
             self._file = h5py.File(self.path, "w", libver="latest")
             self._transcripts = dict(transcripts)
+            self._event_tables: dict[str, tuple[_Appender, _Appender]] = {}
             self._written_events = {role: 0 for role in self._transcripts}
             self.rows = 0
             self._create_layout(metadata, identities or {})
@@ -123,9 +162,11 @@ class RunWriter:
         records.attrs.update({"NX_class": "NXcollection", "kinds": list(KINDS)})
         for role in self._transcripts:
             group = records.create_group(role)
-            group.create_dataset("events", shape=(0, 4), maxshape=(None, 4), dtype="f8", chunks=(1024, 4))
-            group.create_dataset("text", shape=(0,), maxshape=(None,), dtype="u1", chunks=(16384,))
-            group["events"].attrs["columns"] = ["clock_s", "wall_s", "kind", "text_end"]
+            events = group.create_dataset("events", shape=(0, 4), maxshape=(None, 4), dtype="<f8",
+                                          chunks=(_EVENT_CHUNK_ROWS, 4))
+            text = group.create_dataset("text", shape=(0,), maxshape=(None,), dtype="u1", chunks=(_TEXT_CHUNK,))
+            events.attrs["columns"] = ["clock_s", "wall_s", "kind", "text_end"]
+            self._event_tables[role] = (_Appender(events, np.nan), _Appender(text, 0))
 
     # -- per point ------------------------------------------------------------------------
     def append(self, values: Mapping[str, float]) -> None:
@@ -201,24 +242,16 @@ class RunWriter:
         """Append (clock_s, wall_s, kind, text) events: a numeric table and the texts as one byte blob."""
         if not events:
             return
-        group = self._file["entry/transcripts"][role]
-        text_ds, events_ds = group["text"], group["events"]
+        events_out, text_out = self._event_tables[role]
         clock_s, wall_s, kinds, texts = zip(*events)
         encoded = [text.encode("utf-8", errors="replace") for text in texts]
-        base = text_ds.shape[0]
         table = np.empty((len(events), 4))
         table[:, 0] = clock_s
         table[:, 1] = wall_s
         table[:, 2] = [_KIND_CODES[kind] for kind in kinds]
-        table[:, 3] = base + np.cumsum(list(map(len, encoded)))
-        blob = b"".join(encoded)
-        text_ds.resize((base + len(blob),))
-        text_ds[base:] = np.frombuffer(blob, dtype="u1")
-        n = events_ds.shape[0]
-        events_ds.resize((n + len(events), 4))
-        events_ds[n:] = table
-        text_ds.flush()
-        events_ds.flush()
+        table[:, 3] = text_out.length + np.cumsum(list(map(len, encoded)))
+        text_out.append(np.frombuffer(b"".join(encoded), dtype="u1"))  # text first: an event never points past it
+        events_out.append(table)
 
     # -- the end ----------------------------------------------------------------------------
     def close(self, status: str, error: str = "", extra: Mapping[str, str] | None = None) -> None:
