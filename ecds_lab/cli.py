@@ -49,7 +49,10 @@ def _cmd_export(args: argparse.Namespace) -> int:
 
     from ecds_lab.storage.outputs import write_output
 
-    data = open_data(args.run).data
+    opened = open_data(args.run)
+    data = opened.data
+    for fault in opened.run.faults if opened.run is not None else []:
+        _say(f"ecds-lab export: note: {fault}")
     output = args.output or Path(args.run).with_suffix(".csv")
     write_output(output, [args.run], args.overwrite, data.to_csv)
     print(f"{len(data)} rows -> {output}")
