@@ -184,6 +184,26 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _guarded(args: argparse.Namespace) -> int:
+    """Run a command (see :func:`_run_guarded`), then leave at once if a run file failed a write."""
+    code = _run_guarded(args)
+    _exit_now_if_a_run_file_broke(code)
+    return code
+
+
+def _exit_now_if_a_run_file_broke(code: int) -> None:
+    """After a failed write (full disk) the HDF5 library retries its unwritable metadata whenever an
+    object is freed and can crash at interpreter exit; what was flushed is on disk, so end here."""
+    run_file = sys.modules.get("ecds_lab.storage.run_file")
+    if run_file is not None and run_file.BROKEN_WRITERS:
+        for stream in (sys.stdout, sys.stderr):
+            try:
+                stream.flush()
+            except OSError:
+                pass
+        os._exit(code or 1)
+
+
+def _run_guarded(args: argparse.Namespace) -> int:
     """Run a command; every failure becomes one line on stderr and a non-zero exit, never a traceback.
 
     Expected failures (bad input, a file or instrument problem) exit 2; a signal 128 + its number;

@@ -25,6 +25,8 @@ from __future__ import annotations
 import json
 import math
 import operator
+import os
+import sys
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Mapping, Sequence
@@ -53,6 +55,18 @@ _IN_COLUMN_ORDER = operator.itemgetter(*COLUMN_NAMES)
 
 def _now_iso() -> str:
     return datetime.now(timezone.utc).isoformat(timespec="seconds")
+
+
+def _quiet_about_unwritable_metadata(unraisable: sys.UnraisableHookArgs) -> None:
+    """Once a run file failed a write, h5py reports each freed object's failed metadata write as
+    "Exception ignored"; the run's own error already said it, once. Anything else is reported as usual."""
+    if isinstance(unraisable.exc_value, RuntimeError) and "file write failed" in str(unraisable.exc_value):
+        return
+    sys.__unraisablehook__(unraisable)
+
+
+#: Writers whose file failed a write: kept referenced so that no HDF5 object of theirs is ever freed.
+BROKEN_WRITERS: list[RunWriter] = []
 
 
 class _Appender:
@@ -97,6 +111,8 @@ class RunWriter:
                  identities: Mapping[str, str] | None = None, overwrite: bool = False) -> None:
         self.path = Path(path)
         self._file: h5py.File | None = None
+        #: True once a write failed (full disk): the file keeps what was flushed and is not touched again.
+        self.broken = False
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True)
             self._lock = WriterLock(self.path)
@@ -193,6 +209,8 @@ class RunWriter:
         H5Dwrite_chunk: no selection or chunk-cache machinery, about 3x cheaper per point than a
         one-row hyperslab write. Rows past the end of the table stay NaN, its fill value.
         """
+        if self.broken:
+            raise RunFileError(f"{self.path}: no longer writable after a failed write")
         table = self._table.id
         first, count = self.rows, len(rows)
         try:
@@ -213,7 +231,16 @@ class RunWriter:
         self.rows = first + count
 
     def _write_failed(self, exc: BaseException) -> RunFileError:
-        """The error a failed write becomes (a full disk, a file-size limit, a vanished folder)."""
+        """The error a failed write becomes (a full disk, a file-size limit, a vanished folder).
+
+        After a failed write the HDF5 library holds metadata it cannot write; every further call,
+        even closing or freeing an object, tries again and fails (at interpreter exit it can crash).
+        So the file is never touched again: the writer is kept alive in :data:`BROKEN_WRITERS`
+        and the command line ends the process without the library's shutdown (``exit_now``).
+        """
+        self.broken = True
+        BROKEN_WRITERS.append(self)
+        sys.unraisablehook = _quiet_about_unwritable_metadata
         return RunFileError(f"{self.path}: writing the run file failed (disk full?): {exc}; "
                             f"the {self.rows} rows written before are kept")
 
@@ -228,6 +255,8 @@ class RunWriter:
 
     def write_transcripts(self) -> None:
         """Write (and flush) transcript events recorded since the last call."""
+        if self.broken:
+            raise RunFileError(f"{self.path}: no longer writable after a failed write")
         try:
             for role, transcript in self._transcripts.items():
                 start = self._written_events[role]
@@ -264,16 +293,38 @@ class RunWriter:
         """
         if self._file is None:
             return
+        if self.broken:
+            self._lock.release()
+            return
+        self._check_room_to_complete()
         try:
             self.write_transcripts()
             self._complete(status, error, extra)
             self._file.flush()
         except (OSError, RuntimeError, RunFileError) as exc:
-            self._abandon()
-            raise exc if isinstance(exc, RunFileError) else self._write_failed(exc) from exc
+            failure = exc if isinstance(exc, RunFileError) else self._write_failed(exc)
+            self._lock.release()
+            raise failure from exc
         self._file.close()
         self._file = None
         self._lock.release()
+
+    def _check_room_to_complete(self) -> None:
+        """Completing writes the table again as NXdata and NXlogs; with less free space than that (and a
+        margin) it would fail half-way and could leave the file unreadable, so the file is left as the
+        last flushed row left it (a reader sees an interrupted run with every row) and the run fails."""
+        needed = 4 * self.rows * len(COLUMNS) * 8 + (1 << 20)
+        try:
+            stats = os.statvfs(self.path.parent)
+        except OSError:
+            return
+        if stats.f_bavail * stats.f_frsize < needed:
+            self.broken = True
+            BROKEN_WRITERS.append(self)
+            self._lock.release()
+            raise RunFileError(f"{self.path}: the disk is (nearly) full: {stats.f_bavail * stats.f_frsize} bytes free, "
+                               f"{needed} needed to complete the file; it keeps its {self.rows} rows and reads as an "
+                               "interrupted run")
 
     def _complete(self, status: str, error: str, extra: Mapping[str, str] | None) -> None:
         """NXdata columns and NXlogs from the table, then (last) the status and how the run ended."""
