@@ -18,6 +18,7 @@ from __future__ import annotations
 from typing import Any
 
 from ecds_lab.drivers.instrument import Control, Instrument, SCPIInstrument, in_range, integer_in_range
+from ecds_lab.drivers.replies import Field, ReplyFormat, ask_checked
 from ecds_lab.errors import HeaterNotOff, InvalidSettingError
 from ecds_lab.transports.base import Transport
 
@@ -49,18 +50,6 @@ def _on_off(reply: str) -> str:
     if value in ("0", "OFF"):
         return "OFF"
     raise ValueError(f"expected 0 or 1, got {reply!r}")
-
-
-def _measured(low: float, high: float) -> Any:
-    """A ``MEAS:VOLT?`` / ``MEAS:CURR?`` reply: one plain number within what the output can deliver."""
-
-    def parse(reply: str) -> float:
-        value = float(reply)  # ValueError for anything but one number
-        if not low <= value <= high:
-            raise ValueError(f"{value:g} is outside the plausible {low:g}..{high:g}")
-        return value
-
-    return parse
 
 
 class Bounded(Control[float]):
@@ -140,15 +129,20 @@ class HMP4040(SCPIInstrument):
             self.write(command)
         self.check_errors("; ".join(commands))
 
-    #: The read-back queries with the format of their replies [pym-HMP, chk: ``12.000``, ``1.5000``];
-    #: the bounds allow the sigrok maxima (32.050 V, 10.010 A) plus read-back noise around zero.
-    MEASUREMENTS: dict[str, Any] = {
-        "MEAS:VOLT?": _measured(-0.1, 32.1),
-        "MEAS:CURR?": _measured(-0.02, 10.02),
+    #: The read-back queries with the format of their replies: volts with 3 decimals, amps with 4
+    #: (``12.000``, ``1.5000`` [chk]); the bounds are the sigrok maxima (32.050 V, 10.010 A [sigrok])
+    #: plus read-back noise around zero. A measurement may be asked again.
+    MEASUREMENTS: dict[str, ReplyFormat] = {
+        "MEAS:VOLT?": ReplyFormat((Field("voltage", r"[+-]?\d+\.\d{3}", -0.1, 32.1),)),
+        "MEAS:CURR?": ReplyFormat((Field("current", r"[+-]?\d+\.\d{4}", -0.02, 10.02),)),
     }
 
+    def _measure(self, query: str) -> float:
+        """One read-back, checked against its format (re-queried once if garbled)."""
+        return ask_checked(self, query, self.MEASUREMENTS[query])[1][0]
+
     def _read(self, query: str, parse: Any) -> Any:
-        """One query whose reply is checked against its format; InstrumentError names command and reply."""
+        """One state query whose reply is checked; InstrumentError names command and reply."""
         reply = self.ask(query)
         try:
             return parse(reply)
@@ -158,8 +152,8 @@ class HMP4040(SCPIInstrument):
     def read_back(self, output: int) -> tuple[float, float]:
         """Measured voltage (V) and current (A) at an output."""
         self.write(self._command("selected_output", output))
-        volts = self._read("MEAS:VOLT?", self.MEASUREMENTS["MEAS:VOLT?"])
-        amps = self._read("MEAS:CURR?", self.MEASUREMENTS["MEAS:CURR?"])
+        volts = self._measure("MEAS:VOLT?")
+        amps = self._measure("MEAS:CURR?")
         return volts, amps
 
     def verify_off(self, outputs: tuple[int, ...]) -> None:
@@ -174,7 +168,7 @@ class HMP4040(SCPIInstrument):
         for output in outputs:
             self.write(self._command("selected_output", output))
             state = self._read("OUTP?", _on_off)
-            amps = self._read("MEAS:CURR?", self.MEASUREMENTS["MEAS:CURR?"])
+            amps = self._measure("MEAS:CURR?")
             if state != "OFF" or amps > OFF_CURRENT_A:
                 problems.append(f"output {output} reads {state} and measures {amps:g} A")
         if problems:
