@@ -10,7 +10,7 @@ import signal
 import sys
 import traceback
 from pathlib import Path
-from typing import Callable, Sequence
+from typing import Callable, Sequence, Sized
 
 from ecds_lab import __version__
 from ecds_lab.errors import EcdsLabError
@@ -78,9 +78,18 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
     from ecds_lab.storage.data_file import open_data
 
     opened = open_data(args.data, args.sensor)
+    _require_readings(opened.data, args.data, 2, "a diagnosis compares readings")
     result = {"sensor": opened.sensor_summary(), **diagnose(opened.data, _effects(args.effects), opened.sensor)}
     _print(result, opened.sensor_note, args.json, format_diagnosis)
     return 0
+
+
+def _require_readings(data: Sized, path: Path, minimum: int, why: str) -> None:
+    """Refuse data too small for the analysis asked, naming the file and the count."""
+    from ecds_lab.data.measurements import DataError
+
+    if len(data) < minimum:
+        raise DataError(f"{path}: {len(data)} reading(s); {why} and needs at least {minimum}")
 
 
 def _print(result: dict, note: str | None, as_json: bool, as_text: Callable[[dict], str]) -> None:
