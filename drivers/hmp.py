@@ -15,7 +15,7 @@ The identity's vendor is ``HAMEG`` or ``ROHDE&SCHWARZ`` [sigrok pps_profiles].
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, ClassVar
 
 from ecds_lab.drivers.instrument import Control, Instrument, SCPIInstrument, in_range, integer_in_range
 from ecds_lab.drivers.replies import Field, ReplyFormat, ask_checked
@@ -132,7 +132,7 @@ class HMP4040(SCPIInstrument):
     #: The read-back queries with the format of their replies: volts with 3 decimals, amps with 4
     #: (``12.000``, ``1.5000`` [chk]); the bounds are the sigrok maxima (32.050 V, 10.010 A [sigrok])
     #: plus read-back noise around zero. A measurement may be asked again.
-    MEASUREMENTS: dict[str, ReplyFormat] = {
+    MEASUREMENTS: ClassVar[dict[str, ReplyFormat]] = {
         "MEAS:VOLT?": ReplyFormat((Field("voltage", r"[+-]?\d+\.\d{3}", -0.1, 32.1),)),
         "MEAS:CURR?": ReplyFormat((Field("current", r"[+-]?\d+\.\d{4}", -0.02, 10.02),)),
     }

@@ -46,7 +46,6 @@ def _run_exit_code(status: str, stopped_by: int | None) -> int:
 
 def _cmd_export(args: argparse.Namespace) -> int:
     from ecds_lab.storage.data_file import open_data
-
     from ecds_lab.storage.outputs import write_output
 
     opened = open_data(args.run)

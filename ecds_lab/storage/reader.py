@@ -132,7 +132,7 @@ def _read_rows(dataset: h5py.Dataset, lost: np.ndarray) -> np.ndarray:
     breaks = np.flatnonzero(np.diff(keep) > 1)
     starts = np.concatenate([[keep[0]], keep[breaks + 1]])
     ends = np.concatenate([keep[breaks], [keep[-1]]]) + 1
-    return np.concatenate([dataset[a:b] for a, b in zip(starts, ends)])
+    return np.concatenate([dataset[a:b] for a, b in zip(starts, ends, strict=True)])
 
 
 def _read_identities(entry: h5py.Group) -> dict[str, str]:

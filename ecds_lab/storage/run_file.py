@@ -140,12 +140,13 @@ class RunWriter:
         if self._file is not None:
             try:
                 self._file.close()
-            except Exception:  # noqa: S110 - a file that cannot even close has nothing left to save
+            except Exception:  # a file that cannot even close has nothing left to save
                 pass
             self._file = None
         self._lock.release()
 
     def _create_layout(self, metadata: Mapping[str, str], identities: Mapping[str, str]) -> None:
+        assert self._file is not None
         entry = self._file.create_group("entry")
         entry.attrs.update({"NX_class": "NXentry", "status": "running", "start_time": _now_iso(),
                             "software": f"ecds-lab {__version__}", "default": "data"})

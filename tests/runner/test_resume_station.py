@@ -23,7 +23,9 @@ def interrupted(tmp_path, experiments_dir, yaml_copy, opened_stations, at_simula
 
 def test_resume_on_the_steel_station_names_the_sensor(interrupted, experiments_dir, tmp_path, instrument_guard):
     experiment, path = interrupted
-    with pytest.raises(ConfigError, match=r"cannot resume on another station \(sensor: recorded '[^']+', station .*steel.yaml has '[^']*steel target'"):
+    refused = (r"cannot resume on another station \(sensor: recorded '[^']+', "
+               r"station .*steel.yaml has '[^']*steel target'")
+    with pytest.raises(ConfigError, match=refused):
         run_experiment(experiment, experiments_dir / "stations" / "simulated_lab_steel.yaml", tmp_path / "r.h5",
                        resume=path, progress=False)
     assert instrument_guard.untouched  # refused before any instrument was opened

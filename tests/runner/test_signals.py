@@ -13,12 +13,11 @@ from pathlib import Path
 
 import pytest
 
+from ecds_lab.drivers.hmp import HMP4040
+from ecds_lab.runner.session import run_experiment
 from ecds_lab.simulators.hmp import HMPEmulator
 from ecds_lab.storage.reader import read_run
 from ecds_lab.transports.transcript import RECEIVED, SENT
-
-from ecds_lab.drivers.hmp import HMP4040
-from ecds_lab.runner.session import run_experiment
 
 HEATING = "target_heating_copper.yaml"
 #: Past the first (ambient) sweep, while heating to the second setpoint (as in test_safe_state.py).
