@@ -12,18 +12,34 @@ Sources (keys as in the project's protocol notes, Part B):
   [G-MAIN] gnea/grbl grbl/main.c (re-initialisation after reset)
   [G-CFG]  gnea/grbl grbl/config.h
   [G-LIM]  gnea/grbl grbl/limits.c, limits_go_home()
+  [G-MC]   gnea/grbl grbl/motion_control.c (mc_line, mc_reset, mc_homing_cycle)
 One line at a time: send it, wait for ``ok`` or ``error:N`` [G-IF2 "simple send-response"].
 ``ok`` means the move is queued, not done, so the end of a move is seen by polling the
 real-time ``?`` until the state is ``Idle`` [G-IF2]. After homing, machine space is
 negative (MPos = -$27) [G-LIM]; the coil-target distance is x = origin_mm + MPos.
 Every decision here rests on replies only, so a recorded session replays identically.
+
+What the firmware does that a naive driver trips over, and what this one does (docs/grbl.md):
+- the banner comes up to ~2 s after the port opens (DTR resets the Arduino, the bootloader runs
+  first): connect() waits for it (BANNER_WAIT_S) before it tries a Ctrl-X, and takes a late second
+  banner or a stray ``ok`` in its stride;
+- after ALARM:1/2 the firmware waits 500 ms and throws away any Ctrl-X that came meanwhile, then
+  prints [MSG:Reset to continue] [G-PROT]: soft_reset() waits for that line before it resets;
+- lines sent during a feed hold are not answered but queued and run after ``~`` [G-PROT]: commands
+  are refused while the driver holds, and a line left without reply is flushed by a soft reset so
+  it can never run later unseen;
+- ``!`` decelerates first (Hold:1); ``~`` is ignored until the hold is complete (Hold:0) [G-PROT]:
+  resume() waits for Hold:0;
+- stock GRBL homes Z first [G-CFG HOMING_CYCLE_0]; on a slide with one switch (X) ``$H`` ends in
+  ALARM:9 followed by a reset: home() reads the reset through and explains the build option once.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import Any, Callable, ClassVar, Literal, Mapping
+from typing import Any, ClassVar, Literal
 
 from ecds_lab.drivers.instrument import Instrument
 from ecds_lab.errors import InstrumentError, InvalidSettingError, TransportTimeout
@@ -37,15 +53,29 @@ SERIAL_SETTINGS: dict[str, Any] = {
 }
 #: ``$H`` answers ``ok`` only after the cycle [G-SYS]; the search covers 1.5x max travel [G-IF].
 HOMING_TIMEOUT_S = 120.0
+#: The banner comes after the Arduino's DTR reset and its bootloader, up to ~2 s [G-IF]; wait longer.
+BANNER_WAIT_S = 5.0
+#: report_alarm_message() pauses 500 ms; a Ctrl-X during it is discarded [G-REP, G-PROT].
+ALARM_PAUSE_S = 0.5
+#: Printed once a limit alarm's lock-out is over and a reset will be taken [G-REP, G-PROT].
+RESET_PROMPT = "[MSG:Reset to continue]"
+#: What home() says when the cycle cannot find a switch (ALARM:9) [G-CFG].
+HOMING_BUILD_NOTE = (
+    "stock GRBL homes Z first (config.h HOMING_CYCLE_0 (1<<Z_AXIS)); firmware must be built with "
+    "HOMING_CYCLE_0 (1<<X_AXIS) for a one-switch slide — config.h"
+)
 #: The start-up banner "Grbl 1.1h ['$' for help]"; the letter after 1.1 varies by build [G-REP].
 BANNER_PREFIX = "Grbl 1.1"
 #: Positions travel with 3 decimals in mm [G-REP]; closer than this is "already there".
 _RESOLUTION_MM = 0.0005
 #: The final position may differ from the target by at most this (one report digit plus rounding).
 _ARRIVAL_TOLERANCE_MM = 0.002
+#: Added to a predicted move time: the step segments end a little after the plan's ideal [G-MC].
+_SETTLE_S = 0.01
 #: Lines read while waiting for one reply before giving up (pushed messages are skipped).
 _MAX_LINES = 64
-_AXES = "XYZABC"
+#: Stock GRBL drives three axes (N_AXIS 3) [G-CFG]; A/B/C need another firmware.
+_AXES = "XYZ"
 
 #: error:N meanings [G-ERR, G-IF].
 ERRORS: dict[int, str] = {
@@ -147,17 +177,24 @@ class Grbl(Instrument):
         overshoot_mm: float = 0.5,
         poll_interval_s: float = 0.05,
         axis: str = "X",
+        acceleration_mm_per_s2: float = 10.0,
     ) -> None:
         super().__init__(transport)
         if not min_mm < max_mm:
             raise InvalidSettingError(f"{self.name}: min_mm {min_mm:g} must be below max_mm {max_mm:g}")
         if approach not in ("positive", "negative", "direct"):
             raise InvalidSettingError(f"{self.name}: approach {approach!r} is not one of positive, negative, direct")
-        if axis.upper() not in _AXES or len(axis) != 1:
-            raise InvalidSettingError(f"{self.name}: axis {axis!r} is not one of {', '.join(_AXES)}")
+        if not isinstance(axis, str) or len(axis) != 1 or axis.upper() not in _AXES:
+            raise InvalidSettingError(
+                f"{self.name}: axis {axis!r} is not one of {', '.join(_AXES)}; stock GRBL 1.1 has three axes "
+                "(A/B/C need a firmware built for more)"
+            )
         for label, value in (("overshoot_mm", overshoot_mm), ("poll_interval_s", poll_interval_s)):
             if not value >= 0:
                 raise InvalidSettingError(f"{self.name}: {label} must be >= 0, got {value!r}")
+        if not acceleration_mm_per_s2 > 0:
+            raise InvalidSettingError(f"{self.name}: acceleration_mm_per_s2 must be > 0 (GRBL's $120), "
+                                      f"got {acceleration_mm_per_s2!r}")
         self.origin_mm = float(origin_mm)
         self.min_mm, self.max_mm = float(min_mm), float(max_mm)
         self.min_position_m, self.max_position_m = self.min_mm * 1e-3, self.max_mm * 1e-3
@@ -165,32 +202,47 @@ class Grbl(Instrument):
         self.approach = approach
         self.overshoot_mm = float(overshoot_mm)
         self.poll_interval_s = float(poll_interval_s)
+        #: The axis' $120..$122 (stock 10 mm/s^2): only used to predict how long a move takes.
+        self.acceleration_mm_per_s2 = float(acceleration_mm_per_s2)
         self.axis = axis.upper()
         self._axis_index = _AXES.index(self.axis)
         self.banner = ""
         self._connected = False
         self._critical_alarm = False
+        self._reset_prompt_seen = False
+        self._held = False
         self._direction = 0
 
     # -- start-up ------------------------------------------------------------------------
-    def wake_up(self, alarms: list[str] | None = None) -> str:
-        """Read up to the start-up banner (after its empty line) and return it [G-REP]."""
-        self.banner = self._read_until("(start-up)", lambda line: line.startswith("Grbl "), alarms=alarms)
-        self._critical_alarm = False
+    def wake_up(self, alarms: list[str] | None = None, timeout_s: float | None = None) -> str:
+        """Read up to the start-up banner and return it [G-REP report_init_message].
+
+        A stray ``ok`` before it (the status of the line a reset interrupted [G-PROT, G-MC]) is skipped.
+        """
+        errors: list[str] = []
+        self.banner = self._read_until("(start-up)", lambda line: line.startswith("Grbl "), alarms=alarms,
+                                       errors=errors, timeout_s=timeout_s)
+        self._critical_alarm = self._reset_prompt_seen = self._held = False
+        if "error:7" in errors:  # settings_init() failed and wrote the defaults [G-PROT, settings.c]
+            raise self.fail("(start-up)", "error:7", ERRORS[7] + "; GRBL now runs on its stock $ settings "
+                                                    "(homing, soft limits, travel): restore the slide's before moving")
         return self.banner
 
     def connect(self) -> str:
-        """Take the banner GRBL prints when the port opens (an Arduino resets), or soft-reset for one."""
+        """Wait for the banner GRBL prints when the port opens (DTR reset, then the bootloader, up to
+        ~2 s), soft-resetting for one only if none comes within BANNER_WAIT_S (a port without DTR reset)."""
         try:
-            banner = self.wake_up()
+            banner = self.wake_up(timeout_s=BANNER_WAIT_S)
         except TransportTimeout:
             self.transport.write_bytes(b"\x18")
-            banner = self.wake_up()
+            banner = self.wake_up(timeout_s=BANNER_WAIT_S)
         if not banner.startswith(BANNER_PREFIX):
             raise self.fail("(start-up)", banner, f"this driver speaks {BANNER_PREFIX}")
         self._connected = True
-        self.status()  # also consumes "[MSG:'$H'|'$X' to unlock]" when GRBL starts locked [G-PROT]
-        return banner
+        # also consumes "[MSG:'$H'|'$X' to unlock]" when GRBL starts locked [G-PROT]; a second, late
+        # banner (the boot's, when a Ctrl-X raced it) is taken as the current one
+        self.status(banner_ok=True)
+        return self.banner
 
     def _ensure_connected(self) -> None:
         if not self._connected:
@@ -200,6 +252,7 @@ class Grbl(Instrument):
     def identity(self) -> str:
         """``$I`` build info: "Grbl <version.build> [OPT:...]" [G-REP report_build_info]."""
         self._ensure_connected()
+        self._check_not_held("$I")
         lines: list[str] = []
         self._command("$I", collect=lines)
         info = {key: value for key, _, value in (line.strip("[]").partition(":") for line in lines)}
@@ -209,42 +262,73 @@ class Grbl(Instrument):
     def unlock(self) -> None:
         """``$X``: leave the Alarm lock without homing; GRBL answers [MSG:Caution: Unlocked] then ok [G-SYS]."""
         self._ensure_connected()
+        self._check_not_held("$X")
         self._command("$X")
 
     def home(self) -> None:
-        """``$H``: run the homing cycle; ``ok`` comes when it is over [G-SYS], MPos is then -$27 [G-LIM]."""
+        """``$H``: run the homing cycle; ``ok`` comes when it is over [G-SYS], MPos is then -$27 [G-LIM].
+
+        A failed cycle prints ALARM:N, and after GRBL's own reset (mc_reset [G-MC]) the ``ok`` of
+        ``$H``, the banner and the unlock prompt: all read here, then one error that says why.
+        """
         self._ensure_connected()
-        self._command("$H", timeout_s=HOMING_TIMEOUT_S)
+        self._check_not_held("$H")
+        self.transport.write("$H")
+        reply = self._read_until("$H", lambda line: line == "ok" or line.startswith("ALARM:"),
+                                 timeout_s=HOMING_TIMEOUT_S)
+        if reply.startswith("ALARM:"):
+            self.wake_up(timeout_s=BANNER_WAIT_S)  # skips the stray "ok" of $H that precedes the banner
+            raise self._homing_alarm(reply)
         self._direction = 0  # the pull-off direction depends on $23; the next approach re-establishes it
 
     # -- real-time commands [G-RT] --------------------------------------------------------
-    def status(self) -> Status:
+    def status(self, *, banner_ok: bool = False) -> Status:
         """One ``?`` status report (refused locally while a limit alarm makes GRBL ignore ``?`` [G-RT])."""
         self._ensure_connected()
         if self._critical_alarm:
             raise self.fail("?", "", "GRBL is halted by a limit alarm and ignores '?'; soft_reset() or stop() first")
         self.transport.write_bytes(b"?")
-        line = self._read_until("?", lambda text: text.startswith("<"))
+        line = self._read_until("?", lambda text: text.startswith("<"), banner_ok=banner_ok)
         try:
-            return parse_status(line)
+            status = parse_status(line)
         except ValueError as exc:
             raise self.fail("?", line, str(exc)) from None
+        if status.base_state != "Run":
+            self._held = status.base_state == "Hold"
+        return status
 
     def feed_hold(self) -> None:
-        """``!``: decelerate to a stop and hold (state Hold:0); no reply [G-RT]."""
+        """``!``: decelerate (Hold:1) to a stop and hold (Hold:0); no reply [G-RT]. Until resume() or a
+        reset, GRBL would only queue lines, so the driver refuses to send any."""
         self.transport.write_bytes(b"!")
+        self._held = True
 
     def resume(self) -> None:
-        """``~``: resume after a feed hold; no reply [G-RT]."""
+        """``~`` once the hold is complete: GRBL ignores it during the deceleration (Hold:1) [G-PROT]."""
+        self._ensure_connected()
+        for _ in range(_MAX_LINES):
+            status = self.status()
+            # a '?' sent right after '!' can still report Run: the report is served before the hold [G-PROT]
+            if status.state != "Hold:1" and not (status.base_state in ("Run", "Jog") and self._held):
+                break
+            self._held = True
+            self.transport.clock.sleep(self.poll_interval_s)
+        else:
+            raise self.fail("~", status.raw, "the feed hold did not complete (still Hold:1)")
         self.transport.write_bytes(b"~")
+        self._held = False
 
     def soft_reset(self) -> str:
         """Ctrl-X: halt and re-initialise; GRBL prints its banner again [G-RT, G-REP].
 
         Position is kept unless it was moving, which raises ALARM:3 [G-ALM]; that alarm is
         reported as InstrumentError after the banner has been read, so the link stays in step.
+        After a limit alarm the reset is sent only once GRBL says [MSG:Reset to continue]: one sent
+        during the alarm's 500 ms pause would be discarded [G-PROT].
         """
         self._ensure_connected()
+        if self._critical_alarm and not self._reset_prompt_seen:
+            self._await_reset_prompt()
         self.transport.write_bytes(b"\x18")
         alarms: list[str] = []
         banner = self.wake_up(alarms=alarms)
@@ -279,7 +363,11 @@ class Grbl(Instrument):
         """
         target = self._check_target(position_m)
         feed = self.feed_mm_per_min if speed_m_per_s is None else self._check_feed(speed_m_per_s, scale=60e3)
-        current = self._mpos(self.status())
+        status = self.status()
+        if status.base_state == "Hold":
+            raise self.fail("?", status.raw, "GRBL is in a feed hold; a move sent now would only be queued "
+                                             "until '~': resume() or stop() first")
+        current = self._mpos(status)
         for waypoint in self._waypoints(current + self.origin_mm, target):
             end = float(f"{waypoint - self.origin_mm:.3f}")
             self._move(current, end, feed)
@@ -325,7 +413,7 @@ class Grbl(Instrument):
         """One ``G90 G1`` move, then wait: sleep the expected time, poll ``?`` until Idle."""
         command = f"G90 G1 {self.axis}{end + 0.0:.3f} F{feed:.0f}"
         self._command(command)
-        expected = abs(end - start) / feed * 60.0
+        expected = self._move_time_s(abs(end - start), feed) + _SETTLE_S
         budget = 2 * expected + 10.0
         waited = expected
         self.transport.clock.sleep(expected)
@@ -338,13 +426,48 @@ class Grbl(Instrument):
                 raise self.fail(command, status.raw, f"motion stopped in state {status.state}{hint}")
             if waited > budget:
                 raise self.fail(command, status.raw, f"still moving after {waited:.1f} s, expected {expected:.1f} s")
-            rate = status.feed_mm_per_min or feed
-            pause = max(self.poll_interval_s, abs(end - self._mpos(status)) / rate * 60.0)
+            rate = max(status.feed_mm_per_min or 0.0, 1.0)
+            pause = max(self.poll_interval_s, self._move_time_s(abs(end - self._mpos(status)), feed, rate))
             self.transport.clock.sleep(pause)
             waited += pause
         reached = self._mpos(status)
         if abs(reached - end) > _ARRIVAL_TOLERANCE_MM:
             raise self.fail(command, status.raw, f"stopped at MPos {reached:.3f} mm instead of {end:.3f} mm")
+
+    def _move_time_s(self, distance_mm: float, feed: float, now_mm_per_min: float = 0.0) -> float:
+        """Time of a move of ``distance_mm`` ending at rest, from ``now_mm_per_min`` up to ``feed``, at the
+        axis' acceleration (GRBL plans trapezoids [planner.c]); a lower bound for polling."""
+        a, v, v0 = self.acceleration_mm_per_s2, feed / 60.0, min(now_mm_per_min, feed) / 60.0
+        if distance_mm <= 0:
+            return 0.0
+        up, down = (v * v - v0 * v0) / (2 * a), v * v / (2 * a)
+        if up + down <= distance_mm:
+            return (v - v0) / a + (distance_mm - up - down) / v + v / a
+        peak = math.sqrt((2 * a * distance_mm + v0 * v0) / 2)
+        if peak <= v0:  # already braking
+            return 2 * distance_mm / v0
+        return (peak - v0) / a + peak / a
+
+    def _check_not_held(self, command: str) -> None:
+        """GRBL queues lines during a feed hold and answers them only after ``~`` [G-PROT]."""
+        if self._held:
+            raise self.fail(command, "", "GRBL is in a feed hold and would only queue this line until '~'; "
+                                         "resume() or stop() first")
+
+    def _await_reset_prompt(self) -> None:
+        """Read until [MSG:Reset to continue] (GRBL prints it 500 ms after a limit alarm) [G-PROT]."""
+        try:
+            self._read_until("\x18", lambda line: line == RESET_PROMPT, timeout_s=ALARM_PAUSE_S + 1.5)
+        except TransportTimeout:
+            self.transport.clock.sleep(ALARM_PAUSE_S)  # prompt lost: the lock-out is over by now anyway
+        self._reset_prompt_seen = True
+
+    def _homing_alarm(self, line: str) -> InstrumentError:
+        code = _code(line)
+        meaning = ALARMS.get(code, "unknown alarm") if code is not None else "malformed alarm"
+        if code == 9:
+            meaning += "; " + HOMING_BUILD_NOTE
+        return self.fail("$H", line, meaning + "; GRBL reset itself and is locked (Alarm)")
 
     def _mpos(self, status: Status) -> float:
         if len(status.mpos_mm) <= self._axis_index:
@@ -355,9 +478,29 @@ class Grbl(Instrument):
         return self.origin_mm + self._mpos(status)
 
     def _command(self, command: str, *, collect: list[str] | None = None, timeout_s: float | None = None) -> None:
-        """Send one line and wait for its ``ok``; ``error:N`` and ``ALARM:N`` raise with their meaning."""
+        """Send one line and wait for its ``ok``; ``error:N`` and ``ALARM:N`` raise with their meaning.
+
+        A line left without reply may still sit in GRBL's buffer (a hold queues lines [G-PROT]) and
+        answer or move later: it is flushed with a soft reset, so the link stays in step."""
         self.transport.write(command)
-        self._read_until(command, lambda line: line == "ok", collect=collect, timeout_s=timeout_s)
+        try:
+            self._read_until(command, lambda line: line == "ok", collect=collect, timeout_s=timeout_s)
+        except TransportTimeout:
+            self._flush_after_timeout(command)
+
+    def _flush_after_timeout(self, command: str) -> None:
+        waited = self.transport.timeout_s
+        if self._critical_alarm and not self._reset_prompt_seen:
+            self._await_reset_prompt()
+        self.transport.write_bytes(b"\x18")
+        try:
+            self.wake_up(alarms=[], timeout_s=BANNER_WAIT_S)
+        except TransportTimeout:
+            raise self.fail(command, "", f"no reply within {waited:g} s, and none to a soft reset either: "
+                                         "is the controller powered and on this port?") from None
+        raise self.fail(command, "", f"no reply within {waited:g} s; GRBL may have queued the line (a feed "
+                                     "hold queues lines until '~'), so it was flushed with a soft reset and "
+                                     "will not run; position kept unless GRBL reported ALARM:3")
 
     def _read_until(
         self,
@@ -366,7 +509,9 @@ class Grbl(Instrument):
         *,
         collect: list[str] | None = None,
         alarms: list[str] | None = None,
+        errors: list[str] | None = None,
         timeout_s: float | None = None,
+        banner_ok: bool = False,
     ) -> str:
         """Read lines until ``wanted`` (each within ``timeout_s``, default the link's); skip pushed messages
         ([MSG:...], empty lines, stray reports)."""
@@ -380,10 +525,15 @@ class Grbl(Instrument):
                     raise self._alarm(command, line)
                 alarms.append(line)
             elif line.startswith("error:"):
-                raise self._error(command, line)
+                if errors is None:
+                    raise self._error(command, line)
+                errors.append(line)
             elif line.startswith("Grbl "):
-                self.banner, self._critical_alarm = line, False
-                raise self.fail(command, line, "the controller reset; position and modal state may be lost")
+                self.banner, self._critical_alarm, self._held = line, False, False
+                if not banner_ok:
+                    raise self.fail(command, line, "the controller reset; position and modal state may be lost")
+            elif line == RESET_PROMPT:
+                self._reset_prompt_seen = True
             elif collect is not None and line.startswith("[") and not line.startswith("[MSG:"):
                 collect.append(line)
         raise self.fail(command, line, f"no reply among {_MAX_LINES} lines")

@@ -1,4 +1,4 @@
-"""The ``ecds-lab`` command line (DESIGN.md): run, demo, fit, diagnose, report, replay, export."""
+"""The ``ecds-lab`` command line (DESIGN.md): run, demo, fit, diagnose, report, replay, export, watch."""
 
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ import os
 import signal
 import sys
 import traceback
+from collections.abc import Callable, Sequence, Sized
 from pathlib import Path
-from typing import Callable, Sequence, Sized
 
 from ecds_lab import __version__
 from ecds_lab.errors import EcdsLabError
@@ -25,11 +25,16 @@ def _cmd_run(args: argparse.Namespace) -> int:
         *_, plan = prepare(args.experiment, args.station)
         print(plan.describe())
         return 0
+    if args.watch:
+        args.output = args.output or _default_output(args)
+        _start_watch(args.output)
     result = run_experiment(args.experiment, args.station, args.output, resume=args.resume,
                             overwrite=args.overwrite, progress=not args.quiet)
     print(f"{result.status}: {result.points} points in {result.path} ({result.wall_s:.1f} s)")
     if result.error:
         print(f"error: {result.error}", file=sys.stderr)
+    if args.watch:
+        _keep_watching()
     return _run_exit_code(result.status, result.stopped_by)
 
 
@@ -44,18 +49,75 @@ def _run_exit_code(status: str, stopped_by: int | None) -> int:
     return 1
 
 
-def _cmd_export(args: argparse.Namespace) -> int:
-    from ecds_lab.storage.data_file import open_data
-    from ecds_lab.storage.outputs import write_output
+def _keep_watching() -> None:
+    """After ``run --watch``: the live page stays up, showing how the run ended, until Ctrl-C."""
+    import time
 
-    opened = open_data(args.run)
-    data = opened.data
-    for fault in opened.run.faults if opened.run is not None else []:
-        _say(f"ecds-lab export: note: {fault}")
-    output = args.output or Path(args.run).with_suffix(".csv")
-    write_output(output, [args.run], args.overwrite, data.to_csv)
-    print(f"{len(data)} rows -> {output}")
+    print("the live view stays up (Ctrl-C to stop)", flush=True)
+    try:
+        while True:
+            time.sleep(3600)
+    except KeyboardInterrupt:
+        pass
+
+
+def _default_output(args: argparse.Namespace) -> Path:
+    from ecds_lab.runner.session import default_output
+
+    return default_output(args.experiment, args.resume)
+
+
+def _start_watch(path: Path) -> None:
+    """``run --watch``: serve the live page of the run file in the background and print its address."""
+    from ecds_lab.live.server import serve_in_background, url_of
+
+    print(f"live view of {path}: {url_of(serve_in_background(Path(path)))}", flush=True)
+
+
+def _cmd_watch(args: argparse.Namespace) -> int:
+    """Serve the live page of a run file until Ctrl-C."""
+    from ecds_lab.live.server import make_server, url_of
+
+    server = make_server(args.run, args.port)
+    print(f"live view of {args.run}: {url_of(server)} (Ctrl-C to stop)", flush=True)
+    try:
+        server.serve_forever()
+    except KeyboardInterrupt:
+        print("live view stopped")
+    finally:
+        server.server_close()
     return 0
+
+
+def _cmd_export(args: argparse.Namespace) -> int:
+    output = args.output or Path(args.run).with_suffix(".csv")
+    rows = _export(args, output)
+    print(f"{rows} rows -> {output}")
+    return 0
+
+
+def _export(args: argparse.Namespace, output: Path) -> int:
+    """A run file: every column (or --columns) and the units sidecar; a CSV: the import columns.
+
+    Never onto an input, never over an existing file without --overwrite (storage/outputs.py);
+    what the reader had to work around in the run file (lost rows, a killed writer) is noted.
+    """
+    from ecds_lab.data.files import file_kind
+    from ecds_lab.storage.data_file import open_data
+    from ecds_lab.storage.export import columns_from, export_run, sidecar_path
+    from ecds_lab.storage.outputs import check_output, write_output
+    from ecds_lab.storage.reader import read_run
+
+    if file_kind(args.run) == "run":
+        columns = columns_from(args.columns)
+        for path in (output, sidecar_path(Path(output))):
+            check_output(path, [args.run], overwrite=args.overwrite)
+        for note in read_run(args.run, transcripts=False).notes:
+            _say(f"ecds-lab export: note: {note}")
+        return export_run(args.run, output, columns)
+    data = open_data(args.run).data
+    write_output(output, [args.run], args.overwrite, data.to_csv)
+    return len(data)
 
 
 def _effects(text: str | None) -> list[str]:
@@ -127,6 +189,38 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_simulate(args: argparse.Namespace) -> int:
+    """Serve the simulated lab's instruments on local ports until Ctrl-C (docs/simulate.md)."""
+    from ecds_lab.errors import ConfigError
+    from ecds_lab.instruments.kinds import ROLE_NAMES
+    from ecds_lab.simulators.serve import LabServer
+    from ecds_lab.station import load_station_config
+
+    config, _ = load_station_config(args.station)
+    if config.simulated is None:
+        raise ConfigError("simulate: the station has no 'simulated' section; give a simulated station YAML "
+                          "(e.g. experiments/stations/simulated_lab.yaml)")
+    drivers: dict[str, str] = {role: getattr(config, role).driver for role in ROLE_NAMES}
+    server = LabServer(config.simulated.lab, drivers, port_base=args.port_base, serial=args.serial)
+    try:
+        print(server.describe())
+        print("serving the simulated lab (time runs with the wall clock); Ctrl-C stops", flush=True)
+        server.serve_forever()
+    finally:
+        server.close()
+    return 0
+
+
+def _simulate_parser(command: Callable[..., argparse.ArgumentParser]) -> None:
+    p = command("simulate", _cmd_simulate, "serve the simulated lab's instruments to any client: SCPI instruments "
+                "on raw sockets (5025 and up), serial ones on pseudo-terminals, until Ctrl-C")
+    p.add_argument("--station", type=Path, help="simulated station YAML (default: the shipped simulated lab)")
+    p.add_argument("--port-base", type=int, default=5025, metavar="PORT",
+                   help="first TCP port (default 5025, the LXI raw-socket port); 0 lets the system choose")
+    p.add_argument("--serial", choices=("pty", "tcp"), default="pty",
+                   help="serial instruments on pseudo-terminals (default) or TCP ports for pyserial's socket://")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="ecds-lab", description="Run an eddy current displacement sensor lab "
                                      "(HM8118, GRBL slide, DAQ970A, HMP) and explain its data.")
@@ -147,6 +241,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--overwrite", action="store_true", help="replace an existing output file")
     p.add_argument("--dry-run", action="store_true", help="print the plan; touch no instrument")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--watch", action="store_true", help="serve a live page of the run on 127.0.0.1 (see watch)")
 
     p = command("demo", _cmd_demo, "the whole paper campaign on the simulated lab, then analysis and report")
     p.add_argument("-o", "--output", type=Path, default=Path("ecds-demo"), help="output folder")
@@ -174,10 +269,18 @@ def build_parser() -> argparse.ArgumentParser:
     p = command("replay", _cmd_replay, "re-run a recorded session through the drivers from its transcript")
     p.add_argument("run", type=Path)
 
-    p = command("export", _cmd_export, "write a run's points in the CSV import format")
+    _simulate_parser(command)
+
+    p = command("watch", _cmd_watch, "serve a live web page of a run file on 127.0.0.1 while it is written")
+    p.add_argument("run", type=Path, help="run file (.h5); it may not exist yet")
+    p.add_argument("--port", type=int, default=0, help="port (default: a free one, printed)")
+
+    p = command("export", _cmd_export, "write a run's readings as CSV: the import format's columns first, "
+                "then every other column; units in RUN.units.json")
     p.add_argument("run", type=Path)
     p.add_argument("-o", "--output", type=Path)
     p.add_argument("--overwrite", action="store_true", help="replace an existing output file (never an input)")
+    p.add_argument("--columns", help="comma-separated columns to write (default: all)")
     return parser
 
 

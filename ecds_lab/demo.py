@@ -39,12 +39,18 @@ def run_demo(output: Path, progress: bool = True) -> list[RunResult]:
 
 
 def analyse_campaign(run_files: list[Path], output: Path) -> None:
-    """Fit and diagnose the copper campaign, then write the HTML report."""
+    """Compare with the paper, fit and diagnose the copper campaign, then write the HTML report."""
     from ecds_lab.analysis.diagnosis import format_diagnosis, run_diagnosis
+    from ecds_lab.analysis.paper_comparison import paper_comparison
     from ecds_lab.analysis.summary import fit_summary
     from ecds_lab.data.measurements import Measurements
     from ecds_lab.report.html import write_report
     from ecds_lab.storage.data_file import open_data
+
+    rows = paper_comparison(run_files)
+    (output / "paper_comparison.json").write_text(json.dumps(rows, indent=2, ensure_ascii=False))
+    print(f"paper comparison: {sum(r['agrees'] for r in rows)} of {len(rows)} quantities agree "
+          f"({output / 'paper_comparison.json'})")
 
     copper = [p for p in run_files if "steel" not in p.name and "spectroscopy" not in p.name]
     data = Measurements.concatenate([open_data(p).data for p in copper])

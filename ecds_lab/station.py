@@ -107,6 +107,11 @@ def open_station(config: StationConfig, yaml_text: str = "", *, transport_factor
         assert isinstance(clock, SimulatedClock)
         lab_name = f"lab{next(_lab_numbers)}"
         lab = register_lab(lab_name, SimulatedLab(config.simulated.lab, clock))
+        if not config.simulated.pacing:  # the host keeps no pauses: no emulator may lose a command for it
+            from ecds_lab.simulators.registry import emulator
+
+            for instrument in instruments.values():
+                emulator(lab_name, instrument.driver).paced_host = False
         instruments = {role: inst if inst.link is not None else
                        inst.model_copy(update={"link": simulated_link(inst.driver, lab_name)})
                        for role, inst in instruments.items()}

@@ -11,8 +11,9 @@ point, from the lab's thermal constants.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Iterable, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -54,8 +55,8 @@ class Recorder:
                                   z.imag / (2 * math.pi * frequency), z.real))
 
     def measurements(self, source: str = "simulated campaign") -> Measurements:
-        columns = np.array(self.rows, float).reshape(-1, 7).T
-        return Measurements(*columns, source=source)
+        time_s, x_m, freq_hz, t_coil_c, t_target_c, ls_h, rs_ohm = np.array(self.rows, float).reshape(-1, 7).T
+        return Measurements(time_s, x_m, freq_hz, t_coil_c, t_target_c, ls_h, rs_ohm, source=source)
 
 
 def commanded_distance_m(lab: SimulatedLab) -> float:

@@ -1,16 +1,26 @@
-"""Settings of the simulated lab: sensor, thermal constants, noise and switchable effects.
+"""Settings of the simulated lab: which physics, the set-up's parts, thermal constants, noise.
 
-Every effect beyond the baseline ECM (the README's effect names) can be switched on
-and sized here, so campaigns with a hidden effect can be generated on demand.
+``physics: field`` (the faithful lab) computes readings from the lab's own physics
+(``simulators/physics``: Dodd & Deeds field solution, former expansion and moisture, plate
+materials and bending, carriage mechanics, bridge imperfections), each a named, sizeable,
+switchable block here. ``physics: ecm`` computes them with the paper's equivalent circuit model
+from ``sensor`` and switches on the model library's named effects from ``effects`` one by one, so tests can
+have the analysis model exact or with one hidden effect. The default is ``ecm``; the shipped
+simulated stations choose ``field``.
 """
 
 from __future__ import annotations
 
 from typing import Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from ecds_lab.data.sensor import SensorConfig
+from ecds_lab.simulators.physics.bridge_model import BridgeModelSettings
+from ecds_lab.simulators.physics.coil import CoilSettings
+from ecds_lab.simulators.physics.former import FormerSettings
+from ecds_lab.simulators.physics.plate import PlateSettings
+from ecds_lab.simulators.physics.slide_mechanics import SlideMechanicsSettings
 
 
 class _Strict(BaseModel):
@@ -76,7 +86,9 @@ class BridgeDrift(_Strict):
 
 
 class Effects(_Strict):
-    """Switches and sizes of every effect the simulated lab can add to the baseline ECM."""
+    """Switches and sizes of every effect the ECM physics can add to the baseline (``physics: ecm``;
+    only ``bridge_drift`` also applies to the field physics, whose parts are the coil/former/plate/slide/bridge
+    blocks)."""
 
     target_tau_temperature: TargetTauTemperature = TargetTauTemperature()
     tau_displacement: TauDisplacement = TauDisplacement()
@@ -101,10 +113,15 @@ class Thermal(_Strict):
     box_k_per_w: float = Field(1.2, gt=0, description="steady thermal-box rise per heater watt")
     box_tau_s: float = Field(120.0, gt=0)
     former_tau_s: float = Field(900.0, gt=0)
+    winding_tau_s: float | None = Field(300.0, gt=0, description="physics field: the winding lags the former's "
+                                                                  "thermocouple (None: no lag)")
 
 
 class Noise(_Strict):
-    """Measurement noise: bridge (relative, per speed, at 1.5 V and no averaging), thermocouples, slide."""
+    """Measurement noise: bridge (relative, per speed, at 1.5 V and no averaging), thermocouples, slide.
+
+    With ``physics: field`` only ``thermocouple_k`` applies; the ``bridge`` and ``slide`` blocks size the rest.
+    """
 
     bridge_relative: dict[str, float] = {"fast": 200e-6, "medium": 60e-6, "slow": 20e-6}
     thermocouple_k: float = Field(0.02, ge=0)
@@ -131,9 +148,15 @@ class InjectedFaults(_Strict):
 
 
 class LabConfig(_Strict):
-    """One simulated lab: the sensor on the slide, the target, the climate, noise and effects."""
+    """One simulated lab: the physics, the sensor on the slide, the target, the climate, noise and effects."""
 
+    physics: Literal["ecm", "field"] = Field("ecm", description="field: the faithful lab; ecm: the paper's model")
     sensor: SensorConfig = SensorConfig()
+    coil: CoilSettings = Field(CoilSettings(), description="physics field: the winding")
+    former: FormerSettings = Field(FormerSettings(), description="physics field: expansion and moisture")
+    plate: PlateSettings = Field(PlateSettings(), description="physics field: the target plate")
+    slide: SlideMechanicsSettings = Field(SlideMechanicsSettings(), description="physics field: carriage errors")
+    bridge: BridgeModelSettings = Field(BridgeModelSettings(), description="physics field: bridge imperfections")
     alpha_per_k: float | None = Field(None, description="Eq. (4) alpha; default 2x the former's expansion")
     beta_per_k2: float = 2e-8
     tau_t_s: float | None = Field(None, gt=0, description="default: the target material's tau_T")
@@ -148,6 +171,30 @@ class LabConfig(_Strict):
     effects: Effects = Effects()
     faults: InjectedFaults = InjectedFaults()
     seed: int | None = 1
+
+    @model_validator(mode="after")
+    def _one_description(self) -> LabConfig:
+        """The field blocks' materials must agree with the sensor description; ECM effects are ECM-only."""
+        if self.former.material is not None and self.former.material != self.sensor.former:
+            raise ValueError(f"former.material {self.former.material!r} differs from sensor.former "
+                             f"{self.sensor.former!r}; give one of them")
+        if self.plate.material is not None and self.plate.material != self.sensor.target:
+            raise ValueError(f"plate.material {self.plate.material!r} differs from sensor.target "
+                             f"{self.sensor.target!r}; give one of them")
+        if self.physics == "field":
+            ecm_only = [name for name in self.effects.enabled() if name != "bridge_drift"]
+            if ecm_only:
+                raise ValueError(f"effects {ecm_only} belong to physics: ecm; with physics: field the lab's "
+                                 "coil, former, plate, slide and bridge blocks size the physics")
+        return self
+
+    @property
+    def former_material(self) -> str:
+        return self.former.material or self.sensor.former
+
+    @property
+    def plate_material(self) -> str:
+        return self.plate.material or self.sensor.target
 
     @property
     def alpha(self) -> float:

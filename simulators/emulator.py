@@ -39,6 +39,10 @@ class LineEmulator(ABC):
         self.wire: bytearray | None = None
         #: The command line being handled (what injected reply faults are keyed on).
         self._command = ""
+        #: The host keeps the instrument's pauses between commands. A simulated station with pacing
+        #: switched off sets this False, and an instrument that loses commands sent too fast (the
+        #: HM8118) then takes them all.
+        self.paced_host = True
 
     # -- the port side ------------------------------------------------------------------------
     def receive(self, data: bytes) -> None:

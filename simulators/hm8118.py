@@ -1,20 +1,45 @@
 """HM8118 LCR bridge emulator: the bridge's serial protocol over the simulated lab's coil.
 
 Written from the instrument's manual, not from the driver (its tables are the emulator's own):
-  [M32] HM8118 manual, ch. 10 "Command reference", sections 10.1-10.2, p. 32 (mnemonics, codes)
-  [M23] HM8118 manual (German), "Befehlsliste", p. 23 (``ERROR`` for a refused command)
-  [M50] HM8118 manual, s. 7.3.2, p. 50 (compensation over the 69 test frequencies)
+  [M32]  HM8118 manual (English), ch. 10 "Command Reference", 10.1 "Setting Up the Command
+         Structure" and 10.2 "Supported Command and Data Formats", p. 32: four-letter mnemonics,
+         ``(?)`` marks a command that can also be queried; every command ends with CR or CR+LF,
+         "no individual LF"; the bridge "does not support parallel processing of commands";
+         *IDN? format, *RST to factory settings, *OPC? answers 1 once the measurement is complete
+  [M23]  HM8118 manual (German), "Befehlsliste", p. 23: XMAJ?, XMIN?, XDLT?, XDMT? (the deviation
+         from the PREL reference), an error message when nothing can be read (AUTO function, a
+         zero reference); the binning commands (BCLR, BING, BLIH, ...) exist only with the HO118
+         binning interface fitted
+  [M50]  HM8118 manual, s. 7.3.2, p. 50 (compensation over the 69 test frequencies)
   [SPEC] HM8118 data sheet: test frequencies 20 Hz-200 kHz, test signal 50 mV-1.5 V rms
-CR-terminated commands, silent set commands, ``ERROR`` for anything refused,
-``XALL?`` -> ``main,secondary,bin``. Measurement times and noise per speed are
-assumptions (the vendor's figures were not found): fast 70 ms, medium 190 ms, slow
-600 ms per reading.
+  [SWM]  SweepMe! instrument-drivers, LCRmeter-Hameg_HM8118 (a third-party client whose set commands
+         the bridge accepts silently): LOCK 0|1, RNGH 0 (auto range), OUTP 0 (plain values), BIAS
+         0|1|2 (off, internal, external bias), VBIA 0-5 V and VBIA?, $STL trigger delay in ms (0-40 s),
+         AVGM 1 + NAVG 2-99, MMOD 0|1|2, "*TRG; *OPC?" in one line, 0.15 s between commands
+  [KAK]  kaktus85/Hameg8118: CROP / CRSH answer 0 (done) or -1 (failed) after the compensation
+Set commands are silent when accepted; anything refused is answered ``ERROR`` [M23].
+``XALL?`` -> ``main,secondary,bin``.
+
+Timing (assumptions where no source gives figures): fast 70 ms, medium 190 ms, slow 600 ms per
+reading; the bridge needs ``COMMAND_TIME_S`` to take in one command line, and a line that arrives
+sooner after the previous one is lost (it "does not support parallel processing" [M32]); 0.1 s is
+below the 0.15 s [SWM] and 0.2 s (R&S example) that clients use successfully.
+
+Assumptions, not confirmed from the manual pages at hand: the range codes of RNGE (1-6, auto-ranging
+chooses by |Z|), AVGM 2 = median of three readings (the front panel's MED averaging), the OUTP codes
+0 value, 1 absolute deviation, 2 percent deviation from PREL (the XDLT?/XDMT? pair [M23]; XMAJ? and
+XALL? show the main value that way, and a percent display with a zero reference is an error [M23]),
+CONV 0|1. Bias,
+constant-voltage mode and the range setting are held and read back but do not change the lab's
+coil: the lab's noise model is given the set test level in every mode.
 """
 
 from __future__ import annotations
 
 import cmath
 import math
+from collections.abc import Callable
+from dataclasses import dataclass
 
 from ecds_lab.simulators.emulator import LineEmulator
 from ecds_lab.simulators.lab import SimulatedLab
@@ -28,6 +53,10 @@ FREQUENCIES_HZ: frozenset[int] = frozenset(
     step * 10 ** decade for decade in range(6) for step in _STEPS_PER_DECADE if 20 <= step * 10 ** decade <= 200_000)
 #: ``VOLT``: test signal level in V rms [SPEC].
 VOLTAGE_RANGE_V = (0.05, 1.5)
+#: ``VBIA``: internal DC bias in V [SWM].
+BIAS_VOLTAGE_RANGE_V = (0.0, 5.0)
+#: ``$STL``: trigger delay in ms [SWM: 0-40 s, sent in ms].
+TRIGGER_DELAY_RANGE_MS = (0, 40_000)
 #: ``PMOD`` codes [M32]: the main-secondary display pair (10 and 11 need the HZ186 fixture).
 FUNCTION_CODES = {0: "AUTO", 1: "L-Q", 2: "L-R", 3: "C-D", 4: "C-R", 5: "R-Q", 6: "Z-theta", 7: "Y-theta",
                   8: "R-X", 9: "G-B", 10: "N-theta", 11: "M"}
@@ -35,22 +64,75 @@ FUNCTION_CODES = {0: "AUTO", 1: "L-Q", 2: "L-R", 3: "C-D", 4: "C-R", 5: "R-Q", 6
 CIRCUIT_CODES = {0: "series", 1: "parallel", 2: "auto"}
 #: ``RATE`` codes [M32], named as the lab's noise model names them.
 SPEED_CODES = {0: "fast", 1: "medium", 2: "slow"}
-#: ``MMOD`` codes [M32].
+#: ``MMOD`` codes [M32, SWM].
 TRIGGER_CODES = {0: "continuous", 1: "manual", 2: "external"}
-#: ``NAVG``: readings averaged when ``AVGM`` is on [M32].
+#: ``AVGM`` codes: off, average over NAVG readings [SWM], median (assumption, see above).
+AVERAGING_CODES = {0: "off", 1: "average", 2: "median"}
+MEDIAN_READINGS = 3
+#: ``NAVG``: readings averaged when ``AVGM 1`` [SWM].
 AVERAGES_RANGE = (2, 99)
+#: ``BIAS`` codes [SWM].
+BIAS_CODES = {0: "off", 1: "internal", 2: "external"}
+#: ``OUTP`` codes (assumption, see above).
+OUTPUT_CODES = {0: "value", 1: "deviation", 2: "percent"}
+#: ``RNGE`` codes and the upper |Z| each range serves when auto-ranging (assumption, see above).
+RANGE_LIMITS_OHM = {1: 3.0, 2: 25.0, 3: 400.0, 4: 6.4e3, 5: 100e3, 6: math.inf}
 MEASUREMENT_TIME_S = {0: 0.07, 1: 0.19, 2: 0.6}
 COMPENSATION_TIME_S = 1.5  # per frequency
+#: Time the bridge needs to take in one command line; a line arriving sooner is lost (see above).
+COMMAND_TIME_S = 0.1
+
+
+@dataclass(frozen=True)
+class Setting:
+    """One settable value of the remote command list: its check and its reply format."""
+
+    valid: Callable[[float], bool]
+    default: float
+    decimals: int = 0
+
+
+def _codes(table: dict[int, str]) -> Callable[[float], bool]:
+    return lambda value: value in table
+
+
+def _within(low: float, high: float, whole: bool = False) -> Callable[[float], bool]:
+    return lambda value: low <= value <= high and (value.is_integer() or not whole)
+
+
+#: The remote command list's settings: ``NAME value`` sets, ``NAME?`` reads back [M32, SWM]. Defaults are
+#: the *RST state (assumption: 1 kHz, 1 V, auto function/circuit, medium speed, everything else off).
+SETTINGS: dict[str, Setting] = {
+    "FREQ": Setting(lambda value: value in FREQUENCIES_HZ, 1000),
+    "VOLT": Setting(_within(*VOLTAGE_RANGE_V), 1.0, decimals=3),
+    "PMOD": Setting(_codes(FUNCTION_CODES), 0),
+    "CIRC": Setting(_codes(CIRCUIT_CODES), 2),
+    "RATE": Setting(_codes(SPEED_CODES), 1),
+    "AVGM": Setting(_codes(AVERAGING_CODES), 0),
+    "NAVG": Setting(_within(*AVERAGES_RANGE, whole=True), 2),
+    "MMOD": Setting(_codes(TRIGGER_CODES), 0),
+    "CALL": Setting(_codes({0: "this frequency", 1: "all frequencies"}), 0),
+    "RNGE": Setting(_codes(dict.fromkeys(RANGE_LIMITS_OHM, "")), 3),
+    "RNGH": Setting(_codes({0: "auto", 1: "hold"}), 0),
+    "CONV": Setting(_codes({0: "off", 1: "on"}), 0),
+    "BIAS": Setting(_codes(BIAS_CODES), 0),
+    "VBIA": Setting(_within(*BIAS_VOLTAGE_RANGE_V), 0.0, decimals=3),
+    "OUTP": Setting(_codes(OUTPUT_CODES), 0),
+    "PREL": Setting(lambda value: math.isfinite(value), 0.0, decimals=5),
+    "LOCK": Setting(_codes({0: "front panel free", 1: "front panel locked"}), 0),
+    "$STL": Setting(_within(*TRIGGER_DELAY_RANGE_MS, whole=True), 0),
+}
 
 
 class HM8118Emulator(LineEmulator):
     name = "hm8118"
-    line_endings = b"\r\n"
+    #: CR ends a command; the LF of a CR+LF is dropped, a lone LF ends nothing [M32].
+    line_endings = b"\r"
     reply_termination = b"\r"
 
     def __init__(self, lab: SimulatedLab) -> None:
         super().__init__(lab)
-        self._commands = {
+        self._commands: dict[str, Callable[[], None]] = {
             "*IDN?": lambda: self._answer(IDENTITY),
             "*RST": self.reset,
             "*OPC?": lambda: self._answer("1"),
@@ -59,21 +141,32 @@ class HM8118Emulator(LineEmulator):
             "XALL?": self._read_all,
             "XMAJ?": lambda: self._read_one(0),
             "XMIN?": lambda: self._read_one(1),
+            "XDLT?": lambda: self._read_deviation(percent=False),
+            "XDMT?": lambda: self._read_deviation(percent=True),
             "CROP": lambda: self._compensate("CROP"),
             "CRSH": lambda: self._compensate("CRSH"),
         }
+        self._last_line_at: float | None = None
+        #: Lines lost because they came sooner than COMMAND_TIME_S after the previous one.
+        self.lost_lines: list[str] = []
         self.reset()
 
     def reset(self) -> None:
-        self.settings = {"FREQ": 1000, "VOLT": 1.0, "PMOD": 0, "CIRC": 2, "RATE": 1, "AVGM": 0, "NAVG": 2,
-                         "MMOD": 0, "CALL": 0}
+        self.settings: dict[str, float] = {name: setting.default for name, setting in SETTINGS.items()}
         self.busy_until = self.lab.clock.now()
         self.last_values: tuple[float, float] | None = None
 
     # -- protocol --------------------------------------------------------------------------
     def handle_line(self, line: str) -> None:
+        if line.startswith("\n"):  # the LF of a CR+LF
+            line = line[1:]
+        now = self.lab.clock.now()
+        if self.paced_host and self._last_line_at is not None and now - self._last_line_at < COMMAND_TIME_S:
+            self.lost_lines.append(line)
+            return
+        self._last_line_at = now
         for command in line.split(";"):
-            command = command.strip()
+            command = command.strip(" ")
             if command:
                 self._handle(command)
 
@@ -82,6 +175,9 @@ class HM8118Emulator(LineEmulator):
         self.reply(text, max(0.0, self.busy_until - self.lab.clock.now()))
 
     def _handle(self, command: str) -> None:
+        if "\n" in command:  # a lone LF is no terminator: the line is garbled [M32]
+            self._answer("ERROR")
+            return
         mnemonic, _, argument = command.partition(" ")
         mnemonic = mnemonic.upper()
         argument = argument.strip()
@@ -93,9 +189,9 @@ class HM8118Emulator(LineEmulator):
         handler = self._commands.get(mnemonic)
         if handler is not None and not argument:
             handler()
-        elif mnemonic.endswith("?") and mnemonic[:-1] in self.settings and not argument:
+        elif mnemonic.endswith("?") and mnemonic[:-1] in SETTINGS and not argument:
             self._answer(self._format_setting(mnemonic[:-1]))
-        elif mnemonic in self.settings and argument:
+        elif mnemonic in SETTINGS and argument:
             self._set(mnemonic, argument)
         else:
             self._answer("ERROR")
@@ -106,34 +202,30 @@ class HM8118Emulator(LineEmulator):
         except ValueError:
             self._answer("ERROR")
             return
-        valid = {
-            "FREQ": value in FREQUENCIES_HZ,
-            "VOLT": VOLTAGE_RANGE_V[0] <= value <= VOLTAGE_RANGE_V[1],
-            "PMOD": value in FUNCTION_CODES,
-            "CIRC": value in CIRCUIT_CODES,
-            "RATE": value in SPEED_CODES,
-            "AVGM": value in (0, 1),
-            "NAVG": value.is_integer() and AVERAGES_RANGE[0] <= value <= AVERAGES_RANGE[1],
-            "MMOD": value in TRIGGER_CODES,
-            "CALL": value in (0, 1),
-        }[mnemonic]
-        if not valid:
+        setting = SETTINGS[mnemonic]
+        if not setting.valid(value):
             self._answer("ERROR")
             return
-        self.settings[mnemonic] = round(value, 3) if mnemonic == "VOLT" else int(value)
+        self.settings[mnemonic] = round(value, setting.decimals) if setting.decimals else int(value)
+        if mnemonic == "RNGE":  # choosing a range holds it
+            self.settings["RNGH"] = 1
 
     def _format_setting(self, mnemonic: str) -> str:
         value = self.settings[mnemonic]
-        return f"{value:.3f}" if mnemonic == "VOLT" else str(int(value))
+        decimals = SETTINGS[mnemonic].decimals
+        return f"{value:.{decimals}f}" if decimals else str(int(value))
 
     def _code(self, mnemonic: str) -> int:
         """A coded setting (PMOD, CIRC, RATE, NAVG, ...) as the integer the bridge holds."""
         return int(self.settings[mnemonic])
 
     # -- measuring -------------------------------------------------------------------------
+    def _readings(self) -> int:
+        """Readings behind one displayed value: 1, NAVG averaged, or the median of three."""
+        return {0: 1, 1: self._code("NAVG"), 2: MEDIAN_READINGS}[self._code("AVGM")]
+
     def _duration(self) -> float:
-        count = self._code("NAVG") if self.settings["AVGM"] else 1
-        return MEASUREMENT_TIME_S[self._code("RATE")] * count
+        return MEASUREMENT_TIME_S[self._code("RATE")] * self._readings() + self._code("$STL") / 1000
 
     def _trigger(self) -> None:
         """*TRG starts a measurement; the lab is sampled now, the result is ready after the measuring time."""
@@ -146,16 +238,45 @@ class HM8118Emulator(LineEmulator):
             self._trigger()
         return self.last_values
 
-    def _read_all(self) -> None:
+    def _displayed(self) -> tuple[float, float] | None:
+        """The displayed pair: the main value as OUTP shows it (value, deviation from PREL, or percent).
+
+        A percent display with a zero reference has nothing to show: an error [M23 XMAJ?]."""
         values = self._fresh_values()
+        if values is None:
+            return None
+        output, reference = self._code("OUTP"), self.settings["PREL"]
+        if output == 0:
+            return values
+        if output == 2 and reference == 0:
+            return None
+        deviation = values[0] - reference
+        return (100 * deviation / reference if output == 2 else deviation), values[1]
+
+    def _read_all(self) -> None:
+        values = self._displayed()
         if values is None:
             self._answer("ERROR")
         else:
             self._answer(f"{values[0]:.5E},{values[1]:.5E},0")
 
     def _read_one(self, index: int) -> None:
-        values = self._fresh_values()
+        values = self._displayed()
         self._answer("ERROR" if values is None else f"{values[index]:.5E}")
+
+    def _read_deviation(self, percent: bool) -> None:
+        """XDLT? / XDMT?: main value minus the PREL reference; an error when the reference is zero [M23]."""
+        values = self._fresh_values()
+        reference = self.settings["PREL"]
+        if values is None or reference == 0:
+            self._answer("ERROR")
+            return
+        deviation = values[0] - reference
+        self._answer(f"{(100 * deviation / reference if percent else deviation):.5E}")
+
+    def auto_range(self, impedance_ohm: float) -> int:
+        """The range auto-ranging picks for |Z| (the lowest whose limit covers it)."""
+        return next(code for code, limit in RANGE_LIMITS_OHM.items() if impedance_ohm <= limit)
 
     def _measure(self) -> tuple[float, float] | None:
         """Main and secondary value of the active function from the lab's coil impedance."""
@@ -163,8 +284,15 @@ class HM8118Emulator(LineEmulator):
             return None
         frequency = float(self.settings["FREQ"])
         omega = 2 * math.pi * frequency
-        averages = self._code("NAVG") if self.settings["AVGM"] else 1
-        z = self.lab.measured_impedance(frequency, SPEED_CODES[self._code("RATE")], self.settings["VOLT"], averages)
+        speed, level = SPEED_CODES[self._code("RATE")], self.settings["VOLT"]
+        if self._code("AVGM") == 2:
+            samples = sorted((self.lab.measured_impedance(frequency, speed, level) for _ in range(MEDIAN_READINGS)),
+                             key=abs)
+            z = samples[MEDIAN_READINGS // 2]
+        else:
+            z = self.lab.measured_impedance(frequency, speed, level, self._readings())
+        if not self.settings["RNGH"]:
+            self.settings["RNGE"] = self.auto_range(abs(z))
         function = self._code("PMOD")
         if function in (6, 7, 8):  # Z-theta, Y-theta, R-X: no equivalent circuit involved
             theta = math.degrees(cmath.phase(z))

@@ -4,6 +4,11 @@ The slide's position changes what the bridge measures, the heater supply warms t
 target, a heater in the thermal box warms the coil, temperatures follow first-order
 dynamics, and the former holds moisture that heating drives out. Time comes from a
 ``SimulatedClock`` that the runner shares, so instruments interact as in the real set-up.
+
+Temperatures (first-order nodes, exact per constant-input step): box air -> former surface
+(the coil thermocouple) -> winding; target heaters -> plate bulk -> plate surface (the target
+thermocouple). With ``physics: field`` the readings come from ``simulators/physics``
+(docs/simulated_lab.md); with ``physics: ecm`` from the paper's equivalent circuit model.
 """
 
 from __future__ import annotations
@@ -14,10 +19,14 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ecds_lab.clock import SimulatedClock
-from ecds_lab.data.sensor import TARGET_TAU_TEMPCO_PER_K
-from ecds_lab.model import ecm
-from ecds_lab.model.coupling import Coupling, image_method_coupling, table_coupling
 from ecds_lab.simulators.config import LabConfig
+from ecds_lab.simulators.physics import ecm
+from ecds_lab.simulators.physics.bridge_model import BridgeModel
+from ecds_lab.simulators.physics.field_sensor import FieldSensor
+from ecds_lab.simulators.physics.field_solution import Winding
+from ecds_lab.simulators.physics.former import FormerState
+from ecds_lab.simulators.physics.plate import Plate
+from ecds_lab.simulators.physics.slide_mechanics import carriage_error_m, draw_scatter_m
 
 #: Longest step of the thermal/moisture integration (s); inputs are constant within a step.
 _MAX_STEP_S = 5.0
@@ -85,20 +94,31 @@ class SimulatedLab:
                              silent_instruments=set(injected.silent_instruments),
                              short_replies=dict(injected.short_replies),
                              unsolicited_lines={k: list(v) for k, v in injected.unsolicited_lines.items()})
-        sensor = self.config.sensor
-        self.coupling: Coupling = (
-            table_coupling(sensor.coupling_table) if sensor.coupling_table else image_method_coupling(sensor.coil)
-        )
-        ambient = self.config.thermal.ambient_c
+        cfg = self.config
+        ambient = cfg.thermal.ambient_c
+        self.field = cfg.physics == "field"
+        if self.field:
+            plate = Plate(cfg.plate, cfg.plate_material)
+            self.sensor = FieldSensor(cfg.coil, plate)
+            self.plate = plate
+            self.former = FormerState(cfg.former, cfg.former_material, ambient)
+            self.bridge_model = BridgeModel(cfg.bridge, cfg.seed)
+        else:
+            sensor = cfg.sensor
+            coil = sensor.coil
+            self.coupling: ecm.ImageCoupling | ecm.TableCoupling = (
+                ecm.TableCoupling(sensor.coupling_table) if sensor.coupling_table else ecm.ImageCoupling(
+                    Winding(coil.inner_radius_m, coil.outer_radius_m, coil.height_m, coil.turns),
+                    coil.radial_filaments, coil.axial_filaments))
         self.t_box_c = ambient
         self.t_former_c = ambient
         self.t_winding_c = ambient
         self.t_target_c = ambient
-        self.moisture = self.config.effects.parasitic_capacitance.initial_moisture
+        self.t_plate_surface_c = ambient
+        self.moisture = cfg.effects.parasitic_capacitance.initial_moisture
         self.slide = Slide()
         self.supply = {n: SupplyOutput() for n in (1, 2, 3, 4)}
         self._updated_at = self.clock.now()
-        self._last_x_m, self._last_k2 = math.nan, 0.0
 
     # -- time ---------------------------------------------------------------------------------
     def update(self) -> None:
@@ -118,15 +138,23 @@ class SimulatedLab:
         decay_target = math.exp(-dt / th.target_tau_s)
         decay_box = math.exp(-dt / th.box_tau_s)
         decay_former = math.exp(-dt / th.former_tau_s)
-        lag = effects.thermal_lag
-        decay_winding = math.exp(-dt / lag.tau_s) if lag.enabled else 0.0
+        if self.field:
+            decay_winding = math.exp(-dt / th.winding_tau_s) if th.winding_tau_s else 0.0
+            decay_surface = math.exp(-dt / self.plate.surface_lag_s)
+        else:
+            lag = effects.thermal_lag
+            decay_winding = math.exp(-dt / lag.tau_s) if lag.enabled else 0.0
+            decay_surface = 0.0
         wet = effects.parasitic_capacitance
         for _ in range(steps):
             self.t_target_c = target_goal + (self.t_target_c - target_goal) * decay_target
+            self.t_plate_surface_c = self.t_target_c + (self.t_plate_surface_c - self.t_target_c) * decay_surface
             self.t_box_c = box_goal + (self.t_box_c - box_goal) * decay_box
             self.t_former_c = self.t_box_c + (self.t_former_c - self.t_box_c) * decay_former
             self.t_winding_c = self.t_former_c + (self.t_winding_c - self.t_former_c) * decay_winding
-            if wet.enabled:
+            if self.field:
+                self.former.step(self.t_former_c, dt)
+            elif wet.enabled:
                 dry = wet.drying_rate_at_100c_per_s * 2.0 ** ((self.t_former_c - 100.0) / wet.drying_doubling_k)
                 total = dry + wet.absorption_rate_per_s
                 equilibrium = wet.absorption_rate_per_s / total
@@ -173,8 +201,11 @@ class SimulatedLab:
         self.slide.motor_mm = target_mm
         self.slide.move_from_mm, self.slide.move_to_mm = start, target_mm
         self.slide.move_start_s, self.slide.move_duration_s = now, duration
-        sigma = self.config.noise.slide_repeatability_um * 1e-3
-        self.slide.carriage_error_mm = float(self.rng.normal(0.0, sigma)) if sigma > 0 else 0.0
+        if self.field:
+            self.slide.carriage_error_mm = draw_scatter_m(self.config.slide, self.rng) * 1e3
+        else:
+            sigma = self.config.noise.slide_repeatability_um * 1e-3
+            self.slide.carriage_error_mm = float(self.rng.normal(0.0, sigma)) if sigma > 0 else 0.0
         return duration
 
     def halt_slide(self) -> None:
@@ -188,7 +219,12 @@ class SimulatedLab:
         """True coil-target distance of the carriage (backlash and repeatability included), in m."""
         if not self.config.target_present:
             return math.inf
-        carriage = self.slide.position(self.clock.now()) + self.slide.carriage_error_mm
+        motor = self.slide.position(self.clock.now())
+        if self.field:
+            error_m = carriage_error_m(self.config.slide, motor, self.slide.last_direction,
+                                       self.slide.carriage_error_mm * 1e-3)
+            return (self.config.slide_origin_mm + motor) * 1e-3 + error_m
+        carriage = motor + self.slide.carriage_error_mm
         backlash = self.config.effects.slide_backlash
         if backlash.enabled:
             carriage -= self.slide.last_direction * backlash.backlash_um * 1e-3 / 2
@@ -196,13 +232,31 @@ class SimulatedLab:
 
     # -- the coil as the bridge sees it -------------------------------------------------------
     def coil_impedance(self, frequency_hz: float) -> complex:
-        """Impedance at the bridge terminals now: ECM Eq. (1)-(4) plus parallel C and loss."""
+        """Impedance at the bridge terminals now (the physics the station's config chose)."""
         self.update()
-        cfg, sensor, effects = self.config, self.config.sensor, self.config.effects
         omega = 2 * math.pi * frequency_hz
+        z = self._field_impedance(omega) if self.field else self._ecm_impedance(omega)
+        drift = self.config.effects.bridge_drift
+        if drift.enabled:
+            gain = 1 + drift.ppm_per_hour * 1e-6 * self.clock.now() / 3600.0
+            z = complex(z.real, z.imag * gain)
+        return z
+
+    def _field_impedance(self, omega: float) -> complex:
+        """Dodd & Deeds coil over the plate, the former's strain, C and loss (docs/simulated_lab.md)."""
+        ambient = self.config.thermal.ambient_c
+        t_plate = self.plate.field_temperature_c(self.t_plate_surface_c, ambient)
+        branch = self.sensor.series_branch(omega, self.distance_m(), self.t_winding_c, t_plate, ambient,
+                                           self.former.strain(self.t_winding_c))
+        capacitance, conductance = self.former.parallel_elements(omega / (2 * math.pi))
+        return ecm.with_parallel(branch, omega, capacitance, conductance)
+
+    def _ecm_impedance(self, omega: float) -> complex:
+        """ECM Eq. (1)-(4) plus parallel C and loss, with the ECM effects switched on in ``effects``."""
+        cfg, sensor, effects = self.config, self.config.sensor, self.config.effects
         t_ref = sensor.reference_temperature_c
         d_coil = self.t_winding_c - t_ref
-        l_coil = ecm.coil_inductance(sensor.inductance_h, cfg.alpha, cfg.beta_per_k2, d_coil)
+        l_coil = sensor.inductance_h * (1 + cfg.alpha * d_coil + cfg.beta_per_k2 * d_coil**2)
         r_coil = sensor.resistance_ohm * (1 + sensor.resistance_tempco_per_k * d_coil)
         x = self.distance_m()
         k2, tau = 0.0, cfg.tau_t
@@ -210,39 +264,30 @@ class SimulatedLab:
             d_target = self.t_target_c - t_ref
             if effects.target_bending.enabled:
                 x -= effects.target_bending.shift_um_per_k * 1e-6 * d_target
-            k2 = self._coupling_squared(x)
+            k2 = self.coupling.k2(x)
             if effects.target_tau_temperature.enabled:
                 tempco = effects.target_tau_temperature.tempco_per_k
-                tempco = TARGET_TAU_TEMPCO_PER_K[sensor.target] if tempco is None else tempco
+                tempco = ecm.TAU_TEMPCO_PER_K[sensor.target] if tempco is None else tempco
                 tau *= 1 + tempco * d_target
             if effects.tau_displacement.enabled:
                 tau *= 1 + effects.tau_displacement.slope_per_mm * (x * 1e3 - effects.tau_displacement.reference_mm)
-        l_true = ecm.ecds_inductance(l_coil, k2, omega, tau)
-        r_true = ecm.ecds_resistance(r_coil, l_coil, k2, omega, tau)
         wet = effects.parasitic_capacitance
         moisture = self.moisture if wet.enabled else 0.0
         capacitance = sensor.capacitance_f + wet.moist_extra_capacitance_f * moisture
         conductance = 1 / sensor.parallel_resistance_ohm + wet.moist_extra_conductance_s * moisture
-        z = ecm.with_parallel_elements(complex(r_true, omega * l_true), omega, capacitance, 1 / conductance)
-        if effects.bridge_drift.enabled:
-            drift = effects.bridge_drift.ppm_per_hour * 1e-6 * self.clock.now() / 3600.0
-            z = complex(z.real, z.imag * (1 + drift))
-        return z
-
-    def _coupling_squared(self, x_m: float) -> float:
-        """k(x)^2, remembered for the last distance (the slide stands still for many readings)."""
-        if x_m != self._last_x_m:
-            self._last_x_m, self._last_k2 = x_m, float(self.coupling(x_m)) ** 2
-        return self._last_k2
+        return ecm.with_parallel(ecm.series_branch(l_coil, r_coil, k2, omega, tau), omega, capacitance, conductance)
 
     def measured_impedance(self, frequency_hz: float, speed: str = "slow", voltage_v: float = 1.5,
                            averages: int = 1) -> complex:
-        """What the bridge reads: the impedance now plus HM8118-like noise.
+        """What the bridge reads: the impedance now plus the bridge's noise (and, field physics, its
+        basic accuracy and rare glitches: ``simulators/physics/bridge_model``).
 
-        Noise is relative to |Z|, set per speed for 1.5 V (``config.noise.bridge_relative``),
+        ECM physics: noise relative to |Z| per speed at 1.5 V (``config.noise.bridge_relative``),
         growing as the test level falls and shrinking with the square root of the averages.
         """
         z = self.coil_impedance(frequency_hz)
+        if self.field:
+            return self.bridge_model.read(z, frequency_hz, speed, voltage_v, averages, self.rng)
         sigma = self.config.noise.bridge_relative[speed] * 1.5 / voltage_v / math.sqrt(max(1, averages))
         if sigma <= 0:
             return z
@@ -251,9 +296,11 @@ class SimulatedLab:
 
     # -- thermocouples ------------------------------------------------------------------------
     def temperature_c(self, quantity: str) -> float:
-        """True temperature of 'coil' (the former, where the thermocouple sits), 'target' or 'ambient'."""
+        """True temperature where a thermocouple sits: 'coil' (the former's surface), 'target' (the plate's
+        surface; with ECM physics the one plate node) or 'ambient'."""
         self.update()
-        return {"coil": self.t_former_c, "target": self.t_target_c, "ambient": self.config.thermal.ambient_c}[quantity]
+        target = self.t_plate_surface_c if self.field else self.t_target_c
+        return {"coil": self.t_former_c, "target": target, "ambient": self.config.thermal.ambient_c}[quantity]
 
     def noisy(self, value: float, sigma: float) -> float:
         return value + float(self.rng.normal(0.0, sigma)) if sigma > 0 else value

@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import itertools
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import pytest
 
@@ -34,7 +35,7 @@ class LabHandle:
         options = {**settings, **overrides}
         return SerialTransport(instrument, self.url(instrument), clock=self.clock, **options)
 
-    def emulator(self, instrument: str):  # noqa: ANN201
+    def emulator(self, instrument: str):
         return emulator(self.name, instrument)
 
     def capture(self, instrument: str) -> bytearray:

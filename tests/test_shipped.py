@@ -7,8 +7,8 @@ import pytest
 from ecds_lab import shipped
 from ecds_lab.config.loading import load_yaml_model
 from ecds_lab.config.station import StationConfig
+from ecds_lab.data.sensor import load_sensor
 from ecds_lab.demo import CAMPAIGN
-from ecds_lab.model.sensor import load_sensor
 
 
 def test_every_campaign_file_of_the_demo_is_shipped():

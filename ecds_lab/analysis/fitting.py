@@ -13,8 +13,9 @@ from __future__ import annotations
 import itertools
 import math
 import time
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any, Callable, Mapping, Sequence
+from typing import Any
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -167,7 +168,7 @@ def initial_values(model: SensorModel, data: Measurements, params: Sequence[Para
     coef, *_ = np.linalg.lstsq(np.column_stack(columns), l_coil[rows], rcond=None)
     if not np.isfinite(coef).all() or coef[0] <= 0:
         return {}
-    return {"L0": float(coef[0]), **{n: float(c / coef[0]) for n, c in zip(names, coef[1:])}}
+    return {"L0": float(coef[0]), **{n: float(c / coef[0]) for n, c in zip(names, coef[1:], strict=True)}}
 
 
 def _repeat_noise(data: Measurements, solved: tuple[Any, Scaling]) -> float | None:
@@ -239,7 +240,7 @@ def _alternative_starts(model: SensorModel, data: Measurements, params: Sequence
         return []
     scored = []
     for combo in itertools.product(*axes.values()):
-        changes = dict(zip(axes, combo))
+        changes = dict(zip(axes, combo, strict=True))
         candidate = update(params, values=changes)
         with np.errstate(all="ignore"):
             r = (data.ls_h / model.predict(data, values_of(candidate)) - 1) * 1e6
@@ -261,7 +262,7 @@ def _result(model: SensorModel, data: Measurements, solved: tuple[Any, Scaling],
     dof = len(residuals) - k
     covariance = _covariance(np.asarray(result.jac, float), residuals, dof) * np.outer(scaling.scale, scaling.scale)
     stderr = {p.name: math.nan for p in params}
-    stderr.update(zip(scaling.names, np.sqrt(np.clip(np.diag(covariance), 0, None)).tolist()))
+    stderr.update(zip(scaling.names, np.sqrt(np.clip(np.diag(covariance), 0, None)).tolist(), strict=True))
     return FitResult(model, params, stderr, {n: reasons[n] for n in reasons}, residuals, covariance,
                      scaling.names, bool(result.success), str(result.message), int(result.nfev), starts,
                      elapsed, noise)

@@ -196,7 +196,8 @@ def format_fit_summary(summary: dict[str, Any]) -> str:
     noise = summary.get("noise_ppm")
     lines = [f"Fit of {summary['n_points']} readings, effects: {effects}",
              f"  residual RMS {summary['rmse_ppm']:.2f} ppm"
-             + (f" (noise {noise:.2f} ppm, from {summary.get('noise_method', 'the data')})" if noise is not None else "")
+             + (f" (noise {noise:.2f} ppm, from {summary.get('noise_method', 'the data')})"
+                if noise is not None else "")
              + f", dof {summary['dof']}, BIC {summary['bic']:.1f}", "  parameters:"]
     for name, p in summary["params"].items():
         err = "fixed" if p["stderr"] is None else f"+/- {p['stderr']:.4g}"

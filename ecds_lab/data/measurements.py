@@ -135,13 +135,16 @@ class Measurements:
                    t_target_c=data[:, 4], ls_h=data[:, 5], rs_ohm=data[:, 6], source=str(path))
 
     def to_csv(self, path: str | Path) -> None:
-        """Write the CSV import format: every value exactly, x rounded to 1 pm (so 26 mm reads 26.0, not 26.000000000000004)."""
+        """Write the CSV import format: every value exactly, x rounded to 1 pm.
+
+        The rounding makes 26 mm read 26.0, not 26.000000000000004.
+        """
         columns = [self.time_s, np.round(self.x_mm, 9), self.freq_hz, self.t_coil_c, self.t_target_c, self.ls_h,
                    self.rs_ohm]
         with Path(path).open("w", newline="") as handle:
             writer = csv.writer(handle)
             writer.writerow(CSV_COLUMNS)
-            for row in zip(*columns):
+            for row in zip(*columns, strict=True):
                 writer.writerow([repr(float(v)) if math.isfinite(v) else "inf" for v in row])
 
 
@@ -159,7 +162,7 @@ def _csv_rows(path: Path, handle: TextIO) -> list[list[float]]:
             if not row or all(not cell.strip() for cell in row):
                 continue
             values = []
-            for column, i in zip(CSV_COLUMNS, index):
+            for column, i in zip(CSV_COLUMNS, index, strict=True):
                 try:
                     values.append(float(row[i]))
                 except (IndexError, ValueError):

@@ -17,11 +17,10 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 from ecds_lab import shipped
 from ecds_lab.errors import ConfigError
 
-#: The shipped sensor YAMLs, named by their file stem.
 #: What analysis assumes when nothing says which sensor measured the data.
 DEFAULT_SENSOR_NOTE = "sensor not recorded: analysed as the paper's copper prototype"
 
-#: Thermal expansion of former materials, 1/K (PHYSICS.md: gypsum 25e-6, fired clay 7.5e-6).
+#: Thermal expansion of former materials, 1/K (docs/physics.md: gypsum 25e-6, fired clay 7.5e-6).
 FORMER_EXPANSION_PER_K = {"gypsum": 25e-6, "fired_clay": 7.5e-6, "plastic": 70e-6}
 
 #: Target materials: eddy-current time constant tau_T at 20 C (PHYSICS.md) and the

@@ -25,8 +25,9 @@ To add an effect: subclass ``Effect`` and enter it in ``EFFECTS`` with ``@regist
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import ClassVar, Mapping
+from typing import ClassVar
 
 import numpy as np
 

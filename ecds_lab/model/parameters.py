@@ -7,8 +7,8 @@ parameter is of order one, whatever its unit (henry, 1/K^2, farad...).
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, replace
-from typing import Iterable, Mapping, Sequence
 
 import numpy as np
 
@@ -91,7 +91,7 @@ class Scaling:
     def values(self, theta: np.ndarray) -> dict[str, float]:
         """All parameter values (fixed ones included) for a theta."""
         out = values_of(self.parameters)
-        out.update(zip(self.names, (self.start + self.scale * np.asarray(theta)).tolist()))
+        out.update(zip(self.names, (self.start + self.scale * np.asarray(theta)).tolist(), strict=True))
         return out
 
     def theta(self, values: Mapping[str, float]) -> np.ndarray:

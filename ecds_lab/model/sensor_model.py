@@ -9,7 +9,7 @@ Pipeline (see ``ecds_lab.model.effects`` for the hooks at each stage):
 
 from __future__ import annotations
 
-from typing import Mapping, Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 

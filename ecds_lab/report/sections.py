@@ -32,6 +32,7 @@ from ecds_lab.report.markup import (
     table,
     value_error,
 )
+from ecds_lab.report.paper_section import paper_comparison_section
 from ecds_lab.report.render import Plot
 
 #: TS is quoted over the readings of the highest temperature step: rises above this share of the largest.
@@ -127,7 +128,8 @@ def runs_section(findings: Findings) -> Parts:
                 points += f" of {run.points} rows; {run.planned_points} planned points"
             status = badge(run.status or "unknown", "good" if run.status == "completed" else "bad")
             row = [item.name, lines([run.experiment or "—", f"kind: {run.kind or '—'}"]),
-                   lines([run.station or "—", f"target: {item.target}", item.sensor_note or f"sensor: {item.sensor.name}"])]
+                   lines([run.station or "—", f"target: {item.target}",
+                          item.sensor_note or f"sensor: {item.sensor.name}"])]
             if not shared:
                 row.append(lines([f"{role}: {ident}" for role, ident in sorted(run.identities.items())] or ["—"]))
             row += [status, lines([_started(run.start_time), _duration(item)]), points,
@@ -397,4 +399,5 @@ SECTIONS: tuple[tuple[str, str, Callable[[Findings], Parts]], ...] = (
     ("position", "Position error and temperature stability", position_section),
     ("heating", "Coil heating characterisation", heating_section),
     ("spectroscopy", "Impedance spectroscopy", spectroscopy_section),
+    ("paper", "The paper, reproduced", paper_comparison_section),
 )

@@ -5,6 +5,7 @@ from __future__ import annotations
 import time
 
 from ecds_lab.clock import Clock
+from ecds_lab.data.columns import LOGGED_POINT
 from ecds_lab.runner.heaters import Heaters
 from ecds_lab.runner.interlocks import GuardedThermocouples
 from ecds_lab.runner.progress import Progress
@@ -12,7 +13,6 @@ from ecds_lab.runner.rows import reading_row
 from ecds_lab.runner.slide_position import SlidePosition
 from ecds_lab.runner.steps import MeasurePoint
 from ecds_lab.station import Station
-from ecds_lab.data.columns import LOGGED_POINT
 from ecds_lab.storage.run_file import RunWriter
 
 #: Temperatures and heater powers older than this (simulated or wall seconds) are read again.

@@ -9,6 +9,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any, TypeVar
 
+from ecds_lab.data.columns import PLANNED_POINT
 from ecds_lab.errors import EcdsLabError
 from ecds_lab.instruments.interfaces import BridgeSettings
 from ecds_lab.runner.context import RunContext
@@ -26,7 +27,6 @@ from ecds_lab.runner.steps import (
     SetHeater,
     WaitSteady,
 )
-from ecds_lab.data.columns import PLANNED_POINT
 
 S = TypeVar("S", bound=PlanStep)
 Handler = Callable[[RunContext, Any], None]

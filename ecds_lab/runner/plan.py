@@ -49,7 +49,13 @@ class Plan:
     def describe(self) -> str:
         lines = [f"plan '{self.name}' ({self.kind}): {len(self.steps)} steps, {len(self.points)} points"]
         lines += [f"{i:5d}  {step.describe()}" for i, step in enumerate(self.steps)]
-        return "\n".join(lines)
+        return "\n".join(lines) + "\n" + self.summary()
+
+    def summary(self) -> str:
+        """Steps by kind, readings, estimated duration, temperature range and slide travel."""
+        from ecds_lab.runner.progress import summary
+
+        return summary(self)
 
 
 def steady_state(config: SteadyStateConfig) -> SteadyState:

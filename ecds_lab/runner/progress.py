@@ -1,27 +1,247 @@
-"""The operator's progress display: a bar of planned points on a terminal, nothing elsewhere."""
+"""Progress and ETA from the plan's time estimate: moves, settling, readings, heating waits.
+
+Every step gets a nominal duration and the rows it will write (:func:`estimate_plan`); a heating
+wait's nominal length (the steady-state window plus the ramp at a nominal rate) is then
+calibrated by the waits already finished, so the ETA converges as the run learns how fast this
+lab heats. The bar (tqdm, on a terminal only) counts rows written against the rows the run will
+write; :class:`PlanEstimate` is also what the live view (:mod:`ecds_lab.live`) shows.
+"""
 
 from __future__ import annotations
 
+import threading
+import time
+from collections import Counter
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, TextIO
+
 from tqdm import tqdm
+
+from ecds_lab.config.experiment import MOVE_MM_PER_S, OVERHEAD_S, READING_S, format_duration
+from ecds_lab.runner.steps import (
+    ConfigureBridge,
+    CoolDown,
+    Home,
+    MeasurePoint,
+    Park,
+    SetHeater,
+    WaitSteady,
+)
+
+if TYPE_CHECKING:
+    from ecds_lab.clock import Clock
+    from ecds_lab.runner.plan import Plan
+
+#: Nominal rates for the estimate only, round values near the simulated lab's: a lab's real heating waits
+#: calibrate the later ones as it runs; the cool-down, always last, keeps its nominal rate.
+HEATING_K_PER_S = 6.0 / 60.0
+COOLING_K_PER_S = 3.0 / 60.0
+START_TEMPERATURE_C = 22.0
+HOME_S = 5.0
+#: Categories whose nominal durations the run calibrates by what it observes.
+_CALIBRATED = ("heat", "point")
+
+
+@dataclass(frozen=True)
+class StepEstimate:
+    """One step's nominal duration (s, simulated or lab time), rows it writes, and its category."""
+
+    seconds: float
+    rows: float
+    category: str  # "heat", "cool", "point" or "other"
+    travel_mm: float = 0.0
+
+
+def estimate_plan(plan: Plan) -> list[StepEstimate]:
+    """Nominal duration and rows of every step, in order (positions and temperatures tracked along)."""
+    reading_s = READING_S["slow"] + OVERHEAD_S
+    x_mm: float | None = None
+    temperature = START_TEMPERATURE_C
+    out = []
+    for step in plan.steps:
+        if isinstance(step, ConfigureBridge):
+            reading_s = READING_S[step.bridge.speed] * step.bridge.averages + OVERHEAD_S
+            out.append(StepEstimate(0.5, 0, "other"))
+        elif isinstance(step, MeasurePoint):
+            move = abs(step.x_mm - x_mm) if step.x_mm is not None and x_mm is not None else 0.0
+            moved = step.x_mm is not None and step.x_mm != x_mm
+            x_mm = step.x_mm if step.x_mm is not None else x_mm
+            out.append(StepEstimate(move / MOVE_MM_PER_S + (step.settle_s if moved else 0.0) + reading_s, 1, "point",
+                                    move))
+        elif isinstance(step, Park):
+            move = abs(step.x_mm - x_mm) if x_mm is not None else 0.0
+            x_mm = step.x_mm
+            out.append(StepEstimate(move / MOVE_MM_PER_S, 0, "other", move))
+        elif isinstance(step, Home):
+            x_mm = None
+            out.append(StepEstimate(HOME_S, 0, "other"))
+        elif isinstance(step, WaitSteady):
+            seconds = step.steady.window_s + abs(step.setpoint_c - temperature) / HEATING_K_PER_S
+            temperature = step.setpoint_c
+            out.append(StepEstimate(seconds, _logged_rows(step, seconds, reading_s), "heat"))
+        elif isinstance(step, CoolDown):
+            seconds = max(temperature - step.below_c, 0.0) / COOLING_K_PER_S
+            temperature = min(temperature, step.below_c)
+            out.append(StepEstimate(seconds, _logged_rows(step, seconds, reading_s), "cool"))
+        else:
+            out.append(StepEstimate(0.1, 0, "other"))
+    return out
+
+
+def _logged_rows(step: WaitSteady | CoolDown, seconds: float, reading_s: float) -> float:
+    """Bridge readings logged while waiting: one per frequency every log interval, the first at once."""
+    if step.log is None or not step.log.frequencies_hz:
+        return 0
+    frequencies = len(step.log.frequencies_hz)
+    return (seconds // (step.log.interval_s + frequencies * reading_s) + 1) * frequencies
+
+
+class PlanEstimate:
+    """The plan's estimate, calibrated by the steps a run has finished: remaining time and total rows."""
+
+    def __init__(self, plan: Plan) -> None:
+        self.plan = plan
+        self.steps = estimate_plan(plan)
+        self._observed: dict[str, list[float]] = {c: [0.0, 0.0] for c in _CALIBRATED}  # actual, nominal
+
+    def observe(self, index: int, actual_s: float) -> None:
+        """Step ``index`` took ``actual_s``: calibrate the steps of its category."""
+        estimate = self.steps[index]
+        if estimate.category in self._observed and estimate.seconds > 0:
+            sums = self._observed[estimate.category]
+            sums[0] += actual_s
+            sums[1] += estimate.seconds
+
+    def factor(self, category: str) -> float:
+        """Observed / nominal duration of the category's finished steps (1 before any)."""
+        actual, nominal = self._observed.get(category, (0.0, 0.0))
+        return actual / nominal if nominal > 0 and actual > 0 else 1.0
+
+    def seconds(self, index: int) -> float:
+        estimate = self.steps[index]
+        return estimate.seconds * self.factor(estimate.category)
+
+    def rows(self, index: int) -> float:
+        estimate = self.steps[index]
+        return estimate.rows * self.factor(estimate.category) if estimate.category == "heat" else estimate.rows
+
+    def remaining_s(self, index: int, in_step_s: float) -> float:
+        """Time left when step ``index`` has run ``in_step_s`` (a step that overruns is nearly done)."""
+        if index >= len(self.steps):
+            return 0.0
+        current = max(self.seconds(index) - in_step_s, 0.05 * self.seconds(index))
+        return current + sum(self.seconds(i) for i in range(index + 1, len(self.steps)))
+
+    def total_rows(self, index: int, rows_written: int, rows_in_step: int) -> int:
+        """The rows the run will have written when it ends (at least those already written)."""
+        if index >= len(self.steps):
+            return rows_written
+        current = max(self.rows(index) - rows_in_step, 0.0)
+        return rows_written + round(current + sum(self.rows(i) for i in range(index + 1, len(self.steps))))
+
+    def total_s(self) -> float:
+        return sum(s.seconds for s in self.steps)
+
+
+def summary(plan: Plan) -> str:
+    """The ``--dry-run`` summary: steps by kind, readings, estimated duration, temperature range, travel."""
+    steps = estimate_plan(plan)
+    kinds = Counter(type(step).__name__ for step in plan.steps)
+    temperatures = [t for step in plan.steps for t in (
+        [step.setpoint_c] if isinstance(step, (WaitSteady, SetHeater)) and step.setpoint_c is not None
+        else [step.below_c] if isinstance(step, CoolDown) else [])]
+    logged = sum(s.rows for s, step in zip(steps, plan.steps, strict=True) if not isinstance(step, MeasurePoint))
+    lines = ["summary:",
+             "  steps: " + ", ".join(f"{count} {name}" for name, count in sorted(kinds.items())),
+             f"  readings: {len(plan.points)} planned, about {int(logged)} logged while waiting on heaters",
+             f"  estimated duration: {format_duration(sum(s.seconds for s in steps))} "
+             f"(nominal: {HEATING_K_PER_S * 60:g} K/min heating, {COOLING_K_PER_S * 60:g} K/min cooling, "
+             f"slide {MOVE_MM_PER_S:g} mm/s)",
+             "  temperatures: " + (f"{min(temperatures):g} C to {max(temperatures):g} C" if temperatures
+                                   else "no heating"),
+             f"  slide travel: {sum(s.travel_mm for s in steps):.1f} mm between planned positions"]
+    return "\n".join(lines)
 
 
 class Progress:
-    """Counts measured points and shows what the run is waiting for; silent when ``enabled`` is False."""
+    """A bar of rows written against rows expected, with the plan-based ETA; silent when not ``enabled``.
 
-    def __init__(self, name: str, points_to_measure: int, *, enabled: bool) -> None:
-        # tqdm turns itself off (disable=None) when its output is not a terminal
-        self._bar = (tqdm(total=points_to_measure, unit="pt", desc=name, disable=None, dynamic_ncols=True)
+    The runner calls :meth:`step_started`; a background thread refreshes the bar twice a second
+    from the run file's row count and the station's clock (waits write rows rarely).
+    """
+
+    def __init__(self, plan: Plan, clock: Clock, rows: Callable[[], int], *, enabled: bool,
+                 stream: TextIO | None = None) -> None:
+        self._estimate = PlanEstimate(plan)
+        self._clock, self._rows = clock, rows
+        self._lock = threading.Lock()
+        self._index, self._step_start = 0, clock.now()
+        self._rows_at_step = rows()
+        self._start_sim, self._start_wall = clock.now(), time.monotonic()
+        self._note = ""
+        self._stop = threading.Event()
+        self._bar = (tqdm(total=self._estimate.total_rows(0, self._rows_at_step, 0), unit="row", desc=plan.name,
+                          disable=None, dynamic_ncols=True, file=stream, mininterval=0.2,
+                          bar_format="{l_bar}{bar}| {n_fmt}/{total_fmt} rows [{elapsed}{postfix}]")
                      if enabled else None)
+        self._thread: threading.Thread | None = None
+        if self._bar is not None and not self._bar.disable:
+            self._thread = threading.Thread(target=self._refresh_loop, name="progress", daemon=True)
+            self._thread.start()
+
+    def step_started(self, index: int) -> None:
+        """Step ``index`` begins: the previous one is finished and calibrates the estimate."""
+        now = self._clock.now()
+        with self._lock:
+            if index > self._index:
+                self._estimate.observe(self._index, now - self._step_start)
+            self._index, self._step_start, self._rows_at_step = index, now, self._rows()
+        self._refresh()
 
     def point_measured(self) -> None:
-        if self._bar is not None:
-            self._bar.update(1)
+        self._refresh()
 
     def note(self, text: str) -> None:
         """A short status beside the bar, e.g. a heater's temperature while the run waits on it."""
-        if self._bar is not None:
-            self._bar.set_postfix_str(text)
+        self._note = text
+        self._refresh()
 
-    def close(self) -> None:
+    def eta_s(self) -> float:
+        """Wall seconds left: the plan's remaining time at the pace this run keeps (lab time per wall second)."""
+        now = self._clock.now()
+        with self._lock:
+            remaining = self._estimate.remaining_s(self._index, now - self._step_start)
+        sim, wall = now - self._start_sim, time.monotonic() - self._start_wall
+        return remaining * (wall / sim) if sim > 0 else remaining
+
+    def _refresh(self) -> None:
+        bar = self._bar
+        if bar is None or bar.disable:
+            return
+        rows = self._rows()
+        with self._lock:
+            total = self._estimate.total_rows(self._index, rows, rows - self._rows_at_step)
+        bar.total = max(total, rows)
+        bar.n = rows
+        eta = time.strftime("%M:%S", time.gmtime(self.eta_s())) if self.eta_s() < 3600 else \
+            format_duration(self.eta_s())
+        bar.set_postfix_str(f"ETA {eta}" + (f", {self._note}" if self._note else ""), refresh=False)
+        bar.refresh()
+
+    def _refresh_loop(self) -> None:
+        while not self._stop.wait(0.5):
+            self._refresh()
+
+    def close(self, completed: bool = False) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=2)
         if self._bar is not None:
+            if completed and not self._bar.disable:
+                rows = self._rows()
+                self._bar.total, self._bar.n = rows, rows
+                self._bar.set_postfix_str("ETA 00:00", refresh=False)
+                self._bar.refresh()
             self._bar.close()
+

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import math
 
+from ecds_lab.data.columns import PLANNED_POINT
 from ecds_lab.instruments.interfaces import BridgeReading
 from ecds_lab.runner.slide_position import SlidePosition
 from ecds_lab.runner.steps import MeasurePoint
-from ecds_lab.data.columns import PLANNED_POINT
 
 
 def reading_row(*, time_s: float, wall_time_s: float, step_index: int, kind: int, point: MeasurePoint | None,

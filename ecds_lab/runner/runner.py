@@ -41,7 +41,7 @@ class Runner:
     def run(self) -> tuple[str, str]:
         """Execute every step; returns (status, error message). The lab is left safe whatever happens."""
         plan = self.plan
-        progress = Progress(plan.name, sum(1 for p in plan.points if p.point not in self.done), enabled=self.progress)
+        progress = Progress(plan, self.station.clock, lambda: self.writer.rows, enabled=self.progress)
         context = RunContext(self.station, self.writer, progress, t0=self.t0,
                              heats=any(isinstance(s, SetHeater) for s in plan.steps),
                              coil_in_air=bool(plan.points) and all(p.in_air for p in plan.points))
@@ -49,6 +49,7 @@ class Runner:
         try:
             for index, step in steps_to_run(plan, self.done):
                 context.step_index = index
+                progress.step_started(index)
                 if log.isEnabledFor(logging.INFO):  # describe a step only for a listener: runs have many thousand
                     log.info("%s", step.describe())
                 handler_for(step)(context, step)
@@ -63,7 +64,7 @@ class Runner:
         finally:
             with ctrl_c_deferred():
                 unsafe = make_safe(self.station, stop_slide=status != "completed")
-                progress.close()
+                progress.close(completed=status == "completed")
         if unsafe:  # a heater that may still be on outranks every other ending
             status, error = "failed", unsafe + (f" (after: {error})" if error else "")
         if error:

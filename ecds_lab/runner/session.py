@@ -17,7 +17,7 @@ import numpy as np
 import yaml
 
 from ecds_lab.config.checks import check_experiment_fits_station
-from ecds_lab.config.experiment import EXPERIMENT_ADAPTER
+from ecds_lab.config.experiment import EXPERIMENT_ADAPTER, ExperimentConfig
 from ecds_lab.config.loading import parse_yaml, read_text, validate
 from ecds_lab.config.station import StationConfig
 from ecds_lab.data.columns import INDEX
@@ -44,7 +44,7 @@ class RunResult:
     stopped_by: int | None = None
 
 
-def load_experiment(path: Path | str, text: str | None = None):  # noqa: ANN201 - one of the experiment models
+def load_experiment(path: Path | str, text: str | None = None) -> ExperimentConfig:
     """Validate an experiment YAML (from its file or the text recorded in a run file)."""
     path = Path(path)
     return validate(str(path), parse_yaml(read_text(path) if text is None else text, str(path)), EXPERIMENT_ADAPTER)
@@ -109,7 +109,8 @@ def _run_experiment(experiment_path: Path, station_path: Path | None, output: Pa
             planned_points=str(len(plan.points)), resumed_from=str(resume or ""), sensor=station_config.sensor),
             transcripts={role: t.transcript for role, t in station.transports.items() if t.transcript},
             identities=identities, overwrite=overwrite)
-        done, offset = set(), 0.0
+        done: set[int] = set()
+        offset = 0.0
         if previous is not None:
             done, offset = _carry_over(previous, writer)
         runner = Runner(station, plan, writer, done=done, time_offset_s=offset, progress=progress)
@@ -148,7 +149,7 @@ def check_same_station(previous: RunFile, config: StationConfig, identities: dic
                           "resume with the station the run was started on (--station)")
 
 
-def _carry_over(previous, writer: RunWriter) -> tuple[set[int], float]:  # noqa: ANN001
+def _carry_over(previous: RunFile, writer: RunWriter) -> tuple[set[int], float]:
     """Copy the predecessor's rows and transcripts; return its measured points and where time continues."""
     writer.append_rows(previous.points)
     for role, events in previous.transcripts.items():

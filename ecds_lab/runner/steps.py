@@ -55,6 +55,8 @@ class BridgeLog:
 
 @dataclass(frozen=True)
 class ConfigureBridge(PlanStep):
+    """Set the bridge's function, circuit, test voltage, speed and averaging for the run."""
+
     bridge: BridgeConfig
 
     def describe(self) -> str:
@@ -64,18 +66,24 @@ class ConfigureBridge(PlanStep):
 
 @dataclass(frozen=True)
 class ConfigureScanner(PlanStep):
+    """Set up the thermocouple channels (type, reference junction, scan list)."""
+
     def describe(self) -> str:
         return "configure the thermocouple scanner (type, reference junction, scan list)"
 
 
 @dataclass(frozen=True)
 class Home(PlanStep):
+    """Home the slide: its position is unknown until the next move."""
+
     def describe(self) -> str:
         return "home the slide"
 
 
 @dataclass(frozen=True)
 class Park(PlanStep):
+    """Move the slide to a fixed position (e.g. coil away from the target while heating)."""
+
     on_resume: ClassVar[OnResume] = OnResume.LATEST_STATE
     restores: ClassVar[str] = "slide position"
 

@@ -159,7 +159,7 @@ def _read_transcripts(entry: h5py.Group, file_size: int) -> dict[str, list[Trans
         table = table[complete]
         starts = np.concatenate([[0], table[:-1, 3]]).astype(int) if len(table) else np.zeros(0, int)
         out[role] = [TranscriptEvent(row[0], row[1], KINDS[int(row[2])], blob[int(s):int(row[3])].decode("utf-8"))
-                     for row, s in zip(table, starts)]
+                     for row, s in zip(table, starts, strict=True)]
     return out
 
 

@@ -6,12 +6,13 @@ Layout (NeXus-flavoured, so generic viewers find their way):
   /entry/points              (N x C) float64 table, one row per reading, appended and flushed
                              per point (SWMR: a viewer can read it live; a killed run keeps
                              every row written)
-  /entry/data                NXdata: one 1-D dataset per column (signal ls_h, axis x_commanded_mm)
+  /entry/data                NXdata: one 1-D view per column (signal ls_h, axis x_commanded_mm);
+                             it, the NXlogs and a plot per run kind (root @default): storage/nexus.py
   /entry/instrument/<role>   identity, driver, settings
   /entry/instrument/thermocouples/<name>   NXlog (time, value)
   /entry/transcripts/<role>  every command and reply: events (clock_s, wall_s, kind, end) + text bytes
-The table is the source of truth; NXdata, NXlogs and the status are completed at close
-(a killed run's file says status 'running' and the reader reports it as interrupted).
+The table is the source of truth; NXdata and NXlogs are views onto it, live during the run; the
+status and end_time are completed at close (a killed run's file says status 'running').
 
 Data safety: a writer lock beside the file (:mod:`~ecds_lab.storage.lock`) admits one writer per
 path; each point's transcript events are on disk before its row; the file is completed at close
@@ -27,9 +28,9 @@ import math
 import operator
 import os
 import sys
+from collections.abc import Mapping, Sequence
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Mapping, Sequence
 
 import h5py
 import numpy as np
@@ -40,12 +41,12 @@ from ecds_lab.data.run_metadata import SENSOR_ATTRIBUTE, sensor_attribute
 from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.errors import RunFileError
 from ecds_lab.storage.lock import WriterLock
+from ecds_lab.storage.nexus import NexusLayout, finish, sweep_shape
 from ecds_lab.transports.transcript import KINDS, Transcript
 
 #: The points table is flushed every row, and each row rewrites its whole chunk: small chunks
 #: (32 rows, 5 KB) keep that cheap. Columns written once at close use large chunks.
 _TABLE_CHUNK_ROWS = 32
-_COLUMN_CHUNK = 4096
 #: Transcripts are appended (and flushed) with every point, so their chunks are small too.
 _EVENT_CHUNK_ROWS = 64
 _TEXT_CHUNK = 2048
@@ -149,7 +150,7 @@ class RunWriter:
         assert self._file is not None
         entry = self._file.create_group("entry")
         entry.attrs.update({"NX_class": "NXentry", "status": "running", "start_time": _now_iso(),
-                            "software": f"ecds-lab {__version__}", "default": "data"})
+                            "software": f"ecds-lab {__version__}"})
         for key, value in metadata.items():
             entry.attrs[key] = value
         table = entry.create_dataset("points", shape=(0, len(COLUMNS)), maxshape=(None, len(COLUMNS)),
@@ -157,24 +158,12 @@ class RunWriter:
         table.attrs["columns"] = list(COLUMN_NAMES)
         table.attrs["units"] = [c.unit for c in COLUMNS]
         self._table = table
-        data = entry.create_group("data")
-        data.attrs.update({"NX_class": "NXdata", "signal": "ls_h", "axes": ["x_commanded_mm"]})
-        for column in COLUMNS:
-            ds = data.create_dataset(column.name, shape=(0,), maxshape=(None,), dtype="f8", chunks=(_COLUMN_CHUNK,))
-            ds.attrs.update({"units": column.unit, "long_name": column.description})
         instrument = entry.create_group("instrument")
         instrument.attrs["NX_class"] = "NXinstrument"
         for role, identity in identities.items():
             group = instrument.create_group(role)
             group.attrs.update({"NX_class": "NXcollection", "identity": identity})
-        thermocouples = instrument.create_group("thermocouples")
-        thermocouples.attrs["NX_class"] = "NXcollection"
-        for name in ("coil", "target", "ambient"):
-            log = thermocouples.create_group(name)
-            log.attrs["NX_class"] = "NXlog"
-            for field, unit in (("time", "s"), ("value", "degC")):
-                log.create_dataset(field, shape=(0,), maxshape=(None,), dtype="f8",
-                                   chunks=(_COLUMN_CHUNK,)).attrs["units"] = unit
+        self._nexus = NexusLayout(self._file, table, metadata.get("kind", ""), sweep_shape(metadata))
         records = entry.create_group("transcripts")
         records.attrs.update({"NX_class": "NXcollection", "kinds": list(KINDS)})
         for role in self._transcripts:
@@ -227,9 +216,10 @@ class RunWriter:
                 table.write_direct_chunk((row - offset, 0), self._tail.tobytes())
                 done += take
             table.flush()
+            self.rows = first + count
+            self._nexus.rows_written(rows)
         except (OSError, RuntimeError) as exc:
             raise self._write_failed(exc) from exc
-        self.rows = first + count
 
     def _write_failed(self, exc: BaseException) -> RunFileError:
         """The error a failed write becomes (a full disk, a file-size limit, a vanished folder).
@@ -308,13 +298,14 @@ class RunWriter:
             raise failure from exc
         self._file.close()
         self._file = None
+        self._finish_nexus()
         self._lock.release()
 
     def _check_room_to_complete(self) -> None:
-        """Completing writes the table again as NXdata and NXlogs; with less free space than that (and a
-        margin) it would fail half-way and could leave the file unreadable, so the file is left as the
+        """Completing writes metadata and (for NeXus) reopens the file; with less free space than the
+        table's size and a margin it could fail half-way and could leave the file unreadable, so the file is left as the
         last flushed row left it (a reader sees an interrupted run with every row) and the run fails."""
-        needed = 4 * self.rows * len(COLUMNS) * 8 + (1 << 20)
+        needed = 2 * self.rows * len(COLUMNS) * 8 + (1 << 20)
         try:
             stats = os.statvfs(self.path.parent)
         except OSError:
@@ -328,27 +319,24 @@ class RunWriter:
                                "interrupted run")
 
     def _complete(self, status: str, error: str, extra: Mapping[str, str] | None) -> None:
-        """NXdata columns and NXlogs from the table, then (last) the status and how the run ended."""
+        """How the run ended, as attributes of /entry written in place (status last)."""
         assert self._file is not None
-        f = self._file
-        entry = f["entry"]
-        table = entry["points"][()]
-        for name in COLUMN_NAMES:
-            ds = entry["data"][name]
-            ds.resize((len(table),))
-            ds[:] = table[:, INDEX[name]]
-        for name in ("coil", "target", "ambient"):
-            log = entry["instrument/thermocouples"][name]
-            values = table[:, INDEX[f"t_{name}_c"]]
-            for field, column in (("time", table[:, INDEX["time_s"]]), ("value", values)):
-                log[field].resize((len(table),))
-                log[field][:] = column
-        entry.attrs.update({"status": status, "end_time": _now_iso(), "points": len(table)})
+        entry = self._file["entry"]
+        entry.attrs.update({"end_time": _now_iso(), "points": self.rows})
         if error:
             entry.attrs["error"] = error
         for key, value in (extra or {}).items():
             entry.attrs[key] = value
+        entry.attrs["status"] = status
 
+    def _finish_nexus(self) -> None:
+        """Add the NXentry ``end_time`` field, which needs the file open outside SWMR. The run is
+        complete without it: a reader holding the file (its lock) or a kill here costs only that field."""
+        try:
+            with h5py.File(self.path, "a", libver="latest") as f:
+                finish(f["entry"])
+        except OSError:
+            pass
 
 def metadata_for(experiment_yaml: str, station_yaml: str, experiment_name: str, kind: str,
                  operator_note: str = "", *, sensor: SensorConfig | None = None, **more: str) -> dict[str, str]:

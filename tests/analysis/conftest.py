@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from functools import lru_cache
+from functools import cache
 
 import numpy as np
 import pytest
@@ -14,7 +14,7 @@ from ecds_lab.simulators.config import LabConfig
 POSITIONS_MM = tuple(float(x) for x in np.linspace(20.0, 100.0, 16))
 
 
-@lru_cache(maxsize=None)
+@cache
 def hidden_effect_campaign(*effects: str, seed: int = 7):
     """The paper campaign with ``effects`` switched on at the simulated lab's realistic default sizes."""
     config = LabConfig(effects={name: {"enabled": True} for name in effects})

@@ -9,7 +9,7 @@ diagnosis must still name the physics and bring the residual to the noise.
 from __future__ import annotations
 
 import dataclasses
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 import pytest
@@ -25,14 +25,14 @@ NOISE_PPM = 20.0
 class ResistivityTau(Effect):
     name = "generator: tau follows resistivity"
 
-    def target_tau(self, tau_s: np.ndarray, inputs: Inputs, data, p: Mapping[str, float]) -> np.ndarray:  # noqa: ANN001
+    def target_tau(self, tau_s: np.ndarray, inputs: Inputs, data, p: Mapping[str, float]) -> np.ndarray:
         return tau_s / (1 + 0.0039 * (inputs.t_target_c - 20.0))
 
 
 class InverseDistanceTau(Effect):
     name = "generator: tau rises like 1/x"
 
-    def target_tau(self, tau_s: np.ndarray, inputs: Inputs, data, p: Mapping[str, float]) -> np.ndarray:  # noqa: ANN001
+    def target_tau(self, tau_s: np.ndarray, inputs: Inputs, data, p: Mapping[str, float]) -> np.ndarray:
         x = np.where(np.isfinite(inputs.x_m), inputs.x_m, 0.06)
         return tau_s * (1 + 0.004 / x - 0.004 / 0.06)
 
@@ -40,14 +40,14 @@ class InverseDistanceTau(Effect):
 class EdgeBending(Effect):
     name = "generator: bending felt more near the plate"
 
-    def effective_distance(self, x_m: np.ndarray, data, p: Mapping[str, float]) -> np.ndarray:  # noqa: ANN001
+    def effective_distance(self, x_m: np.ndarray, data, p: Mapping[str, float]) -> np.ndarray:
         return x_m - 2e-6 * (data.t_target_c - 20.0) * (1 + (0.05 - x_m) / 0.05)
 
 
 class TimeHotMoisture(Effect):
     name = "generator: capacitance falls with time spent above 60 C"
 
-    def coil_capacitance(self, c_f: np.ndarray, inputs: Inputs, data, p: Mapping[str, float]) -> np.ndarray:  # noqa: ANN001
+    def coil_capacitance(self, c_f: np.ndarray, inputs: Inputs, data, p: Mapping[str, float]) -> np.ndarray:
         order = np.argsort(data.time_s, kind="stable")
         hot = np.zeros(len(data))
         dt = np.diff(data.time_s[order], prepend=data.time_s[order][0])

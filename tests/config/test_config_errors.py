@@ -5,20 +5,21 @@ from __future__ import annotations
 
 import subprocess
 import sys
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, get_args
+from typing import get_args
 
 import pytest
 import yaml
 
 from ecds_lab.cli import main
 from ecds_lab.config.experiment import SweepConfig
-from ecds_lab.instruments.kinds import KINDS, drivers_for_role
 from ecds_lab.drivers.hm8118 import FREQUENCIES_HZ
-from ecds_lab.simulators.config import TargetBending
 from ecds_lab.errors import ConfigError
+from ecds_lab.instruments.kinds import KINDS, drivers_for_role
 from ecds_lab.runner.session import prepare, run_experiment
+from ecds_lab.simulators.physics.plate import Bending
 
 
 @dataclass
@@ -35,37 +36,37 @@ def station_yaml(experiments_dir: Path) -> dict:
     return yaml.safe_load((experiments_dir / "stations" / "simulated_lab.yaml").read_text())
 
 
-def unknown_key(copy, tmp_path, experiments) -> BadConfig:  # noqa: ANN001
+def unknown_key(copy, tmp_path, experiments) -> BadConfig:
     path = copy("displacement_sweep.yaml", lambda d: d["sweep"].update(settle_sec=2.0))
     return BadConfig(path, None, path, ["field 'sweep.settle_sec'", "unknown key", *SweepConfig.model_fields])
 
 
-def unknown_key_in_station(copy, tmp_path, experiments) -> BadConfig:  # noqa: ANN001
+def unknown_key_in_station(copy, tmp_path, experiments) -> BadConfig:
     station = copy("stations/simulated_lab.yaml",
-                   lambda d: d["simulated"]["lab"]["effects"].update(target_bending={"shift_um": 2.0}))
+                   lambda d: d["simulated"]["lab"]["plate"]["bending"].update(shift_um=2.0))
     return BadConfig(experiments / "displacement_sweep.yaml", station, station,
-                     ["field 'simulated.lab.effects.target_bending.shift_um'", "unknown key",
-                      "allowed: " + ", ".join(sorted(TargetBending.model_fields))])
+                     ["field 'simulated.lab.plate.bending.shift_um'", "unknown key",
+                      "allowed: " + ", ".join(sorted(Bending.model_fields))])
 
 
-def wrong_type(copy, tmp_path, experiments) -> BadConfig:  # noqa: ANN001
+def wrong_type(copy, tmp_path, experiments) -> BadConfig:
     path = copy("displacement_sweep.yaml", lambda d: d["sweep"].update(repeats="twice"))
     return BadConfig(path, None, path, ["field 'sweep.repeats'", "valid integer", "'twice'"])
 
 
-def wrong_choice(copy, tmp_path, experiments) -> BadConfig:  # noqa: ANN001
+def wrong_choice(copy, tmp_path, experiments) -> BadConfig:
     path = copy("displacement_sweep.yaml", lambda d: d["sweep"].update(direction="sideways"))
     choices = get_args(SweepConfig.model_fields["direction"].annotation)
     return BadConfig(path, None, path, ["field 'sweep.direction'", "'sideways'", *(f"'{c}'" for c in choices)])
 
 
-def wrong_type_in_station(copy, tmp_path, experiments) -> BadConfig:  # noqa: ANN001
+def wrong_type_in_station(copy, tmp_path, experiments) -> BadConfig:
     station = copy("stations/simulated_lab.yaml", lambda d: d["safety"].update(heater_max_voltage_v="thirty"))
     return BadConfig(experiments / "displacement_sweep.yaml", station, station,
                      ["field 'safety.heater_max_voltage_v'", "valid number", "'thirty'"])
 
 
-def frequency_not_on_the_bridge(copy, tmp_path, experiments) -> BadConfig:  # noqa: ANN001
+def frequency_not_on_the_bridge(copy, tmp_path, experiments) -> BadConfig:
     path = copy("displacement_sweep.yaml", lambda d: d["sweep"].update(frequencies_hz=[500, 12345]))
     return BadConfig(path, None, path, ["field 'sweep.frequencies_hz'", "12345 Hz", "HM8118",
                                         "allowed: " + ", ".join(str(f) for f in FREQUENCIES_HZ)])
@@ -76,33 +77,33 @@ def _travel(experiments: Path) -> str:
     return f"allowed {options['min_mm']:g}..{options['max_mm']:g} mm"
 
 
-def position_beyond_travel(copy, tmp_path, experiments) -> BadConfig:  # noqa: ANN001
+def position_beyond_travel(copy, tmp_path, experiments) -> BadConfig:
     beyond = station_yaml(experiments)["slide"]["options"]["max_mm"] + 10
     path = copy("displacement_sweep.yaml", lambda d: d["sweep"].update(positions_mm=[20.0, beyond, 30.0]))
     return BadConfig(path, None, path, ["field 'sweep.positions_mm[1]'", f"{beyond:g} mm", "travel",
                                         _travel(experiments)])
 
 
-def range_beyond_travel(copy, tmp_path, experiments) -> BadConfig:  # noqa: ANN001
+def range_beyond_travel(copy, tmp_path, experiments) -> BadConfig:
     below = station_yaml(experiments)["slide"]["options"]["min_mm"] - 5
     path = copy("target_heating_copper.yaml", lambda d: d["sweep"].update(start_mm=below, stop_mm=below + 80))
     return BadConfig(path, None, path, ["field 'sweep.start_mm/stop_mm[0]'", f"{below:g} mm",
                                         _travel(experiments)])
 
 
-def park_beyond_travel(copy, tmp_path, experiments) -> BadConfig:  # noqa: ANN001
+def park_beyond_travel(copy, tmp_path, experiments) -> BadConfig:
     path = copy("coil_heating.yaml", lambda d: d.update(park_mm=0.0))
     return BadConfig(path, None, path, ["field 'park_mm[0]'", "0 mm", _travel(experiments)])
 
 
-def setpoint_above_safety_limit(copy, tmp_path, experiments) -> BadConfig:  # noqa: ANN001
+def setpoint_above_safety_limit(copy, tmp_path, experiments) -> BadConfig:
     limit = station_yaml(experiments)["safety"]["max_temperature_c"]["target"]
     path = copy("target_heating_copper.yaml", lambda d: d["heating"].update(setpoints_c=[22.0, limit + 10]))
     return BadConfig(path, None, path, ["field 'heating.setpoints_c[1]'", f"{limit + 10:g} C",
                                         f"allowed below {limit:g} C", "safety.max_temperature_c"])
 
 
-def power_above_heater_wiring(copy, tmp_path, experiments) -> BadConfig:  # noqa: ANN001
+def power_above_heater_wiring(copy, tmp_path, experiments) -> BadConfig:
     station = station_yaml(experiments)
     volts, amps = station["safety"]["heater_max_voltage_v"], station["safety"]["heater_max_current_a"]
     max_w = min(volts ** 2 / station["heaters"]["target_heater_ohm"], volts * amps)
@@ -112,26 +113,26 @@ def power_above_heater_wiring(copy, tmp_path, experiments) -> BadConfig:  # noqa
                                         f"allowed 0..{max_w:.1f} W"])
 
 
-def driver_in_the_wrong_role(copy, tmp_path, experiments) -> BadConfig:  # noqa: ANN001
+def driver_in_the_wrong_role(copy, tmp_path, experiments) -> BadConfig:
     station = copy("stations/simulated_lab.yaml", lambda d: d["slide"].update(driver="hm8118"))
     return BadConfig(experiments / "displacement_sweep.yaml", station, station,
                      ["field 'slide'", "'hm8118' cannot serve as slide",
                       "allowed: " + ", ".join(drivers_for_role("slide"))])
 
 
-def unknown_driver(copy, tmp_path, experiments) -> BadConfig:  # noqa: ANN001
+def unknown_driver(copy, tmp_path, experiments) -> BadConfig:
     station = copy("stations/simulated_lab.yaml", lambda d: d["bridge"].update(driver="hm9999"))
     return BadConfig(experiments / "displacement_sweep.yaml", station, station,
                      ["field 'bridge.driver'", "'hm9999'", *(f"'{d}'" for d in KINDS)])
 
 
-def malformed_experiment(copy, tmp_path, experiments) -> BadConfig:  # noqa: ANN001
+def malformed_experiment(copy, tmp_path, experiments) -> BadConfig:
     path = tmp_path / "malformed.yaml"
     path.write_text("kind: displacement_sweep\nsweep:\n  positions_mm: [20, 30\n  frequencies_hz: [500]\n")
     return BadConfig(path, None, path, ["not valid YAML", "line 4"])
 
 
-def malformed_station(copy, tmp_path, experiments) -> BadConfig:  # noqa: ANN001
+def malformed_station(copy, tmp_path, experiments) -> BadConfig:
     path = tmp_path / "station.yaml"
     path.write_text("name: lab\nbridge:\n  driver: hm8118\n\tslide: {driver: grbl}\n")
     return BadConfig(experiments / "displacement_sweep.yaml", path, path, ["not valid YAML", "line 4"])

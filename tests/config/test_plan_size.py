@@ -97,7 +97,7 @@ def test_a_week_is_the_longest_plan():
     fits = experiment(kind="displacement_sweep",
                       sweep=sweep(positions_mm=[20.0] * (hours - 1), settle_s=3600.0))
     assert fits.size().duration_s < MAX_DURATION_S
-    with pytest.raises(ValidationError, match="allowed: at most 7.0 days"):
+    with pytest.raises(ValidationError, match=r"allowed: at most 7\.0 days"):
         experiment(kind="displacement_sweep", sweep=sweep(positions_mm=[20.0] * (hours + 1), settle_s=3600.0))
 
 

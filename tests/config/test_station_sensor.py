@@ -11,7 +11,7 @@ from ecds_lab.data.sensor import SensorConfig, load_sensor
 from ecds_lab.errors import ConfigError
 
 
-def station(yaml_copy, source: str, **top) -> StationConfig:  # noqa: ANN001 - the yaml_copy fixture
+def station(yaml_copy, source: str, **top) -> StationConfig:
     path = yaml_copy(source, lambda d: d.update(top))
     return load_yaml_model(path, StationConfig)
 
@@ -48,7 +48,7 @@ def test_a_simulated_station_naming_none_records_its_labs_sensor(yaml_copy):
 def test_two_different_sensors_for_one_simulated_station_are_refused(yaml_copy):
     path = yaml_copy("stations/simulated_lab_steel.yaml",
                      lambda d: d["simulated"]["lab"].update(sensor={"target": "copper"}))
-    with pytest.raises(ConfigError, match="simulated.lab.sensor differs from the station's sensor"):
+    with pytest.raises(ConfigError, match=r"simulated\.lab\.sensor differs from the station's sensor"):
         load_yaml_model(path, StationConfig)
 
 

@@ -37,7 +37,7 @@ def test_identity_of_both_models(sim, scanner):
 
 
 def test_identity_refuses_another_instrument(sim):
-    with pytest.raises(InstrumentError, match="HMP4040.*not a DAQ970A"):
+    with pytest.raises(InstrumentError, match=r"HMP4040.*not a DAQ970A"):
         DAQ970A(sim.serial("hmp4040", SERIAL_SETTINGS)).identity()
 
 
@@ -165,3 +165,37 @@ def test_through_pyvisa(sim):
     assert bytes(wire) == b"*IDN?\n" + CONFIGURE_BYTES + b"READ?\n"
     assert all(abs(t - 22.0) < 0.2 for t in temperatures.values())
     link.close()
+
+
+# -- every command the driver sends, byte for byte against literal replies (no simulator) --------------------
+# [34970A-UG ch.5]: CONFigure:TEMPerature, UNIT:TEMPerature, ...RJUNction:TYPE, ...TCouple:CHECk, ROUTe:SCAN,
+# READ?, SYSTem:ERRor? (+0,"No error" ends the queue); LF-terminated [dvg]; *IDN? [34970A-UG p.146].
+
+def _scanner(pairs, **options):
+    from ecds_lab.testing import expected_protocol
+
+    return expected_protocol(DAQ970A, pairs, link_settings=VISA_SETTINGS, **options)
+
+
+def test_protocol_identity_configure_and_read():
+    configure = [(line + b"\n", None) for line in CONFIGURE_BYTES.split(b"\n")[:-2]]
+    pairs = [(b"*IDN?\n", b"Keysight Technologies,DAQ970A,MY58000001,A.02.04-00.16-11.29-00.02-02-01\n"),
+             *configure, (b"SYST:ERR?\n", b'+0,"No error"\n'),
+             (b"READ?\n", b"+2.21234567E+01,+2.31234567E+01,+2.20000000E+01\n")]
+    with _scanner(pairs) as scanner:
+        scanner.identity()
+        scanner.configure()
+        assert scanner.read_temperatures_c() == {"coil": 22.1234567, "target": 23.1234567, "ambient": 22.0}
+
+
+def test_protocol_a_queued_error_after_configure_is_raised_and_drained():
+    configure = [(line + b"\n", None) for line in CONFIGURE_BYTES.split(b"\n")[:-2]]
+    pairs = [*configure, (b"SYST:ERR?\n", b'-221,"Settings conflict"\n'), (b"SYST:ERR?\n", b'+0,"No error"\n')]
+    with _scanner(pairs) as scanner, pytest.raises(InstrumentError, match="-221"):
+        scanner.configure()
+
+
+def test_protocol_a_read_that_times_out_asks_the_error_queue_why():
+    pairs = [(b"READ?\n", None), (b"SYST:ERR?\n", b'-221,"Settings conflict"\n'), (b"SYST:ERR?\n", b'+0,"No error"\n')]
+    with _scanner(pairs) as scanner, pytest.raises(InstrumentError, match=r"READ\?.*-221"):
+        scanner.read_temperatures_c()

@@ -1,4 +1,6 @@
-"""GRBL driver against its emulator through the real pyserial path: exact bytes, waiting, errors, alarms."""
+"""GRBL driver: against its emulator through the real pyserial path (waiting, errors, alarms, the firmware
+behaviours of issue 16), and byte for byte against literal firmware replies (expected_protocol), each
+citing the gnea/grbl source that prints them."""
 
 from __future__ import annotations
 
@@ -7,6 +9,8 @@ import pytest
 from ecds_lab.drivers.grbl import ALARMS, ERRORS, SERIAL_SETTINGS, Grbl, parse_status
 from ecds_lab.errors import InstrumentError, InvalidSettingError
 from ecds_lab.instruments import Positioner
+from ecds_lab.simulators.grbl import STOCK_HOMING_CYCLES
+from ecds_lab.testing import expected_protocol
 
 ORIGIN_MM = 160.0
 
@@ -198,8 +202,10 @@ def test_feed_hold_and_resume_finish_the_move(slide, lab):
     assert slide.transport.read_line() == "ok"
     lab.clock.sleep(2.0)
     slide.feed_hold()
-    assert slide.status().state == "Hold:0"
-    slide.resume()
+    assert slide.status().state == "Hold:1"  # decelerating at $120 [protocol.c]
+    wire = lab.capture("grbl")
+    slide.resume()  # waits for Hold:0: '~' during Hold:1 is ignored
+    assert bytes(wire).endswith(b"?~") and bytes(wire).count(b"~") == 1
     assert slide.status().state == "Run"
     lab.clock.sleep(5.0)
     assert slide.status().state == "Idle" and slide.position_m() == pytest.approx(0.099)
@@ -211,7 +217,8 @@ def test_long_move_sleeps_on_the_clock_and_polls_little(slide, lab):
     start = lab.clock.now()
     slide.move_to(0.070)  # 80 mm down, then 0.5 mm back up
     elapsed = lab.clock.now() - start
-    assert elapsed == pytest.approx((80.5 + 0.5) / 600 * 60, abs=0.2)
+    # trapezoids at the stock 10 mm/s^2: 80 mm at 10 mm/s takes 8 s + 1 s of ramps, 0.5 mm takes 2*sqrt(0.05) s
+    assert elapsed == pytest.approx(9.0 + 2 * 0.05 ** 0.5, abs=0.1)
     assert bytes(wire).count(b"?") < 20
 
 
@@ -237,17 +244,6 @@ def test_status_with_extra_fields_in_any_order():
         parse_status("<Idle|MPos:abc|FS:0,0>")
 
 
-def test_emulator_reports_wco_then_ov_and_buffer_state(slide, lab):
-    lab.emulator("grbl").settings[10] = 3  # MPos plus buffer state
-    slide.soft_reset()  # reads the first report after the reset itself
-    second, third = slide.status().raw, slide.status().raw
-    first = [e.text for e in slide.transport.transcript.events if e.text.startswith("<")][-3]
-    assert first == "<Idle|MPos:-1.000,0.000,0.000|Bf:15,128|FS:0,0|WCO:0.000,0.000,0.000>"
-    assert second == "<Idle|MPos:-1.000,0.000,0.000|Bf:15,128|FS:0,0|Ov:100,100,100>"
-    assert third == "<Idle|MPos:-1.000,0.000,0.000|Bf:15,128|FS:0,0>"
-    assert slide.position_m() == pytest.approx(0.159)
-
-
 def test_work_positions_need_setting_10(slide, lab):
     lab.emulator("grbl").settings[10] = 0
     with pytest.raises(InstrumentError, match=r"WPos.*\$10=1"):
@@ -262,27 +258,6 @@ def test_crlf_gets_two_oks(lab):
     assert lines == ["[MSG:Caution: Unlocked]", "ok", "ok"]
 
 
-def test_emulator_gcode_errors(lab):
-    transport = lab.serial("grbl", SERIAL_SETTINGS)
-    Grbl(transport).unlock()
-    replies = {}
-    for line in ("G1 X-10", "G2 X-1", "G1 Q5", "G1 X-1.2.3", "G1 X1 X2", "G0 G1 X-1", "$Q", "x-5 (rapid)",
-                 "G21 G17 G94 G91 G1 X1 F100"):
-        transport.write(line)
-        replies[line] = transport.read_line()
-    assert replies == {
-        "G1 X-10": "error:22", "G2 X-1": "error:20", "G1 Q5": "error:20", "G1 X-1.2.3": "error:1",
-        "G1 X1 X2": "error:25", "G0 G1 X-1": "error:21", "$Q": "error:3", "x-5 (rapid)": "ok",
-        "G21 G17 G94 G91 G1 X1 F100": "ok",
-    }
-    transport.write("$$")  # refused while moving, as GRBL does
-    assert transport.read_line() == "error:8"
-    lab.clock.sleep(5.0)
-    transport.write("$$")
-    settings = [transport.read_line() for _ in range(9)]
-    assert settings[:3] == ["$10=1", "$20=1", "$22=1"] and "$130=145.000" in settings and settings[-1] == "ok"
-
-
 def test_reopening_the_port_resets_the_controller(slide, lab):
     slide.move_to(0.100)
     slide.close()
@@ -292,3 +267,227 @@ def test_reopening_the_port_resets_the_controller(slide, lab):
     again.home()
     assert again.position_m() == pytest.approx(0.159)
     assert lab.lab.distance_m() == pytest.approx(0.159)
+
+
+# -- the firmware behaviours of issue 16, driver against the emulator --------------------------------
+def test_connect_waits_for_the_banner_after_the_bootloader(lab):
+    lab.emulator("grbl").boot_delay_s = 1.9  # DTR reset, then the bootloader: the banner comes late
+    wire = lab.capture("grbl")
+    grbl = Grbl(lab.serial("grbl", SERIAL_SETTINGS))
+    assert grbl.connect() == "Grbl 1.1h ['$' for help]"
+    assert bytes(wire) == b"?"  # no Ctrl-X racing the boot, so no second banner
+    assert lab.clock.now() >= 1.9
+
+
+def test_reset_after_a_soft_limit_waits_for_the_prompt(lab):
+    grbl = Grbl(lab.serial("grbl", SERIAL_SETTINGS), max_mm=170.0)
+    grbl.home()
+    with pytest.raises(InstrumentError, match=r"ALARM:2"):
+        grbl.move_to(0.165)
+    alarm_at = lab.clock.now()
+    grbl.stop()  # a Ctrl-X within 500 ms of the alarm would be discarded by the firmware
+    events = grbl.transport.transcript.events
+    prompt = next(e for e in events if e.text == "[MSG:Reset to continue]")
+    reset = next(e for e in events if e.text == "\x18")
+    assert reset.clock_s >= prompt.clock_s >= alarm_at + 0.5 - 1e-9
+    assert grbl.status().state == "Alarm"
+
+
+def test_commands_during_a_hold_are_refused_not_queued(slide, lab):
+    slide.transport.write("G90 G1 X-61.000 F600")
+    assert slide.transport.read_line() == "ok"
+    lab.clock.sleep(2.0)
+    slide.feed_hold()
+    wire = lab.capture("grbl")
+    for call in (slide.identity, slide.unlock, slide.home):
+        with pytest.raises(InstrumentError, match=r"feed hold.*resume\(\) or stop\(\)"):
+            call()
+    assert bytes(wire) == b""
+    with pytest.raises(InstrumentError, match=r"feed hold.*resume\(\) or stop\(\)"):
+        slide.move_to(0.080)
+    assert bytes(wire) == b"?"  # only the status that showed the hold
+    slide.resume()
+    lab.clock.sleep(6.0)
+    assert slide.identity().startswith("Grbl 1.1h")  # in step: no stale reply after the resume
+    assert slide.position_m() == pytest.approx(0.099)
+
+
+def test_a_line_left_unanswered_in_a_hold_is_flushed(slide, lab):
+    slide.transport.write_bytes(b"!")  # a hold the driver did not ask for (a button on the controller)
+    with pytest.raises(InstrumentError, match=r"no reply within 2 s.*flushed with a soft reset"):
+        slide.unlock()
+    slide.transport.write_bytes(b"~")
+    lab.clock.sleep(1.0)
+    assert slide.identity().startswith("Grbl 1.1h")  # the queued $X never answers later
+    assert slide.status().state == "Idle"
+
+
+def test_stock_homing_cycle_fails_once_with_the_build_option(lab):
+    lab.emulator("grbl").homing_cycles = STOCK_HOMING_CYCLES  # Z first, and the slide has no Z switch
+    grbl = Grbl(lab.serial("grbl", SERIAL_SETTINGS))
+    with pytest.raises(InstrumentError, match=r"ALARM:9.*HOMING_CYCLE_0 \(1<<X_AXIS\).*config\.h") as failure:
+        grbl.home()
+    assert "controller reset" not in str(failure.value)
+    assert grbl.status().state == "Alarm"  # no second, spurious error: the reset was read through
+    grbl.unlock()
+    assert grbl.status().state == "Idle"
+
+
+def test_axes_stock_grbl_lacks_are_refused(lab):
+    transport = lab.serial("grbl", SERIAL_SETTINGS)
+    for axis in ("A", "B", "C", "XY"):
+        with pytest.raises(InvalidSettingError, match=r"one of X, Y, Z; stock GRBL 1\.1 has three axes"):
+            Grbl(transport, axis=axis)
+    assert Grbl(transport, axis="y").axis == "Y"
+
+
+# -- exact bytes, no simulator: every command the driver sends, against gnea/grbl's replies -----------
+BANNER = b"\r\nGrbl 1.1h ['$' for help]\r\n"
+LOCKED = b"[MSG:'$H'|'$X' to unlock]\r\n"  # protocol.c: MESSAGE_ALARM_LOCK after a reset in Alarm
+ALARM_STATUS = b"<Alarm|MPos:0.000,0.000,0.000|FS:0,0|WCO:0.000,0.000,0.000>\r\n"
+IDLE_AT_PULLOFF = b"<Idle|MPos:-1.000,0.000,0.000|FS:0,0>\r\n"
+#: connect(): the banner on its own (report.c report_init_message), then one '?'.
+CONNECT = [(None, BANNER + LOCKED), (b"?", ALARM_STATUS)]
+
+
+def protocol(pairs, **kwargs):
+    return expected_protocol(Grbl, pairs, link_settings=SERIAL_SETTINGS, **kwargs)
+
+
+def test_protocol_connect_takes_the_banner_without_a_reset():
+    with protocol(CONNECT) as grbl:
+        assert grbl.connect() == "Grbl 1.1h ['$' for help]"
+
+
+def test_protocol_connect_resets_only_when_no_banner_comes():
+    # a port that does not reset the Arduino on open (no DTR): silence, then Ctrl-X (system.c/protocol.c)
+    with protocol([(b"\x18", BANNER + LOCKED), (b"?", ALARM_STATUS)]) as grbl:
+        assert grbl.connect() == "Grbl 1.1h ['$' for help]"
+        assert grbl.transport.clock.now() >= 5.0  # BANNER_WAIT_S, not a fixed 2 s
+
+
+def test_protocol_connect_takes_a_late_second_banner():
+    with protocol([(None, BANNER), (b"?", BANNER + b"<Idle|MPos:0.000,0.000,0.000|FS:0,0>\r\n")]) as grbl:
+        assert grbl.connect() == "Grbl 1.1h ['$' for help]"
+
+
+def test_protocol_connect_reports_lost_settings():
+    # settings.c: a failed EEPROM read prints error:7 (STATUS_SETTING_READ_FAIL) and restores defaults
+    with (protocol([(None, b"error:7\r\n" + BANNER)]) as grbl,
+          pytest.raises(InstrumentError, match=r"error:7.*stock \$ settings")):
+        grbl.connect()
+
+
+def test_protocol_identity_is_dollar_i():
+    # report.c report_build_info: [VER:...], [OPT:...], then ok
+    pairs = [*CONNECT, (b"$I\n", b"[VER:1.1h.20190830:]\r\n[OPT:V,15,128]\r\nok\r\n")]
+    with protocol(pairs) as grbl:
+        assert grbl.identity() == "Grbl 1.1h.20190830 [OPT:V,15,128]"
+
+
+def test_protocol_unlock_is_dollar_x():
+    # system.c '$X' in Alarm: MESSAGE_ALARM_UNLOCK, then ok
+    with protocol([*CONNECT, (b"$X\n", b"[MSG:Caution: Unlocked]\r\nok\r\n")]) as grbl:
+        grbl.unlock()
+
+
+def test_protocol_home_is_dollar_h_with_ok_at_the_end():
+    with protocol([*CONNECT, (b"$H\n", b"ok\r\n")]) as grbl:
+        grbl.home()
+
+
+def test_protocol_failed_homing_reads_the_reset_through():
+    # limits.c: ALARM:9 (EXEC_ALARM_HOMING_FAIL_APPROACH) + mc_reset; system.c still returns STATUS_OK for $H,
+    # so "ok" precedes main.c's banner; protocol.c then prints the alarm lock
+    reply = b"ALARM:9\r\nok\r\n" + BANNER + LOCKED
+    with protocol([*CONNECT, (b"$H\n", reply), (b"?", ALARM_STATUS)]) as grbl:
+        with pytest.raises(InstrumentError, match=r"ALARM:9.*HOMING_CYCLE_0 \(1<<X_AXIS\)"):
+            grbl.home()
+        assert grbl.status().state == "Alarm"
+
+
+def test_protocol_homing_disabled_is_error_5():
+    with protocol([*CONNECT, (b"$H\n", b"error:5\r\n")]) as grbl, pytest.raises(InstrumentError, match="error:5"):
+        grbl.home()
+
+
+def test_protocol_move_is_one_g1_line_then_polls():
+    pairs = [
+        *CONNECT,
+        (b"?", IDLE_AT_PULLOFF),
+        (b"G90 G1 X-10.000 F600\n", b"ok\r\n"),  # ok when planned, not when done (motion_control.c mc_line)
+        (b"?", b"<Run|MPos:-9.800,0.000,0.000|FS:120,0>\r\n"),
+        (b"?", b"<Idle|MPos:-10.000,0.000,0.000|FS:0,0>\r\n"),
+    ]
+    with protocol(pairs, approach="direct") as grbl:
+        assert grbl.move_to(0.150) == -1
+
+
+def test_protocol_move_that_times_out_is_flushed():
+    # no ok (a hold queues the line, protocol.c): Ctrl-X empties the serial buffer and planner (main.c), so
+    # the G1 cannot run after a later '~'; the reset's banner keeps the link in step
+    pairs = [*CONNECT, (b"?", IDLE_AT_PULLOFF), (b"G90 G1 X-10.000 F600\n", None), (b"\x18", BANNER)]
+    with protocol(pairs, approach="direct") as grbl, pytest.raises(InstrumentError, match="flushed"):
+        grbl.move_to(0.150)
+
+
+def test_protocol_resume_waits_for_hold_0():
+    pairs = [
+        *CONNECT,
+        (b"!", None),
+        (b"?", b"<Hold:1|MPos:-5.000,0.000,0.000|FS:300,0>\r\n"),  # protocol.c: still decelerating
+        (b"?", b"<Hold:0|MPos:-5.450,0.000,0.000|FS:0,0>\r\n"),  # SUSPEND_HOLD_COMPLETE: '~' now counts
+        (b"~", None),
+    ]
+    with protocol(pairs) as grbl:
+        grbl.connect()
+        grbl.feed_hold()
+        grbl.resume()
+
+
+def test_protocol_resume_waits_when_the_hold_has_not_begun():
+    # the '?' can be served before the '!' in the same pass of protocol_exec_rt_system (report first)
+    pairs = [*CONNECT, (b"!", None), (b"?", b"<Run|MPos:-5.000,0.000,0.000|FS:600,0>\r\n"),
+             (b"?", b"<Hold:0|MPos:-6.000,0.000,0.000|FS:0,0>\r\n"), (b"~", None)]
+    with protocol(pairs) as grbl:
+        grbl.connect()
+        grbl.feed_hold()
+        grbl.resume()
+
+
+def test_protocol_soft_reset_skips_a_stray_ok():
+    # the status of the line a reset interrupted is printed before the banner (protocol.c main loop)
+    pairs = [*CONNECT, (b"\x18", b"ok\r\n" + BANNER + LOCKED), (b"?", ALARM_STATUS)]
+    with protocol(pairs) as grbl:
+        assert grbl.soft_reset() == "Grbl 1.1h ['$' for help]"
+
+
+def test_protocol_soft_reset_while_moving_reports_alarm_3():
+    pairs = [*CONNECT, (b"\x18", b"ALARM:3\r\n" + BANNER + LOCKED), (b"?", ALARM_STATUS)]
+    with protocol(pairs) as grbl, pytest.raises(InstrumentError, match=r"ALARM:3"):
+        grbl.soft_reset()
+
+
+def test_protocol_reset_after_alarm_2_waits_for_the_prompt():
+    # limits.c limits_soft_check -> ALARM:2; protocol.c prints it, waits 500 ms (report_alarm_message),
+    # then "[MSG:Reset to continue]" and only then listens for a reset; the line's ok follows the reset
+    pairs = [
+        *CONNECT,
+        (b"?", IDLE_AT_PULLOFF),
+        (b"G90 G1 X5.000 F600\n", b"ALARM:2\r\n"),
+        (None, b"[MSG:Reset to continue]\r\n"),
+        (b"\x18", b"ok\r\n" + BANNER + LOCKED),
+        (b"?", ALARM_STATUS),
+    ]
+    with protocol(pairs, approach="direct", max_mm=170.0) as grbl:
+        with pytest.raises(InstrumentError, match="ALARM:2"):
+            grbl.move_to(0.165)
+        grbl.soft_reset()
+
+
+def test_protocol_stop_is_hold_then_reset():
+    pairs = [*CONNECT, (b"!", None), (b"?", b"<Hold:0|MPos:-5.000,0.000,0.000|FS:0,0>\r\n"),
+             (b"\x18", BANNER), (b"?", b"<Idle|MPos:-5.000,0.000,0.000|FS:0,0>\r\n")]
+    with protocol(pairs) as grbl:
+        grbl.connect()
+        grbl.stop()

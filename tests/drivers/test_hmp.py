@@ -99,7 +99,7 @@ def test_bad_settings_raise_before_anything_is_sent(sim, supply, output, volts, 
 def test_bad_output_numbers_send_nothing(sim):
     supply = HMP4040(sim.serial("hmp4040", SERIAL_SETTINGS), outputs=3)
     wire = sim.capture("hmp4040")
-    with pytest.raises(InvalidSettingError, match="outside the allowed 1..3"):
+    with pytest.raises(InvalidSettingError, match=r"outside the allowed 1\.\.3"):
         supply.enable(4, True)
     with pytest.raises(InvalidSettingError):
         supply.read_back(0)
@@ -175,3 +175,60 @@ def test_through_pyvisa(sim):
     assert bytes(wire).startswith(b"*IDN?\nINST OUT1\nVOLT 16.000\nCURR 2.5000\nSYST:ERR?\nINST OUT1\nOUTP ON\n")
     assert not sim.lab.supply[1].on
     link.close()
+
+
+# -- every command the driver sends, byte for byte against literal replies (no simulator) --------------------
+# INST OUT<n> selects, VOLT/CURR set the selected output, OUTP/OUTP:SEL/OUTP:GEN switch, MEAS:VOLT?/MEAS:CURR?
+# read back [pym-HMP, qc-HMP, chk]; SYST:ERR? after each set (SCPI-1999); LF-terminated [qc-HMP].
+
+def _supply(pairs, **options):
+    from ecds_lab.testing import expected_protocol
+
+    return expected_protocol(HMP4040, pairs, link_settings=VISA_SETTINGS, **options)
+
+
+NO_ERROR = b'0,"No error"\n'
+
+
+def test_protocol_identity_set_enable_read_back_and_all_off():
+    pairs = [
+        (b"*IDN?\n", b"ROHDE&SCHWARZ,HMP4040,101234,HW50020003/SW2.51\n"),
+        (b"INST OUT2\n", None), (b"VOLT 12.000\n", None), (b"CURR 1.5000\n", None), (b"SYST:ERR?\n", NO_ERROR),
+        (b"INST OUT2\n", None), (b"OUTP ON\n", None), (b"SYST:ERR?\n", NO_ERROR),
+        (b"INST OUT2\n", None), (b"MEAS:VOLT?\n", b"12.000\n"), (b"MEAS:CURR?\n", b"1.5000\n"),
+        (b"OUTP:GEN OFF\n", None),
+        (b"INST OUT1\n", None), (b"OUTP:SEL OFF\n", None), (b"INST OUT2\n", None), (b"OUTP:SEL OFF\n", None),
+    ]
+    with _supply(pairs, outputs=2) as supply:
+        supply.identity()
+        supply.set_output(2, 12.0, 1.5)
+        supply.enable(2, True)
+        assert supply.read_back(2) == (12.0, 1.5)
+        supply.all_off()
+
+
+def test_protocol_each_control_sets_checks_errors_and_reads_back():
+    pairs = [
+        (b"INST OUT3\n", None), (b"SYST:ERR?\n", NO_ERROR), (b"INST:NSEL?\n", b"3\n"),
+        (b"OUTP:SEL ON\n", None), (b"SYST:ERR?\n", NO_ERROR), (b"OUTP:SEL?\n", b"1\n"),
+        (b"OUTP:GEN ON\n", None), (b"SYST:ERR?\n", NO_ERROR), (b"OUTP:GEN?\n", b"1\n"),
+        (b"OUTP OFF\n", None), (b"SYST:ERR?\n", NO_ERROR), (b"OUTP?\n", b"0\n"),
+        (b"VOLT?\n", b"5.000\n"), (b"CURR?\n", b"0.1000\n"),
+    ]
+    with _supply(pairs) as supply:
+        supply.selected_output = 3
+        assert supply.selected_output == 3
+        supply.armed = True
+        assert supply.armed is True
+        supply.master = True
+        assert supply.master is True
+        supply.output = False
+        assert supply.output is False
+        assert (supply.voltage_v, supply.current_limit_a) == (5.0, 0.1)
+
+
+def test_protocol_a_refused_set_names_the_commands_and_the_error():
+    pairs = [(b"INST OUT1\n", None), (b"VOLT 31.000\n", None), (b"CURR 1.0000\n", None),
+             (b"SYST:ERR?\n", b'-222,"Data out of range"\n'), (b"SYST:ERR?\n", NO_ERROR)]
+    with _supply(pairs) as supply, pytest.raises(InstrumentError, match=r"VOLT 31.000.*-222"):
+        supply.set_output(1, 31.0, 1.0)

@@ -46,8 +46,10 @@ def test_model_reproduces_the_simulated_coil_impedance(former):
     model = SensorModel(config.sensor)
     p = values_of(model.parameters()) | {"alpha": config.alpha, "beta": config.beta_per_k2, "tau_t": config.tau_t}
     assert data.t_coil_c.max() - data.t_coil_c.min() > 50
-    np.testing.assert_allclose(model.impedance(data, p), z, rtol=1e-12)
-    np.testing.assert_allclose(model.predict(data, p), data.ls_h, rtol=1e-12)
+    # Independent implementations of the same equations (the model tabulates k(x), the lab's ECM sums
+    # Maxwell's filaments at each x): equal to far below the bridge's ppm-level noise.
+    np.testing.assert_allclose(model.impedance(data, p), z, rtol=1e-7)
+    np.testing.assert_allclose(model.predict(data, p), data.ls_h, rtol=1e-7)
 
 
 def test_calibrated_coupling_follows_eq5_and_vanishes_in_air():

@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 import shutil
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
 
 import h5py
 import pytest
@@ -17,7 +17,8 @@ MONOTONIC_ORIGIN_S = 1_734_567.891
 
 @pytest.fixture
 def session_copy(tmp_path: Path) -> Callable[..., Path]:
-    """``session_copy("sweep", edit)``: a copy of a recorded session in tmp_path, edited in place by ``edit(h5file)``."""
+    """``session_copy("sweep", edit)``: a copy of a recorded session in tmp_path, edited in place by
+    ``edit(h5file)``."""
 
     def copy(name: str, edit: Callable[[h5py.File], None] | None = None, *, suffix: str = "") -> Path:
         path = tmp_path / f"{name}{suffix}.h5"

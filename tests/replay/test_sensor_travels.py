@@ -8,9 +8,9 @@ served through the drivers (replay transports); a station naming no sensor is sa
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from html import escape
 from pathlib import Path
-from typing import Callable
 
 import h5py
 import pytest
@@ -73,10 +73,11 @@ def test_fit_diagnose_and_report_analyse_a_simulated_steel_run_as_steel(shipped_
     assert fitted["sensor"] == {"name": "Gruber 2024 prototype, steel target", "target": "steel",
                                 "former": "fired_clay", "source": "run file"}
     assert "notes" not in fitted
-    assert fitted["params"]["tau_t"]["value"] == pytest.approx(3e-6, rel=0.3)  # steel's, not copper's 100 us
+    # a steel-like effective tau_T (a few us on the faithful lab), not copper's >= 100 us
+    assert fitted["params"]["tau_t"]["value"] < 10e-6
     diagnosed = as_json(capsys, "diagnose", str(run))
     assert diagnosed["sensor"]["target"] == "steel" and "notes" not in diagnosed
-    assert diagnosed["baseline"]["params"]["tau_t"]["value"] == pytest.approx(3e-6, rel=0.3)
+    assert diagnosed["baseline"]["params"]["tau_t"]["value"] < 10e-6
     html = report_of(capsys, run, tmp_path)
     assert "target: steel" in html and "sensor: Gruber 2024 prototype, steel target" in html
     assert "steel target: baseline fit" in html and escape(DEFAULT_SENSOR_NOTE) not in html

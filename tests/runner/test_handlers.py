@@ -8,6 +8,7 @@ import pytest
 
 import ecds_lab.runner.handlers as handlers
 from ecds_lab.config.experiment import BridgeConfig
+from ecds_lab.data.columns import PLANNED_POINT
 from ecds_lab.errors import EcdsLabError
 from ecds_lab.runner import steps
 from ecds_lab.runner.context import RunContext
@@ -15,7 +16,6 @@ from ecds_lab.runner.plan import Plan
 from ecds_lab.runner.resume import OnResume
 from ecds_lab.runner.runner import Runner
 from ecds_lab.runner.steps import ConfigureBridge, MeasurePoint, PlanStep
-from ecds_lab.data.columns import PLANNED_POINT
 
 
 def step_classes() -> list[type[PlanStep]]:

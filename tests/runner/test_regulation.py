@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import itertools
 
+from ecds_lab.data.columns import LOGGED_POINT
 from ecds_lab.runner.plan import Plan
 from ecds_lab.runner.runner import Runner
 from ecds_lab.runner.steady_state import SteadyState
 from ecds_lab.runner.steps import BridgeLog, SetHeater, WaitSteady
-from ecds_lab.data.columns import LOGGED_POINT
 
 #: Impossible to satisfy within the timeout: the window is longer than the wait.
 NEVER_IN_TIME = SteadyState(slope_k_per_min=0.1, window_s=3600.0, tolerance_k=1.0, check_interval_s=10.0,

@@ -42,9 +42,10 @@ def test_dry_run_prints_the_plan_and_touches_no_instrument(experiments_dir, tmp_
     assert main(["run", str(experiment), "--dry-run", "-o", str(output)]) == 0
     lines = capsys.readouterr().out.splitlines()
     plan = build_plan(load_experiment(experiment))
-    assert f"{len(plan.points)} points" in lines[0] and len(lines) == len(plan.steps) + 1
-    assert [line.split(None, 1) for line in lines[1:]] == [[str(i), s.describe()] for i, s in enumerate(plan.steps)]
-    assert sum(line.split(None, 1)[1].startswith("point ") for line in lines[1:]) == len(plan.points)
+    steps = lines[1:len(plan.steps) + 1]
+    assert f"{len(plan.points)} points" in lines[0] and lines[len(plan.steps) + 1] == "summary:"
+    assert [line.split(None, 1) for line in steps] == [[str(i), s.describe()] for i, s in enumerate(plan.steps)]
+    assert sum(line.split(None, 1)[1].startswith("point ") for line in steps) == len(plan.points)
     assert instrument_guard.untouched and not output.exists()
 
 

@@ -43,7 +43,9 @@ def test_driver_and_emulator_tables_agree_though_written_apart():
 ])
 def test_hm8118_emulator_refuses_what_the_manual_does_not_list(sim, command, reply):
     link = sim.serial("hm8118", SERIAL_SETTINGS, min_interval_s=0.0)
-    link.port.write(command)
+    for line in command.split(b"\r")[:-1]:  # one line at a time, paced as the bridge needs
+        link.port.write(line + b"\r")
+        sim.clock.sleep(SERIAL_SETTINGS["min_interval_s"])
     assert link.port.read(len(reply)) == reply
 
 

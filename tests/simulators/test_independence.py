@@ -1,4 +1,5 @@
-"""The emulators are written from the manuals: nothing under simulators/ may import the drivers."""
+"""Simulators stand on their own: the emulators are written from the manuals (no driver imports) and the
+simulated lab's physics is its own (no imports of the analysis or its model)."""
 
 from __future__ import annotations
 
@@ -42,3 +43,11 @@ def test_the_check_sees_a_driver_import(tmp_path):
 
 def test_every_simulator_module_was_checked():
     assert {"hm8118.py", "daq970a.py", "hmp.py", "grbl.py", "registry.py"} <= {p.name for p in SIMULATORS.rglob("*.py")}
+
+
+def test_no_simulator_module_imports_the_model_or_the_analysis():
+    files = sorted(SIMULATORS.rglob("*.py"))
+    assert any(p.parent.name == "physics" for p in files)  # the walk sees the physics package
+    offenders = [f"{p.relative_to(SIMULATORS)}: {name}" for p in files for name in imported_modules(p)
+                 if name.lstrip(".").startswith(("ecds_lab.model", "ecds_lab.analysis"))]
+    assert offenders == []

@@ -70,3 +70,124 @@ def test_refused_query_sends_no_reply(link):
     with pytest.raises(TransportTimeout):
         link.query("NOPE?")
     assert link.query("SYST:ERR?") == '-113,"Undefined header"'
+
+
+# -- IEEE 488.2 common commands and status model -------------------------------------------------------
+
+def test_event_status_register_records_error_classes_and_clears_on_read(link):
+    assert link.query("*ESR?") == "128"  # power on
+    link.write("FOO")  # -113: command error, bit 5
+    link.write("VOLT 99")  # -222: execution error, bit 4
+    assert link.query("*ESR?") == str(32 + 16)
+    assert link.query("*ESR?") == "0"
+    link.write("*CLS")
+    link.write("*IDN? 1")  # a parameter a common command does not take
+    assert link.query("SYST:ERR?") == '-108,"Parameter not allowed"'
+
+
+def test_status_byte_summarises_queue_and_enabled_events(link):
+    link.write("*CLS")
+    assert link.query("*STB?") == "0"
+    link.write("FOO")
+    assert link.query("*STB?") == "4"  # error queue not empty
+    link.write("*ESE 32")
+    assert link.query("*ESE?") == "32"
+    assert link.query("*STB?") == str(4 + 32)  # ESB: an enabled ESR bit is set
+    link.write("*SRE 32")
+    assert link.query("*SRE?") == "32"
+    assert link.query("*STB?") == str(4 + 32 + 64)  # MSS
+    link.write("*CLS")  # clears queue and ESR, keeps the enable masks
+    assert link.query("*STB?") == "0" and link.query("*ESE?") == "32"
+    link.write("*ESE 256")
+    assert link.query("SYST:ERR?") == '-222,"Data out of range"'
+
+
+def test_opc_sets_its_bit_when_the_scan_is_done_and_tst_passes(sim):
+    scanner = sim.serial("daq970a", LINK)
+    scanner.write("CONF:TEMP TC,K,(@101:103)")
+    scanner.write("*CLS")
+    scanner.write("INIT;*OPC")
+    assert scanner.query("*ESR?") == "+0"  # the scan is still running
+    sim.clock.sleep(0.3)
+    assert scanner.query("*ESR?") == "+1"
+    assert scanner.query("*TST?") == "+0"
+
+
+# -- DAQ970A / 34970A additions --------------------------------------------------------------------------
+
+def test_init_then_fetch_returns_the_scan_which_stays_in_memory(sim):
+    scanner = sim.serial("daq970a", LINK)
+    with pytest.raises(TransportTimeout):
+        scanner.query("FETC?")  # nothing in memory yet
+    assert scanner.query("SYST:ERR?") == '-230,"Data corrupt or stale"'
+    scanner.write("CONF:TEMP TC,K,(@101:102)")
+    start = sim.clock.now()
+    scanner.write("INIT")
+    first = scanner.query("FETC?")
+    assert sim.clock.now() - start == pytest.approx(0.2)
+    assert len(first.split(",")) == 2 and scanner.query("FETC?") == first
+
+
+def test_nplc_sets_the_integration_time_per_channel(sim):
+    scanner = sim.serial("daq970a", LINK)
+    scanner.write("CONF:TEMP TC,K,(@101:102)")
+    scanner.write("SENS:TEMP:NPLC 10,(@102)")
+    scanner.write("SENS:TEMP:NPLC 3,(@101)")  # rounded up to 10
+    assert scanner.query("SENS:TEMP:NPLC? (@101,102)") == "+1.00000000E+01,+1.00000000E+01"
+    start = sim.clock.now()
+    scanner.query("READ?")
+    assert sim.clock.now() - start == pytest.approx(2 * 10 / 50)
+
+
+def test_relays_open_and_close_and_a_scan_opens_them(sim):
+    scanner = sim.serial("daq970a", LINK)
+    scanner.write("ROUT:CLOS (@105,107)")
+    assert scanner.query("ROUT:CLOS? (@105:107)") == "1,0,1"
+    assert scanner.query("ROUT:OPEN? (@105:107)") == "0,1,0"
+    scanner.write("ROUT:OPEN (@105)")
+    assert scanner.query("ROUT:CLOS? (@105,107)") == "0,1"
+    assert scanner.query("DIAG:REL:CYCL? (@105,107)") == "+1,+1"
+
+
+@pytest.mark.parametrize("instrument, slot1, slot2", [
+    ("daq970a", "Keysight Technologies,DAQM901A,0,1.0", "Keysight Technologies,0,0,0"),
+    ("34970a", "HEWLETT-PACKARD,34901A,0,1.0", "HEWLETT-PACKARD,0,0,0"),
+])
+def test_card_type_names_the_module_or_an_empty_slot(sim, instrument, slot1, slot2):
+    scanner = sim.serial(instrument, LINK)
+    assert scanner.query("SYST:CTYP? 100") == slot1
+    assert scanner.query("SYST:CTYP? 200") == slot2
+
+
+# -- HMP4040 additions -----------------------------------------------------------------------------------
+
+def test_min_max_queries_answer_the_limits_not_the_setting(link):
+    link.write("VOLT 12")
+    assert [link.query(q) for q in ("VOLT?", "VOLT? MIN", "VOLT? MAX", "CURR? MAX")] == [
+        "12.000", "0.000", "32.050", "10.0100"]
+    link.write("VOLT MAX")
+    assert link.query("VOLT?") == "32.050"
+
+
+def test_apply_and_steps(link):
+    link.write("INST OUT3;APPL 5, 0.5")
+    assert link.query("APPL?") == "5.000,0.5000"
+    link.write("VOLT:STEP 0.25;:VOLT UP;:VOLT UP")  # a leading colon: back to the root
+    assert link.query("VOLT?;VOLT:STEP?") == "5.500;0.250"
+    link.write("CURR:STEP 0.2;:CURR DOWN")
+    assert link.query("CURR?") == "0.3000"
+    link.write("VOLT 0;VOLT DOWN")  # below zero: refused
+    assert link.query("SYST:ERR?") == '-222,"Data out of range"'
+    assert link.query("SYST:VERS?") == "1999.0"
+
+
+def test_power_ovp_and_fuse(sim, link):
+    link.write("INST OUT1;APPL 12,2;OUTP ON")
+    load = sim.lab.config.thermal.target_heater_ohm
+    assert float(link.query("MEAS:POW?")) == pytest.approx(12 * 12 / load, rel=1e-3)
+    link.write("VOLT:PROT 10")  # below the 12 V it delivers: trips
+    assert link.query("VOLT:PROT:TRIP?") == "1" and not sim.lab.supply[1].on
+    for command in ("VOLT:PROT:CLE", "VOLT:PROT 32", "CURR 1", "FUSE ON", "OUTP ON"):  # 12 V / 8 Ohm > 1 A
+        link.write(command)
+    assert link.query("FUSE:TRIP?") == "1" and not sim.lab.supply[1].on
+    assert link.query("SYST:ERR?") == '+0,"No error"'

@@ -14,7 +14,7 @@ like 1/(1 - w^2 L C): strongly at 15 kHz, hardly at 500 Hz, and with hysteresis 
 
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 from scipy.special import expit
@@ -40,7 +40,8 @@ class ParasiticCapacitance(Effect):
             Parameter("moist_dC", 1e-12, -1e-10, 1e-10, "F", "extra parallel capacitance of the moist former", 5e-12),
             Parameter("moist_dG", 1e-6, 0.0, 1e-4, "S", "extra loss conductance of the moist former", 3e-6),
             Parameter("drying_rate", 1.0 / 300, 1e-7, 1.0, "1/s", "drying rate of the hot former (r_hot)", 1e-3),
-            Parameter("drying_onset", 100.0, 20.0, 250.0, "C", "temperature at which drying reaches half its rate", 10.0),
+            Parameter("drying_onset", 100.0, 20.0, 250.0, "C", "temperature at which drying reaches half its rate",
+                      10.0),
             Parameter("drying_width", 17.0, 0.2, 60.0, "K", "width of the drying onset (small: a threshold)", 5.0),
             Parameter("drying_order", 1.0, 0.0, 2.0, "1", "order n of dm/dt = -r m^n (0 linear, 1 exponential)", 0.2),
         ]

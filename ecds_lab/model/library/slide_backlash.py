@@ -6,7 +6,7 @@ on the side it came from: x_eff = x - direction * b / 2 (direction +1 increasing
 
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 

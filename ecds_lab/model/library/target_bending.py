@@ -8,7 +8,7 @@ w = 1 + c (x - 60 mm) / 40 mm. b1 > 0: the plate comes closer as it heats.
 
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 

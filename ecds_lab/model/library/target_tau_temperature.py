@@ -7,7 +7,7 @@ of conductivity and a linear rise of resistivity to within a fraction of a perce
 
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 

@@ -3,13 +3,14 @@
 The eddy-current pattern, and so the target's effective L_T/R_T, changes as the coil comes
 closer (the paper's simulation: ~20 % at 30 mm). The form is not known a priori (the field
 simulation gives it), so ln(tau_T / tau0) is a smooth natural cubic spline in x through knots at
-20, 28, 40, 60 and 100 mm (denser near the coil, where the field changes fastest), zero at 60 mm (tau0 is the value there); it takes any smooth change over
-the range, from a linear trend to a rise concentrated near the coil. Beyond the knots it is constant.
+20, 28, 40, 60 and 100 mm (denser near the coil, where the field changes fastest), zero at 60 mm
+(tau0 is the value there); it takes any smooth change over the range, from a linear trend to a rise
+concentrated near the coil. Beyond the knots it is constant.
 """
 
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 from scipy.interpolate import CubicSpline

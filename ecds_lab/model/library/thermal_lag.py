@@ -6,7 +6,7 @@ winding trails by a time constant tau_lag: dT_w/dt = (T_tc - T_w) / tau_lag, per
 
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 
