@@ -263,7 +263,7 @@ class RunWriter:
         if not events:
             return
         events_out, text_out = self._event_tables[role]
-        clock_s, wall_s, kinds, texts = zip(*events)
+        clock_s, wall_s, kinds, texts = zip(*events, strict=True)
         encoded = [text.encode("utf-8", errors="replace") for text in texts]
         table = np.empty((len(events), 4))
         table[:, 0] = clock_s
