@@ -151,26 +151,38 @@ def test_two_runs_at_once_on_one_path_exactly_one_wins(tmp_path, experiments_dir
 
 
 # -- kills, readers and lost bytes -----------------------------------------------------------------
-def test_a_kill_during_close_leaves_a_readable_file_with_every_row(tmp_path, experiments_dir):
+@pytest.mark.parametrize("moment", ["completing", "finishing"])
+def test_a_kill_during_close_leaves_a_readable_file_with_every_row(moment, tmp_path, experiments_dir, shipped_run):
+    """Killed while /entry is completed in place (status not yet written), or later, while the file is
+    reopened for the NeXus end_time field (status already written)."""
     path = tmp_path / "closing.h5"
+    kill = {"completing": """
+        def complete(self, *args):
+            self._file["entry"].attrs["end_time"] = "half-way"
+            self._file.flush()
+            os._exit(9)
+        run_file.RunWriter._complete = complete
+    """, "finishing": """
+        import h5py
+        def finish(self):
+            h5py.File(self.path, "a", libver="latest")
+            os._exit(9)
+        run_file.RunWriter._finish_nexus = finish
+    """}[moment]
     done = python(f"""
         import os
         from ecds_lab.cli import main
         from ecds_lab.storage import run_file
-        real = run_file.RunWriter._complete
-        def complete(self, *args):
-            self._file["entry/data/ls_h"].resize((3,))  # part of the way through completing the file
-            self._file.flush()
-            os._exit(9)
-        run_file.RunWriter._complete = complete
+        {textwrap.indent(textwrap.dedent(kill), "        ").strip()}
         main(["run", {str(experiments_dir / SWEEP)!r}, "-o", {str(path)!r}, "-q"])
     """)
     assert done.returncode == 9, done.stderr
-    assert read_superblock(path).left_open
     run = read_run(path)
-    assert run.status == "interrupted"
-    assert len(run.points) > 0 and any("h5clear -s" in note for note in run.notes)
-    assert read_superblock(path).left_open  # reading never modified the file
+    assert run.status == ("interrupted" if moment == "completing" else "completed")
+    assert len(run.points) == len(read_run(shipped_run(SWEEP).path).points)  # every row of the whole sweep
+    if read_superblock(path).left_open:
+        assert any("h5clear -s" in note for note in run.notes)
+        assert read_superblock(path).left_open  # reading never modified the file
     assert main(["export", str(path), "-o", str(tmp_path / "closing.csv")]) == 0
 
 
