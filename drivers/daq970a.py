@@ -21,7 +21,8 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from ecds_lab.drivers.instrument import SCPIInstrument
-from ecds_lab.errors import InvalidSettingError, TransportTimeout
+from ecds_lab.drivers.replies import NR3, Field, ReplyFormat, ask_checked
+from ecds_lab.errors import InvalidSettingError, ReplyFormatError, TransportTimeout
 from ecds_lab.transports.base import Transport
 
 #: The eight standard letter types; that the DMM takes exactly these was not re-checked in the manual.
@@ -32,6 +33,12 @@ MUX_CHANNELS = 20
 DEFAULT_CHANNELS: Mapping[str, int] = {"coil": 101, "target": 102, "ambient": 103}
 #: Readings at or beyond this magnitude are the overload / open-input value 9.9E+37 [34980A-help].
 OVERLOAD_THRESHOLD = 9.0e37
+#: ``READ?`` -> one NR3 reading per channel of the scan list, e.g. ``+2.21234567E+01`` [34970A-UG
+#: ch.5]; READ? starts a new scan, so a garbled reply is re-queried once (a fresh scan).
+READ_REPLY = ReplyFormat((Field("reading", NR3),), count=1)
+#: Thermocouples read from about -270 C (type E/J/K/T lower end) to 1820 C (type B upper end);
+#: anything outside (short of the overload value) is not a temperature.
+PLAUSIBLE_C = (-273.15, 1820.0)
 #: Models that speak this command set; matched on the 2nd *IDN? field [dvg: the vendor field varies].
 MODELS: tuple[str, ...] = ("DAQ970A", "DAQ973A", "34970A", "34972A")
 
@@ -114,23 +121,19 @@ class DAQ970A(SCPIInstrument):
     def read_temperatures_c(self) -> dict[str, float]:
         """One scan (``READ?``): {name: degrees C}; an open thermocouple is an error, never a temperature."""
         try:
-            reply = self.ask("READ?")
+            reply, values = ask_checked(self, "READ?", READ_REPLY, count=len(self.channels))
         except TransportTimeout:
             errors = self.error_queue()  # a refused query sends nothing; the queue says why
             if errors:
                 raise self.fail("READ?", errors[0], "; ".join(errors[1:])) from None
             raise
-        try:
-            values = [float(field) for field in reply.split(",")]
-        except ValueError:
-            raise self.fail("READ?", reply, "expected comma-separated readings") from None
-        if len(values) != len(self.channels):
-            scan_list = channel_list(list(self.channels))
-            raise self.fail("READ?", reply, f"expected {len(self.channels)} readings for {scan_list}")
         temperatures: dict[str, float] = {}
         for (number, name), value in zip(self.channels.items(), values, strict=True):
             if abs(value) >= OVERLOAD_THRESHOLD:
                 raise self.fail("READ?", reply, f"channel {number} ({name!r}): open thermocouple or overload")
+            if not PLAUSIBLE_C[0] <= value <= PLAUSIBLE_C[1]:
+                raise ReplyFormatError(self.name, "READ?", reply, f"channel {number} ({name!r}) reads {value:g} C, "
+                                       f"not a thermocouple temperature ({PLAUSIBLE_C[0]:g}..{PLAUSIBLE_C[1]:g} C)")
             temperatures[name] = value
         return temperatures
 

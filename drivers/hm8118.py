@@ -17,6 +17,7 @@ import math
 from typing import Any
 
 from ecds_lab.drivers.instrument import Control, Instrument, in_range, integer_in_range, one_of
+from ecds_lab.drivers.replies import INTEGER, NR3, Field, ReplyFormat, ask_checked, drain
 from ecds_lab.instruments.interfaces import BridgeReading, BridgeSettings
 from ecds_lab.transports.base import Transport
 
@@ -41,6 +42,13 @@ SERIAL_SETTINGS: dict[str, Any] = {
     "baudrate": 9600, "bytesize": 8, "parity": "N", "stopbits": 1,
     "write_termination": "\r", "read_termination": "\r", "timeout_s": 3.0, "min_interval_s": 0.2,
 }
+#: ``XALL?`` -> main,secondary,bin: both values in NR3 with a two-digit exponent, the bin number an
+#: integer (the emulator and the recorded sessions: ``1.23456E-04,5.83000E+01,0``). The bridge's
+#: displays end at 99999 x 10^x; magnitudes beyond 1e9 (H, Ohm, F, S...) are not a reading. Asking
+#: again returns the same measurement, so a garbled reply is re-queried once.
+XALL_REPLY = ReplyFormat((Field("main", NR3, -1e9, 1e9), Field("secondary", NR3, -1e9, 1e9),
+                          Field("bin", INTEGER, 0, 99)))
+
 #: Upper bound of one reading at the slowest speed, to wait for averaged readings (an assumption).
 SLOWEST_READING_S = 1.0
 #: A compensation over all 69 frequencies takes up to ~2 minutes without answering [KAK].
@@ -81,10 +89,20 @@ class HM8118(Instrument):
 
     def confirm_set(self, control: Control[Any], command: str, value: Any) -> None:
         """Read the setting back: ``ERROR`` means the set was refused, another value that it was changed."""
-        reply = self.transport.query(control.get_command or "")
+        query = control.get_command or ""
+        reply = self.transport.query(query)
         self.check_reply(command, reply)
         expected = control.encode(self, value)
-        actual = control.parse(reply)
+        try:
+            actual = control.parse(reply)
+        except ValueError:  # not this setting's reply (an unsolicited line ahead of it): drain, ask once more
+            drain(self)
+            reply = self.transport.query(query)
+            self.check_reply(command, reply)
+            try:
+                actual = control.parse(reply)
+            except ValueError:
+                raise self.fail(query, reply, f"not a {control.name} value (read back after {command!r})") from None
         if isinstance(expected, float):
             changed = not math.isclose(actual, expected, rel_tol=1e-6, abs_tol=1e-6)
         else:
@@ -130,12 +148,8 @@ class HM8118(Instrument):
             self._frequency_hz = float(self.frequency_hz)
         self.write("*TRG")
         self.write("*WAI")
-        reply = self.ask("XALL?", timeout_s=self.transport.timeout_s + self._averages * SLOWEST_READING_S)
-        fields = reply.split(",")
-        try:
-            main, secondary = float(fields[0]), float(fields[1])
-        except (IndexError, ValueError):
-            raise self.fail("XALL?", reply, "expected main,secondary[,bin]") from None
+        _, (main, secondary, _bin) = ask_checked(
+            self, "XALL?", XALL_REPLY, timeout_s=self.transport.timeout_s + self._averages * SLOWEST_READING_S)
         return BridgeReading(main, secondary, self._frequency_hz)
 
     def open_compensation(self, all_frequencies: bool = False) -> None:

@@ -15,11 +15,16 @@ The identity's vendor is ``HAMEG`` or ``ROHDE&SCHWARZ`` [sigrok pps_profiles].
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, ClassVar
 
 from ecds_lab.drivers.instrument import Control, Instrument, SCPIInstrument, in_range, integer_in_range
-from ecds_lab.errors import InvalidSettingError
+from ecds_lab.drivers.replies import Field, ReplyFormat, ask_checked
+from ecds_lab.errors import HeaterNotOff, InvalidSettingError
 from ecds_lab.transports.base import Transport
+
+#: A switched-off output measures no current; below this it counts as off (the HMP4040's current
+#: read-back resolution is 1 mA at < 1 A [HMP-DS]; a margin of a few counts).
+OFF_CURRENT_A = 0.005
 
 VENDORS: tuple[str, ...] = ("HAMEG", "ROHDE&SCHWARZ")
 ON_OFF = {False: "OFF", True: "ON"}
@@ -35,8 +40,16 @@ VISA_SETTINGS: dict[str, Any] = {"write_termination": "\n", "read_termination": 
 
 
 def _on_off(reply: str) -> str:
-    """``OUTP?`` and ``OUTP:GEN?`` answer 0/1 [chk]; the wire value for sets is OFF/ON."""
-    return "ON" if reply.strip().upper() in ("1", "ON") else "OFF"
+    """``OUTP?`` and ``OUTP:GEN?`` answer 0/1 [chk]; the wire value for sets is OFF/ON.
+
+    Anything else is refused (a truncated or foreign reply must never read as "off").
+    """
+    value = reply.strip().upper()
+    if value in ("1", "ON"):
+        return "ON"
+    if value in ("0", "OFF"):
+        return "OFF"
+    raise ValueError(f"expected 0 or 1, got {reply!r}")
 
 
 class Bounded(Control[float]):
@@ -116,17 +129,50 @@ class HMP4040(SCPIInstrument):
             self.write(command)
         self.check_errors("; ".join(commands))
 
+    #: The read-back queries with the format of their replies: volts with 3 decimals, amps with 4
+    #: (``12.000``, ``1.5000`` [chk]); the bounds are the sigrok maxima (32.050 V, 10.010 A [sigrok])
+    #: plus read-back noise around zero. A measurement may be asked again.
+    MEASUREMENTS: ClassVar[dict[str, ReplyFormat]] = {
+        "MEAS:VOLT?": ReplyFormat((Field("voltage", r"[+-]?\d+\.\d{3}", -0.1, 32.1),)),
+        "MEAS:CURR?": ReplyFormat((Field("current", r"[+-]?\d+\.\d{4}", -0.02, 10.02),)),
+    }
+
+    def _measure(self, query: str) -> float:
+        """One read-back, checked against its format (re-queried once if garbled)."""
+        return ask_checked(self, query, self.MEASUREMENTS[query])[1][0]
+
+    def _read(self, query: str, parse: Any) -> Any:
+        """One state query whose reply is checked; InstrumentError names command and reply."""
+        reply = self.ask(query)
+        try:
+            return parse(reply)
+        except ValueError as exc:
+            raise self.fail(query, reply, f"reply does not have the expected format: {exc}") from None
+
     def read_back(self, output: int) -> tuple[float, float]:
         """Measured voltage (V) and current (A) at an output."""
         self.write(self._command("selected_output", output))
-        values = []
-        for query in ("MEAS:VOLT?", "MEAS:CURR?"):
-            reply = self.ask(query)
-            try:
-                values.append(float(reply))
-            except ValueError:
-                raise self.fail(query, reply, "expected a number") from None
-        return values[0], values[1]
+        volts = self._measure("MEAS:VOLT?")
+        amps = self._measure("MEAS:CURR?")
+        return volts, amps
+
+    def verify_off(self, outputs: tuple[int, ...]) -> None:
+        """After ``all_off``: the master switch reads off, and each heater output reads off and draws no current.
+
+        Raises HeaterNotOff naming the outputs still on; a supply that does not answer raises its
+        TransportError (the caller treats both as "not confirmed off").
+        """
+        problems = []
+        if self._read("OUTP:GEN?", _on_off) != "OFF":
+            problems.append("master switch (OUTP:GEN?) still reads on")
+        for output in outputs:
+            self.write(self._command("selected_output", output))
+            state = self._read("OUTP?", _on_off)
+            amps = self._measure("MEAS:CURR?")
+            if state != "OFF" or amps > OFF_CURRENT_A:
+                problems.append(f"output {output} reads {state} and measures {amps:g} A")
+        if problems:
+            raise HeaterNotOff(f"{self.name}: " + "; ".join(problems))
 
     def all_off(self) -> None:
         """Master switch off, then disarm every output, without reading anything back.

@@ -112,7 +112,11 @@ class Control(Generic[T]):
             return self
         if self.get_command is None:
             raise AttributeError(f"{type(instrument).__name__}.{self.name} can only be set")
-        return self.decode(instrument.ask(self.get_command))
+        reply = instrument.ask(self.get_command)
+        try:
+            return self.decode(reply)
+        except ValueError as exc:  # a reply that is not this setting's: name instrument, command and reply
+            raise instrument.fail(self.get_command, reply, f"not a {self.name} value: {exc}") from None
 
     def __set__(self, instrument: Instrument, value: Any) -> None:
         if self.set_command is None:

@@ -5,8 +5,11 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import os
+import signal
 import sys
-from collections.abc import Callable, Sequence
+import traceback
+from collections.abc import Callable, Sequence, Sized
 from pathlib import Path
 
 from ecds_lab import __version__
@@ -32,7 +35,18 @@ def _cmd_run(args: argparse.Namespace) -> int:
         print(f"error: {result.error}", file=sys.stderr)
     if args.watch:
         _keep_watching()
-    return 0 if result.status == "completed" else 1
+    return _run_exit_code(result.status, result.stopped_by)
+
+
+def _run_exit_code(status: str, stopped_by: int | None) -> int:
+    """0 completed; 128 + signal when a signal stopped the run (130 Ctrl-C, 143 SIGTERM, 129 SIGHUP); else 1."""
+    from ecds_lab.runner.safe_state import exit_code
+
+    if status == "completed":
+        return 0
+    if stopped_by is not None and status == "aborted":
+        return exit_code(stopped_by)
+    return 1
 
 
 def _keep_watching() -> None:
@@ -83,15 +97,26 @@ def _cmd_export(args: argparse.Namespace) -> int:
 
 
 def _export(args: argparse.Namespace, output: Path) -> int:
-    """A run file: every column (or --columns) and the units sidecar; a CSV: the import columns."""
+    """A run file: every column (or --columns) and the units sidecar; a CSV: the import columns.
+
+    Never onto an input, never over an existing file without --overwrite (storage/outputs.py);
+    what the reader had to work around in the run file (lost rows, a killed writer) is noted.
+    """
     from ecds_lab.data.files import file_kind
     from ecds_lab.storage.data_file import open_data
-    from ecds_lab.storage.export import columns_from, export_run
+    from ecds_lab.storage.export import columns_from, export_run, sidecar_path
+    from ecds_lab.storage.outputs import check_output, write_output
+    from ecds_lab.storage.reader import read_run
 
     if file_kind(args.run) == "run":
-        return export_run(args.run, output, columns_from(args.columns))
+        columns = columns_from(args.columns)
+        for path in (output, sidecar_path(Path(output))):
+            check_output(path, [args.run], overwrite=args.overwrite)
+        for note in read_run(args.run, transcripts=False).notes:
+            _say(f"ecds-lab export: note: {note}")
+        return export_run(args.run, output, columns)
     data = open_data(args.run).data
-    data.to_csv(output)
+    write_output(output, [args.run], args.overwrite, data.to_csv)
     return len(data)
 
 
@@ -124,9 +149,19 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
 
     _load_user_effects(args.effects_from)
     opened = open_campaign(args.data, args.sensor)
+    _require_readings(opened.data, args.data, 2, "a diagnosis compares readings")
     result = {"sensor": opened.sensor_summary(), **diagnose(opened.data, _effects(args.effects), opened.sensor)}
     _print(result, opened.sensor_note, args.json, format_diagnosis)
     return 0
+
+
+def _require_readings(data: Sized, paths: Sequence[Path], minimum: int, why: str) -> None:
+    """Refuse data too small for the analysis asked, naming the file and the count."""
+    from ecds_lab.data.measurements import DataError
+
+    if len(data) < minimum:
+        named = ", ".join(str(p) for p in paths)
+        raise DataError(f"{named}: {len(data)} reading(s); {why} and needs at least {minimum}")
 
 
 def _print(result: dict, note: str | None, as_json: bool, as_text: Callable[[dict], str]) -> None:
@@ -141,10 +176,13 @@ def _print(result: dict, note: str | None, as_json: bool, as_text: Callable[[dic
 
 def _cmd_report(args: argparse.Namespace) -> int:
     from ecds_lab.report.html import write_report
+    from ecds_lab.storage.outputs import check_output, write_output
 
     _load_user_effects(args.effects_from)
-    output = write_report([Path(p) for p in args.data], args.output)
-    print(f"report -> {output}")
+    inputs = [Path(p) for p in args.data]
+    check_output(args.output, inputs, overwrite=args.overwrite)  # before minutes of analysis
+    write_output(args.output, inputs, args.overwrite, lambda path: write_report(inputs, path))
+    print(f"report -> {args.output}")
     return 0
 
 
@@ -245,6 +283,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", type=Path, default=Path("report.html"))
     p.add_argument("--effects-from", type=Path, action="append", metavar="FILE.py",
                    help="a Python file of your own effects (Effect subclasses); may be given several times")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing output file (never an input)")
 
     p = command("replay", _cmd_replay, "re-run a recorded session through the drivers from its transcript")
     p.add_argument("run", type=Path)
@@ -259,22 +298,90 @@ def build_parser() -> argparse.ArgumentParser:
                 "then every other column; units in RUN.units.json")
     p.add_argument("run", type=Path)
     p.add_argument("-o", "--output", type=Path)
+    p.add_argument("--overwrite", action="store_true", help="replace an existing output file (never an input)")
     p.add_argument("--columns", help="comma-separated columns to write (default: all)")
     return parser
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    parser.add_argument("--debug", action="store_true",
+                        help="show the Python traceback of an unexpected error (also ECDS_LAB_DEBUG=1)")
+    args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING,
                         format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    return _guarded(args)
+
+
+def _guarded(args: argparse.Namespace) -> int:
+    """Run a command (see :func:`_run_guarded`), then leave at once if a run file failed a write."""
+    code = _run_guarded(args)
+    _exit_now_if_a_run_file_broke(code)
+    return code
+
+
+def _exit_now_if_a_run_file_broke(code: int) -> None:
+    """After a failed write (full disk) the HDF5 library retries its unwritable metadata whenever an
+    object is freed and can crash at interpreter exit; what was flushed is on disk, so end here."""
+    run_file = sys.modules.get("ecds_lab.storage.run_file")
+    if run_file is not None and run_file.BROKEN_WRITERS:
+        for stream in (sys.stdout, sys.stderr):
+            try:
+                stream.flush()
+            except OSError:
+                pass
+        os._exit(code or 1)
+
+
+def _run_guarded(args: argparse.Namespace) -> int:
+    """Run a command; every failure becomes one line on stderr and a non-zero exit, never a traceback.
+
+    Expected failures (bad input, a file or instrument problem) exit 2; a signal 128 + its number;
+    anything else is a bug: one line asking for a report, the traceback only with --debug.
+    """
+    from ecds_lab.runner.safe_state import StopSignal, exit_code, signal_name
+
+    name = f"ecds-lab {args.command}"
     try:
         return args.handler(args)
     except (EcdsLabError, ValueError) as exc:
-        print(f"ecds-lab {args.command}: {exc}", file=sys.stderr)
+        _say(f"{name}: {exc}")
+        return 2
+    except BrokenPipeError:
+        _quiet_stdout()  # the reader (head, less) has gone: nothing to say, nothing to flush
+        return 0
+    except OSError as exc:
+        where = f"{exc.filename}: " if exc.filename else ""
+        _say(f"{name}: {where}{exc.strerror or exc}")
         return 2
     except KeyboardInterrupt:
-        print(f"ecds-lab {args.command}: interrupted", file=sys.stderr)
-        return 130
+        _say(f"{name}: interrupted")
+        return exit_code(signal.SIGINT)
+    except StopSignal as stop:
+        _say(f"{name}: stopped by {signal_name(stop.signum)}")
+        return exit_code(stop.signum)
+    except Exception as exc:  # a bug: visible, but as one line unless asked for more
+        if getattr(args, "debug", False) or os.environ.get("ECDS_LAB_DEBUG") == "1":
+            traceback.print_exc()
+        _say(f"{name}: unexpected error {type(exc).__name__}: {exc} -- this is a bug in ecds-lab, please report "
+             "it (run again with --debug or ECDS_LAB_DEBUG=1 for the details)")
+        return 70
+
+
+def _say(line: str) -> None:
+    try:
+        print(line, file=sys.stderr)
+    except OSError:
+        pass
+
+
+def _quiet_stdout() -> None:
+    """Point stdout at /dev/null so the interpreter's final flush does not raise BrokenPipeError again."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):
+        pass
 
 
 if __name__ == "__main__":

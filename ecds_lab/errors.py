@@ -46,3 +46,11 @@ class ReplayDivergence(EcdsLabError):
 
 class RunFileError(EcdsLabError):
     """A run file is missing, truncated, corrupt or of the wrong kind."""
+
+
+class HeaterNotOff(EcdsLabError):
+    """After switching off, the heater supply still reports an output on or drawing current."""
+
+
+class ReplyFormatError(InstrumentError):
+    """A reply that does not have the format its command promises (cut short, extra line, out of range)."""

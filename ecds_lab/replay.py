@@ -48,6 +48,8 @@ class ReplayResult:
     error: str = ""
     #: The first place the code left the recording (instrument, transcript position, expected, actual).
     divergence: str = ""
+    #: The recorded run was interrupted (killed): only the part it measured was replayed.
+    partial: bool = False
 
     @property
     def reproduced(self) -> bool:
@@ -136,6 +138,12 @@ def replay_run(path: str | Path) -> ReplayResult:
                           error=error)
     divergence = next((link.state.divergence for link in links if link.state.divergence is not None), None)
     closed = original.status in ("completed", "failed")
+    if divergence is not None and _recording_ran_out(original, divergence):
+        # a killed run's recording ends where it was killed: the replay reproduces the measured part
+        result.partial = True
+        replayed_points = replayed_points[:len(original.points)]
+        result.replayed_points = len(replayed_points)
+        divergence = None
     if divergence is not None:
         result.divergence = str(divergence)
         result.differences.append(f"diverged: {divergence}")
@@ -151,6 +159,11 @@ def replay_run(path: str | Path) -> ReplayResult:
                                   f"replayed {error!r}")
     result.differences += compare_points(original.points, replayed_points)
     return result
+
+
+def _recording_ran_out(original: RunFile, divergence: ReplayDivergence) -> bool:
+    """Whether the replay stopped only because an interrupted run's recording ends (it was killed)."""
+    return original.status == "interrupted" and "expected the end of the recording" in str(divergence)
 
 
 def compare_points(recorded: np.ndarray, replayed: np.ndarray, limit: int = 20) -> list[str]:
@@ -176,6 +189,9 @@ def format_replay(result: ReplayResult) -> str:
     """Human summary for ``ecds-lab replay``."""
     head = (f"{result.path}: recorded {result.original_points} points ({result.original_status}), "
             f"replayed {result.replayed_points} ({result.replay_status})")
+    if result.partial:
+        head += ("\nthe run was interrupted (its writer was killed): replayed the part it measured, up to where "
+                 "its recording ends")
     if result.reproduced:
         ending = f"; the run ends as recorded: {result.error}" if result.error else ""
         return head + "\nreproduced: every point equal" + ending

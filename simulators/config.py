@@ -140,6 +140,11 @@ class InjectedFaults(_Strict):
     open_thermocouples: list[int] = Field([], description="scanner channels whose thermocouple reads open")
     silent_instruments: list[Literal["hm8118", "grbl", "daq970a", "34970a", "hmp4040"]] = Field(
         [], description="emulators that never answer")
+    short_replies: dict[str, int] = Field(
+        {}, description="'instrument:COMMAND' (e.g. 'hm8118:XALL?') -> how many replies to it are cut to half "
+                        "their length (-1: every one)")
+    unsolicited_lines: dict[str, list[str]] = Field(
+        {}, description="instrument -> lines it sends unasked, one before each of its next replies")
 
 
 class LabConfig(_Strict):

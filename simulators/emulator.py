@@ -37,6 +37,8 @@ class LineEmulator(ABC):
         self._order = itertools.count()
         #: Set to a bytearray to capture every byte the host sends (protocol tests assert on it).
         self.wire: bytearray | None = None
+        #: The command line being handled (what injected reply faults are keyed on).
+        self._command = ""
         #: The host keeps the instrument's pauses between commands. A simulated station with pacing
         #: switched off sets this False, and an instrument that loses commands sent too fast (the
         #: HM8118) then takes them all.
@@ -59,7 +61,8 @@ class LineEmulator(ABC):
         if lines:
             self._line = bytearray(rest)
             for line in lines:
-                self.handle_line(line.decode("ascii", errors="replace"))
+                self._command = line.decode("ascii", errors="replace").strip()
+                self.handle_line(self._command)
 
     def next_reply_time(self) -> float | None:
         """Simulated time at which the earliest pending reply is ready, or None."""
@@ -90,7 +93,23 @@ class LineEmulator(ABC):
     def reply(self, text: str, delay_s: float = 0.0) -> None:
         """Queue one reply line, ready ``delay_s`` simulated seconds from now."""
         ready = self.lab.clock.now() + max(0.0, delay_s)
-        heapq.heappush(self._scheduled, (ready, next(self._order), text.encode("ascii") + self.reply_termination))
+        for line in [*self._unsolicited(), self._maybe_cut(text)]:
+            heapq.heappush(self._scheduled, (ready, next(self._order), line.encode("ascii") + self.reply_termination))
+
+    def _unsolicited(self) -> list[str]:
+        """An injected line sent unasked ahead of this reply (lab.faults.unsolicited_lines), if any."""
+        queued = self.lab.faults.unsolicited_lines.get(self.name)
+        return [queued.pop(0)] if queued else []
+
+    def _maybe_cut(self, text: str) -> str:
+        """The reply, or its first half when lab.faults.short_replies asks for it (a garbled link)."""
+        key = f"{self.name}:{self._command.upper()}"
+        left = self.lab.faults.short_replies.get(key)
+        if left is None or left == 0:
+            return text
+        if left > 0:
+            self.lab.faults.short_replies[key] = left - 1
+        return text[:len(text) // 2]
 
     def drop_pending(self) -> None:
         """Forget queued replies (a reset empties the output buffer)."""

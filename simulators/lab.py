@@ -75,6 +75,10 @@ class Faults:
     open_thermocouples: set[int] = field(default_factory=set)
     bridge_error_commands: set[str] = field(default_factory=set)
     silent_instruments: set[str] = field(default_factory=set)
+    #: "instrument:COMMAND" -> how many of its replies are cut to half their length (-1: every one).
+    short_replies: dict[str, int] = field(default_factory=dict)
+    #: instrument -> lines it sends unasked, one before each of its next replies (then forgotten).
+    unsolicited_lines: dict[str, list[str]] = field(default_factory=dict)
 
 
 class SimulatedLab:
@@ -87,7 +91,9 @@ class SimulatedLab:
         injected = self.config.faults
         self.faults = Faults(open_thermocouples=set(injected.open_thermocouples),
                              bridge_error_commands=set(injected.bridge_error_commands),
-                             silent_instruments=set(injected.silent_instruments))
+                             silent_instruments=set(injected.silent_instruments),
+                             short_replies=dict(injected.short_replies),
+                             unsolicited_lines={k: list(v) for k, v in injected.unsolicited_lines.items()})
         cfg = self.config
         ambient = cfg.thermal.ambient_c
         self.field = cfg.physics == "field"

@@ -145,4 +145,17 @@ class StationConfig(_Strict):
             instrument: InstrumentConfig = getattr(self, role)
             if self.simulated is None and instrument.link is None:
                 raise ValueError(f"{role}: a real station needs a 'link' (serial url or visa resource)")
+            _check_options(role, instrument)
         return self
+
+
+def _check_options(role: str, instrument: InstrumentConfig) -> None:
+    """Options are the driver's keyword arguments; an unknown one is named with those allowed."""
+    import inspect
+
+    parameters = inspect.signature(KINDS[instrument.driver].driver_class()).parameters
+    allowed = [name for name, p in parameters.items() if p.kind is inspect.Parameter.KEYWORD_ONLY]
+    unknown = sorted(set(instrument.options) - set(allowed))
+    if unknown:
+        raise ValueError(f"{role}: driver {instrument.driver!r} has no option {', '.join(map(repr, unknown))}; "
+                         f"allowed: {', '.join(allowed) or 'none'}")

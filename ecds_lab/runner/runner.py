@@ -9,13 +9,14 @@ Interlocks (:mod:`~ecds_lab.runner.interlocks`) stop a run by raising inside a s
 from __future__ import annotations
 
 import logging
+import signal
 
 from ecds_lab.runner.context import RunContext
 from ecds_lab.runner.handlers import handler_for
 from ecds_lab.runner.plan import Plan
 from ecds_lab.runner.progress import Progress
 from ecds_lab.runner.resume import steps_to_run
-from ecds_lab.runner.safe_state import ctrl_c_deferred, make_safe
+from ecds_lab.runner.safe_state import StopSignal, ctrl_c_deferred, make_safe, signal_name
 from ecds_lab.runner.steps import SetHeater
 from ecds_lab.station import Station
 from ecds_lab.storage.run_file import RunWriter
@@ -34,6 +35,8 @@ class Runner:
         self.done = done or set()
         self.t0 = station.clock.now() - time_offset_s
         self.progress = progress
+        #: The signal that stopped the run (SIGINT for Ctrl-C), or None.
+        self.stopped_by: int | None = None
 
     def run(self) -> tuple[str, str]:
         """Execute every step; returns (status, error message). The lab is left safe whatever happens."""
@@ -52,12 +55,18 @@ class Runner:
                 handler_for(step)(context, step)
         except KeyboardInterrupt:
             status, error = "aborted", "interrupted by the operator (Ctrl-C)"
+            self.stopped_by = signal.SIGINT
+        except StopSignal as stop:
+            status, error = "aborted", f"stopped by {signal_name(stop.signum)}"
+            self.stopped_by = stop.signum
         except Exception as exc:  # any failure: record it, make the lab safe, keep every point
             status, error = "failed", f"{type(exc).__name__}: {exc}"
         finally:
             with ctrl_c_deferred():
-                make_safe(self.station, stop_slide=status != "completed")
+                unsafe = make_safe(self.station, stop_slide=status != "completed")
                 progress.close(completed=status == "completed")
+        if unsafe:  # a heater that may still be on outranks every other ending
+            status, error = "failed", unsafe + (f" (after: {error})" if error else "")
         if error:
             log.error("run %s: %s", status, error)
         return status, error

@@ -7,21 +7,25 @@ transcripts followed by the missing points.
 
 from __future__ import annotations
 
+import json
 import logging
 import time
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import yaml
 
 from ecds_lab.config.checks import check_experiment_fits_station
 from ecds_lab.config.experiment import EXPERIMENT_ADAPTER, ExperimentConfig
 from ecds_lab.config.loading import parse_yaml, read_text, validate
 from ecds_lab.config.station import StationConfig
 from ecds_lab.data.columns import INDEX
+from ecds_lab.data.run_metadata import SENSOR_ATTRIBUTE, sensor_attribute
 from ecds_lab.errors import ConfigError, RunFileError
 from ecds_lab.runner.plan import Plan, build_plan
-from ecds_lab.runner.runner import Runner, ctrl_c_deferred
+from ecds_lab.runner.runner import Runner
+from ecds_lab.runner.safe_state import ctrl_c_deferred, stop_signals_raise
 from ecds_lab.station import DEFAULT_STATION, open_station
 from ecds_lab.storage.reader import RunFile, read_run
 from ecds_lab.storage.run_file import RunWriter, metadata_for
@@ -36,6 +40,8 @@ class RunResult:
     error: str
     points: int
     wall_s: float
+    #: The signal that stopped the run (SIGINT for Ctrl-C, SIGTERM, SIGHUP), or None.
+    stopped_by: int | None = None
 
 
 def load_experiment(path: Path | str, text: str | None = None) -> ExperimentConfig:
@@ -65,7 +71,18 @@ def default_output(experiment_path: Path, resume: Path | None) -> Path:
 def run_experiment(experiment_path: Path, station_path: Path | None = None, output: Path | None = None, *,
                    resume: Path | None = None, overwrite: bool = False, progress: bool = True,
                    station_overrides: dict | None = None) -> RunResult:
-    """Run an experiment into a run file; returns how it ended (the file is closed in every case)."""
+    """Run an experiment into a run file; returns how it ended (the file is closed in every case).
+
+    SIGTERM and SIGHUP are handled like Ctrl-C for the whole call (main thread only).
+    """
+    with stop_signals_raise():
+        return _run_experiment(experiment_path, station_path, output, resume=resume, overwrite=overwrite,
+                               progress=progress, station_overrides=station_overrides)
+
+
+def _run_experiment(experiment_path: Path, station_path: Path | None, output: Path | None, *,
+                    resume: Path | None, overwrite: bool, progress: bool,
+                    station_overrides: dict | None) -> RunResult:
     experiment, experiment_text, station_config, station_text, plan = prepare(experiment_path, station_path)
     if station_overrides:
         station_config = station_config.model_copy(update=station_overrides)
@@ -79,10 +96,14 @@ def run_experiment(experiment_path: Path, station_path: Path | None = None, outp
                            "choose another -o")
     if output.exists() and not overwrite:
         raise RunFileError(f"{output} exists; choose another -o or pass --overwrite")
+    if previous is not None:
+        check_same_station(previous, station_config, None, station_path)
     started = time.monotonic()
     station = open_station(station_config, station_text)
     try:
         identities = station.identify()
+        if previous is not None:
+            check_same_station(previous, station_config, identities, station_path)
         writer = RunWriter(output, metadata=metadata_for(
             experiment_text, station_text, plan.name, plan.kind, getattr(experiment, "operator_note", ""),
             planned_points=str(len(plan.points)), resumed_from=str(resume or ""), sensor=station_config.sensor),
@@ -98,9 +119,34 @@ def run_experiment(experiment_path: Path, station_path: Path | None = None, outp
             writer.close(status, error)
     finally:
         station.close()
-    result = RunResult(output, status, error, writer.rows, time.monotonic() - started)
+    result = RunResult(output, status, error, writer.rows, time.monotonic() - started, runner.stopped_by)
     log.info("run %s: %d points in %s (%.1f s)", status, result.points, output, result.wall_s)
     return result
+
+
+def check_same_station(previous: RunFile, config: StationConfig, identities: dict[str, str] | None,
+                       station_path: Path | None) -> None:
+    """A resumed run continues on the station of the interrupted one: simulated or real alike, the same
+    sensor and (once asked) the same instruments; otherwise ConfigError naming every difference."""
+    given = f"station {station_path or DEFAULT_STATION}"
+    differences = []
+    recorded = yaml.safe_load(previous.metadata.get("station_yaml", "") or "{}") or {}
+    was_simulated = isinstance(recorded, dict) and recorded.get("simulated") is not None
+    if was_simulated != (config.simulated is not None):
+        differences.append(f"the interrupted run was on a {'simulated' if was_simulated else 'real'} station, "
+                           f"{given} is {'simulated' if config.simulated is not None else 'real'}")
+    recorded_sensor = previous.metadata.get(SENSOR_ATTRIBUTE, "")
+    sensor = sensor_attribute(config.sensor) if config.sensor is not None else ""
+    if recorded_sensor and sensor and json.loads(recorded_sensor) != json.loads(sensor):
+        differences.append(f"sensor: recorded {json.loads(recorded_sensor).get('name')!r}, "
+                           f"{given} has {json.loads(sensor).get('name')!r}")
+    for role, identity in sorted((identities or {}).items()):
+        before = previous.identities.get(role)
+        if before is not None and before != identity:
+            differences.append(f"{role}: recorded {before!r}, now {identity!r}")
+    if differences:
+        raise ConfigError(f"{previous.path}: cannot resume on another station ({'; '.join(differences)}); "
+                          "resume with the station the run was started on (--station)")
 
 
 def _carry_over(previous: RunFile, writer: RunWriter) -> tuple[set[int], float]:

@@ -61,6 +61,7 @@ def open_data(path: str | Path, sensor: str | Path | None = None, *, allow_empty
         run = RunMetadata.from_attributes(stored.metadata, status=stored.status, points=len(stored.points),
                                           completed_points=len(stored.completed_points()),
                                           identities=stored.identities, source=str(path))
+        run.faults.extend(note for note in stored.notes if note not in run.faults)
         try:
             data = read_measurements(stored)
         except RunFileError as exc:

@@ -1,11 +1,15 @@
 """Read run files: the points table, metadata and transcripts, including files of killed runs.
 
 Files are opened in SWMR-read mode, which also opens a file whose writer was killed
-(its consistency flags are still set, so a plain open would refuse it).
+(its consistency flags are still set, so a plain open would refuse it). A file cut short is read
+from a private repaired copy (:mod:`~ecds_lab.storage.recovery`): rows whose bytes were lost are
+left out and reported in ``RunFile.notes``, never read as zeros.
 """
 
 from __future__ import annotations
 
+import os
+from contextlib import ExitStack
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -15,6 +19,8 @@ import numpy as np
 from ecds_lab.data.columns import COLUMN_NAMES, INDEX, PLANNED_POINT
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.errors import RunFileError
+from ecds_lab.storage.lock import is_being_written
+from ecds_lab.storage.recovery import private_folder, read_superblock, readable_copy, truncated, unreadable_rows
 from ecds_lab.transports.transcript import KINDS, TranscriptEvent
 
 
@@ -28,6 +34,8 @@ class RunFile:
     transcripts: dict[str, list[TranscriptEvent]]
     #: role -> the instrument's identification string (``*IDN?`` reply or banner) at the start of the run
     identities: dict[str, str] = field(default_factory=dict)
+    #: What the reader had to work around (a writer that never closed the file, lost rows), one line each.
+    notes: list[str] = field(default_factory=list)
 
     @property
     def status(self) -> str:
@@ -54,8 +62,10 @@ def read_run(path: str | Path, *, transcripts: bool = True) -> RunFile:
     path = Path(path)
     if not path.exists():
         raise RunFileError(f"{path}: no such run file")
+    notes: list[str] = []
     try:
-        with _open(path) as f:
+        with ExitStack() as stack:
+            f = stack.enter_context(_open(path, notes, stack))
             if "entry" not in f or "points" not in f["entry"]:
                 raise RunFileError(f"{path}: not an ecds-lab run file (no /entry/points)")
             entry = f["entry"]
@@ -66,38 +76,63 @@ def read_run(path: str | Path, *, transcripts: bool = True) -> RunFile:
             if names != list(COLUMN_NAMES):
                 raise RunFileError(f"{path}: written with other columns ({', '.join(names)}); "
                                    f"this ecds-lab reads {', '.join(COLUMN_NAMES)}")
-            points = table[()]
+            size = os.path.getsize(f.filename)
+            lost = unreadable_rows(table, size)
+            points = _read_rows(table, lost)
+            if lost.any():
+                notes.append(f"{int(lost.sum())} row(s) of the points table were lost from the end of the file "
+                             "and are left out (never read as zeros)")
             points = points[~np.isnan(points[:, INDEX["time_s"]])]  # a row grown but never written (killed)
-            events = _read_transcripts(entry) if transcripts and "transcripts" in entry else {}
+            events = _read_transcripts(entry, size) if transcripts and "transcripts" in entry else {}
             identities = _read_identities(entry)
     except RunFileError:
         raise
     except (OSError, KeyError, ValueError, RuntimeError, TypeError) as exc:  # h5py's errors for damaged files
         raise RunFileError(f"{path}: cannot read the run file (truncated or corrupt?): {exc}") from exc
-    return RunFile(path, metadata, points, events, identities)
+    return RunFile(path, metadata, points, events, identities, notes)
 
 
-def _open(path: Path) -> h5py.File:
-    """Open a closed run file plainly; fall back to SWMR-read only for a file a writer left open.
+def _open(path: Path, notes: list[str], stack: ExitStack) -> h5py.File:
+    """Open a closed run file plainly; otherwise say why not and open what can be read.
 
     A plain open checks the file against the size its superblock records, so a truncated file
     fails at once. SWMR-read skips that check and retries unreadable metadata (a writer may be
-    mid-flush), which on a truncated or damaged file can spin for minutes; it is kept for the
-    files that need it: a live run, or one whose writer was killed (consistency flags still set).
+    mid-flush), which on a truncated file can spin for minutes: it is kept for a live run and
+    for a whole file whose writer was killed. A truncated file is read from a repaired copy.
     """
     try:
         return h5py.File(path, "r")
     except OSError:
-        if not _left_open_by_writer(path):
+        block = read_superblock(path)
+        if block is None:
             raise
-    return h5py.File(path, "r", swmr=True)
+    if block.left_open and is_being_written(path):
+        notes.append("a run is still writing this file (read live)")
+        return h5py.File(path, "r", swmr=True)
+    if block.left_open:
+        notes.append(f"the run's writer never closed this file (killed or crashed); ecds-lab reads it from a "
+                     f"repaired copy and leaves it as it is; other HDF5 tools need its write flags cleared "
+                     f"first: h5clear -s {path}")
+    elif truncated(path):
+        notes.append("the file is shorter than its superblock records: it was cut short (full disk? "
+                     f"interrupted copy?); read from a repaired copy, {path} itself is left as it is")
+    else:
+        raise RunFileError(f"{path}: cannot read the run file (corrupt?)")
+    folder = stack.enter_context(private_folder())
+    return h5py.File(readable_copy(path, Path(folder)), "r")
 
 
-def _left_open_by_writer(path: Path) -> bool:
-    """Whether the superblock (version 2/3, as libver='latest' writes) still has its write-access flags set."""
-    with open(path, "rb") as raw:
-        head = raw.read(12)
-    return len(head) == 12 and head[:8] == b"\x89HDF\r\n\x1a\n" and head[8] >= 2 and bool(head[11] & 0x05)
+def _read_rows(dataset: h5py.Dataset, lost: np.ndarray) -> np.ndarray:
+    """The rows of a dataset that are not lost, reading only the stretches that are on disk."""
+    if not lost.any():
+        return dataset[()]
+    keep = np.flatnonzero(~lost)
+    if not len(keep):
+        return np.zeros((0, *dataset.shape[1:]), dataset.dtype)
+    breaks = np.flatnonzero(np.diff(keep) > 1)
+    starts = np.concatenate([[keep[0]], keep[breaks + 1]])
+    ends = np.concatenate([keep[breaks], [keep[-1]]]) + 1
+    return np.concatenate([dataset[a:b] for a, b in zip(starts, ends, strict=True)])
 
 
 def _read_identities(entry: h5py.Group) -> dict[str, str]:
@@ -112,11 +147,13 @@ def _read_identities(entry: h5py.Group) -> dict[str, str]:
     return out
 
 
-def _read_transcripts(entry: h5py.Group) -> dict[str, list[TranscriptEvent]]:
+def _read_transcripts(entry: h5py.Group, file_size: int) -> dict[str, list[TranscriptEvent]]:
     out: dict[str, list[TranscriptEvent]] = {}
     for role, group in entry["transcripts"].items():
-        table = group["events"][()]
-        blob = group["text"][()].tobytes()
+        lost_events = unreadable_rows(group["events"], file_size)  # keep what precedes the first loss:
+        lost_text = unreadable_rows(group["text"], file_size)      # a transcript has no gaps
+        table = group["events"][:int(np.argmax(lost_events)) if lost_events.any() else None]
+        blob = group["text"][:int(np.argmax(lost_text)) if lost_text.any() else None].tobytes()
         # Only events whose text is fully on disk count (a killed writer may have stopped in between).
         complete = table[:, 3] <= len(blob)
         table = table[complete]

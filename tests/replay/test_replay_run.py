@@ -98,14 +98,14 @@ def test_a_divergence_while_identifying_is_reported_not_raised(fresh_sweep, monk
 
 
 def test_a_driver_that_leaves_recorded_commands_unsent_is_not_reproduced(fresh_sweep, monkeypatch, capsys):
-    """The heater's all-off skips disarming output 4: no command differs, but the recording is not used up."""
-    real_all_off = HMP4040.all_off
-    monkeypatch.setattr(HMP4040, "all_off", lambda self: (setattr(self, "outputs", 3), real_all_off(self)))
+    """The heater skips verifying its switch-off: no command differs, but the recording is not used up."""
+    monkeypatch.setattr(HMP4040, "verify_off", lambda self, outputs: None)
     result = replay_run(fresh_sweep)
     assert not result.reproduced
     total = len(read_run(fresh_sweep).transcripts["heater"])
-    assert result.differences == [f"heater: replay ended at transcript event {total - 1} of {total}; "
-                                   f"the recording continues with command 'INST OUT4'"]
+    unsent = 2 + 2 * 5  # OUTP:GEN? and its reply; per heater output INST, OUTP? and MEAS:CURR? with their replies
+    assert result.differences == [f"heater: replay ended at transcript event {total - unsent + 1} of {total}; "
+                                   f"the recording continues with command 'OUTP:GEN?'"]
     assert main(["replay", str(fresh_sweep)]) == 1
     assert "NOT reproduced" in capsys.readouterr().out
 

@@ -15,9 +15,11 @@ from ecds_lab.storage.reader import read_run
 from ecds_lab.transports.transcript import SENT
 
 
-def all_off_commands(outputs: int) -> list[str]:
-    """What HMP4040.all_off puts on the wire: master switch off, then every output disarmed (drivers/hmp.py)."""
-    return ["OUTP:GEN OFF"] + [c for n in range(1, outputs + 1) for c in (f"INST OUT{n}", "OUTP:SEL OFF")]
+def all_off_commands(outputs: int, heater_outputs: tuple[int, ...] = (1, 2)) -> list[str]:
+    """What making safe puts on the wire (drivers/hmp.py): master switch off, every output disarmed, then
+    the switch-off verified: master read back, and each heater output's state and current."""
+    return (["OUTP:GEN OFF"] + [c for n in range(1, outputs + 1) for c in (f"INST OUT{n}", "OUTP:SEL OFF")]
+            + ["OUTP:GEN?"] + [c for n in heater_outputs for c in (f"INST OUT{n}", "OUTP?", "MEAS:CURR?")])
 
 
 @pytest.fixture

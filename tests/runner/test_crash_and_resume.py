@@ -112,7 +112,7 @@ def interrupted_run(tmp_path, experiments_dir, yaml_copy, opened_stations, at_si
     experiment = yaml_copy(SWEEP, lambda d: d["sweep"].update(positions_mm=[20.0, 30.0, 40.0, 50.0]))
     at_simulated_time(40.0, KeyboardInterrupt)
     path = tmp_path / "part.h5"
-    assert main(["run", str(experiment), "-o", str(path), "-q"]) == 1
+    assert main(["run", str(experiment), "-o", str(path), "-q"]) == 130  # Ctrl-C: 128 + SIGINT, as shells expect
     run = read_run(path)
     assert run.status == "aborted" and 0 < len(planned(run)) < len(build_plan(load_experiment(experiment)).points)
     return experiment, path
