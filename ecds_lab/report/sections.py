@@ -155,14 +155,20 @@ def runs_section(findings: Findings) -> Parts:
 
 
 # -- model fit -----------------------------------------------------------------------------------
-def _params_table(group: TargetGroup) -> Html:
-    fit = group.fit
+def _param_rows(fit: Any) -> list[tuple[str, str, str, str]]:
+    """One row per parameter of a fit: name, value with its error, display unit, fitted or why fixed."""
     rows = []
     for p in fit.parameters:
         stderr = None if p.fixed else fit.stderr.get(p.name)
         how = fit.fixed.get(p.name, "fixed") if p.fixed else "fitted"
         scale, unit = DISPLAY_UNITS.get(p.name, (1.0, p.unit))
         rows.append((p.name, value_error(p.value, stderr, scale), unit, how))
+    return rows
+
+
+def _params_table(group: TargetGroup) -> Html:
+    fit = group.fit
+    rows = _param_rows(fit)
     noise = f", noise {fit.noise.ppm:.1f} ppm (from {fit.noise.method})"
     caption = (f"{group.material} target: baseline fit of {fit.n} readings, residual RMS {fit.rms_ppm:.1f} ppm of L"
                f"{noise}")
@@ -299,12 +305,7 @@ def _step_plot(diagnosis: Any, before: Any, after: Any) -> Html | Plot:
 def _step_params(step: Any, title: str) -> Html:
     """The parameter table of one model of the chain."""
     fit = step.fit
-    rows = []
-    for p in fit.parameters:
-        stderr = None if p.fixed else fit.stderr.get(p.name)
-        how = fit.fixed.get(p.name, "fixed") if p.fixed else "fitted"
-        scale, unit = DISPLAY_UNITS.get(p.name, (1.0, p.unit))
-        rows.append((p.name, value_error(p.value, stderr, scale), unit, how))
+    rows = _param_rows(fit)
     return table(("parameter", "value", "unit", "status"), rows, css="params",
                  caption=f"{_chain_label(step.effects)} ({title}): RMS {step.rmse_ppm:.1f} ppm")
 

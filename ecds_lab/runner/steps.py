@@ -121,13 +121,22 @@ class MeasurePoint(PlanStep):
 
 
 @dataclass(frozen=True)
-class SetHeater(PlanStep):
+class HeaterStep(PlanStep):
+    """A step about one heater: the state it restores on resume is that heater's."""
+
+    heater: Heater
+
+    def state_key(self) -> tuple[str, str]:
+        return self.restores, self.heater
+
+
+@dataclass(frozen=True)
+class SetHeater(HeaterStep):
     """Set a heater's goal: a temperature (closed loop), a power, or off."""
 
     on_resume: ClassVar[OnResume] = OnResume.LATEST_STATE
     restores: ClassVar[str] = "heater goal"
 
-    heater: Heater
     setpoint_c: float | None = None
     power_w: float | None = None
 
@@ -137,18 +146,14 @@ class SetHeater(PlanStep):
         goal = f"{self.setpoint_c:g} C" if self.setpoint_c is not None else f"{self.power_w:g} W"
         return f"{self.heater} heater to {goal}"
 
-    def state_key(self) -> tuple[str, str]:
-        return self.restores, self.heater
-
 
 @dataclass(frozen=True)
-class WaitSteady(PlanStep):
+class WaitSteady(HeaterStep):
     """Control the heater until its thermocouple is steady at the setpoint, logging the bridge meanwhile."""
 
     on_resume: ClassVar[OnResume] = OnResume.LATEST_STATE
     restores: ClassVar[str] = "heater temperature"
 
-    heater: Heater
     setpoint_c: float
     steady: SteadyState
     log: BridgeLog | None = None
@@ -157,18 +162,14 @@ class WaitSteady(PlanStep):
         logging = self.log.describe() if self.log is not None else "no bridge readings"
         return f"wait until {self.heater} is steady at {self.setpoint_c:g} C ({self.steady.describe()}); {logging}"
 
-    def state_key(self) -> tuple[str, str]:
-        return self.restores, self.heater
-
 
 @dataclass(frozen=True)
-class CoolDown(PlanStep):
+class CoolDown(HeaterStep):
     """Heater off, log until the thermocouple falls below a temperature (``timeout_s`` None: no limit)."""
 
     on_resume: ClassVar[OnResume] = OnResume.LATEST_STATE
     restores: ClassVar[str] = "heater temperature"
 
-    heater: Heater
     below_c: float
     check_interval_s: float
     timeout_s: float | None
@@ -177,6 +178,3 @@ class CoolDown(PlanStep):
     def describe(self) -> str:
         logging = self.log.describe() if self.log is not None else "no bridge readings"
         return f"cool down: {self.heater} heater off, wait until below {self.below_c:g} C; {logging}"
-
-    def state_key(self) -> tuple[str, str]:
-        return self.restores, self.heater
