@@ -11,8 +11,8 @@ at close range), never a glitch, so a suspect is kept when
 - the reading of the same state at another frequency, taken moments apart, deviates by more than
   ``REPEATED`` sigmas (either way: the bridge errs on one reading, physics shows at every frequency);
 - readings of the same state elsewhere in the campaign (same frequency, direction and commanded
-  distance) share the deviation: their median by more than ``REPEATED`` sigmas, or another one
-  beyond ``THRESHOLD`` the same way.
+  distance) share the deviation: their median by more than ``REPEATED`` sigmas, or at least a
+  ``SHARED`` part of them beyond ``THRESHOLD`` the same way.
 The running median repeats the end values of a run, so the two readings at either end of a run
 (a sweep's turning points) are not judged: a peak of the residual there is structure as often as not.
 """
@@ -48,6 +48,9 @@ class Outlier:
                 "reason": self.reason}
 
 
+#: Share of the other readings of the same state beyond ``THRESHOLD`` the same way that makes a deviation
+#: shared (a few hot sweeps among cold ones), while a second glitch among hundreds of readings does not.
+SHARED = 0.1
 #: Readings of one state at different frequencies at most this far apart in time (s) were taken together.
 PARTNER_GAP_S = 60.0
 
@@ -96,7 +99,7 @@ def _in_structure(data: Measurements, deviation: np.ndarray, neighbours: np.ndar
     if not len(others):
         return False
     median = float(np.median(others))
-    return (np.sign(median) == sign and abs(median) > REPEATED) or bool(np.any(others * sign > THRESHOLD))
+    return (np.sign(median) == sign and abs(median) > REPEATED) or float(np.mean(others * sign > THRESHOLD)) >= SHARED
 
 
 def describe(data: Measurements, rows: np.ndarray, residuals_ppm: np.ndarray, noise_ppm: float,
