@@ -65,6 +65,8 @@ LEADING = 3
 FOLDS = 4
 #: Bands of distance (or stretches of time in air) per phase that are held out together.
 BLOCKS = 8
+#: A block whose target or coil temperature spans more than this (K) is held out visit by visit.
+VISIT_SPLIT_SPAN_K = 5.0
 MAX_STEPS = 5
 #: Campaigns larger than this are screened on an even subsample of this many readings.
 SCREEN_ROWS = 2500
@@ -546,12 +548,29 @@ def _folds(data: Measurements) -> np.ndarray | None:
         rows = rows[np.argsort(data.time_s[rows], kind="stable")]
         block[rows] = np.arange(len(rows)) * BLOCKS // max(len(rows), 1)
     groups = np.unique(np.column_stack([phases, block, finite]), axis=0, return_inverse=True)[1].ravel()
+    groups = _split_visits(data, groups)
     unique = np.unique(groups)
     if len(unique) < 2 * FOLDS:
         return None
     rng = np.random.default_rng(0)
     fold_of_group = rng.permutation(len(unique)) % FOLDS
     return fold_of_group[groups]
+
+
+def _split_visits(data: Measurements, groups: np.ndarray) -> np.ndarray:
+    """Blocks whose temperatures change (a heating ramp at one distance, sweeps of one band at several
+    temperatures) split into their visits (stretches of consecutive readings in time): holding out the
+    whole block would hold out that temperature history, and the fit would extrapolate in temperature."""
+    order = np.argsort(data.time_s, kind="stable")
+    visit = np.zeros(len(data), int)
+    visit[order] = np.cumsum(np.concatenate([[0], groups[order][1:] != groups[order][:-1]]))
+    out = groups.copy()
+    for g in np.unique(groups):
+        rows = groups == g
+        span = max(float(np.ptp(data.t_target_c[rows])), float(np.ptp(data.t_coil_c[rows])))
+        if span > VISIT_SPLIT_SPAN_K:
+            out[rows] = -1 - visit[rows]  # a block per visit (negative: apart from the whole blocks)
+    return np.unique(out, return_inverse=True)[1].ravel()
 
 
 def _cv_rmse(data: Measurements, full: FitResult, folds: np.ndarray) -> float:

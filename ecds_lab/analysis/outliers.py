@@ -1,9 +1,18 @@
 """Glitch readings: single readings far from their neighbours, excluded from the fit with the reason.
 
-A reading is a glitch when it stands far out (``THRESHOLD`` noise sigmas) from the running median
-of the residual along its series of like readings (``noise.smooth_residual``), and readings of
-the same state elsewhere in the campaign (same frequency and commanded distance) do not share
-the deviation: a deviation that repeats is structure an effect may explain, never a glitch.
+A glitch is an isolated reading: it stands far out (``THRESHOLD`` noise sigmas) from the running
+median of the residual along its series of like readings (``noise.smooth_residual``), while
+everything around it agrees with the model. A deviation that belongs to a run of structure is
+physics an effect may explain (a sweep made before a thermal state settled, a conductivity change
+at close range), never a glitch, so a suspect is kept when
+
+- a neighbour in time of the same frequency (the reading before or after it in its series)
+  deviates the same way by more than ``REPEATED`` sigmas: the deviation runs on in time or in x;
+- the reading of the same state at another frequency, taken moments apart, deviates by more than
+  ``REPEATED`` sigmas (either way: the bridge errs on one reading, physics shows at every frequency);
+- readings of the same state elsewhere in the campaign (same frequency, direction and commanded
+  distance) share the deviation: their median by more than ``REPEATED`` sigmas, or at least a
+  ``SHARED`` part of them beyond ``THRESHOLD`` the same way.
 The running median repeats the end values of a run, so the two readings at either end of a run
 (a sweep's turning points) are not judged: a peak of the residual there is structure as often as not.
 """
@@ -14,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ecds_lab.analysis.noise import smooth_residual
+from ecds_lab.analysis.noise import reading_groups, smooth_residual
 from ecds_lab.data.measurements import Measurements
 
 #: Deviation from the local smooth, in noise sigmas, that marks a glitch (about one false flag in
@@ -39,23 +48,58 @@ class Outlier:
                 "reason": self.reason}
 
 
+#: Share of the other readings of the same state beyond ``THRESHOLD`` the same way that makes a deviation
+#: shared (a few hot sweeps among cold ones), while a second glitch among hundreds of readings does not.
+SHARED = 0.1
+#: Readings of one state at different frequencies at most this far apart in time (s) were taken together.
+PARTNER_GAP_S = 60.0
+
+
 def find_glitches(data: Measurements, residuals_ppm: np.ndarray, noise_ppm: float) -> np.ndarray:
-    """Boolean mask of glitch readings (see the module docstring), and their deviation in sigmas."""
+    """Boolean mask of glitch readings: isolated readings far from their neighbours (module docstring)."""
     r = np.asarray(residuals_ppm, float)
     if not len(r) or not noise_ppm > 0:
         return np.zeros(len(r), bool)
     deviation = (r - smooth_residual(data, r)) / noise_ppm
     suspect = np.abs(deviation) > THRESHOLD
-    for i in np.flatnonzero(suspect):
-        same = ((data.freq_hz == data.freq_hz[i]) & (data.direction == data.direction[i])
-                & ((data.x_commanded_m == data.x_commanded_m[i])
-                   | (np.isinf(data.x_commanded_m) & np.isinf(data.x_commanded_m[i]))))
-        same[i] = False
-        others = deviation[same & ~suspect]
-        if len(others) and np.sign(np.median(others)) == np.sign(deviation[i]) and \
-                abs(np.median(others)) > REPEATED:
-            suspect[i] = False
-    return suspect
+    neighbours = _time_neighbours(data)
+    return np.array([bool(suspect[i]) and not _in_structure(data, deviation, neighbours, i)
+                     for i in range(len(r))], bool)
+
+
+def _time_neighbours(data: Measurements) -> np.ndarray:
+    """For every row, the rows before and after it in its series of like readings (-1 where none)."""
+    out = np.full((len(data), 2), -1, int)
+    for rows in reading_groups(data):
+        out[rows[1:], 0] = rows[:-1]
+        out[rows[:-1], 1] = rows[1:]
+    return out
+
+
+def _same_position(data: Measurements, i: int) -> np.ndarray:
+    """Rows at the commanded distance of row ``i`` (or in air with it), in the same direction."""
+    x = data.x_commanded_m
+    return (data.direction == data.direction[i]) & ((x == x[i]) | (np.isinf(x) & np.isinf(x[i])))
+
+
+def _in_structure(data: Measurements, deviation: np.ndarray, neighbours: np.ndarray, i: int) -> bool:
+    """Whether the deviation of row ``i`` belongs to a run of structure (see the module docstring)."""
+    sign = np.sign(deviation[i])
+    for j in neighbours[i]:
+        if j >= 0 and np.sign(deviation[j]) == sign and abs(deviation[j]) > REPEATED:
+            return True
+    position = _same_position(data, i)
+    partners = (position & (data.segment == data.segment[i]) & (data.freq_hz != data.freq_hz[i])
+                & (np.abs(data.time_s - data.time_s[i]) <= PARTNER_GAP_S))
+    if np.any(np.abs(deviation[partners]) > REPEATED):
+        return True
+    same = position & (data.freq_hz == data.freq_hz[i])
+    same[i] = False
+    others = deviation[same]
+    if not len(others):
+        return False
+    median = float(np.median(others))
+    return (np.sign(median) == sign and abs(median) > REPEATED) or float(np.mean(others * sign > THRESHOLD)) >= SHARED
 
 
 def describe(data: Measurements, rows: np.ndarray, residuals_ppm: np.ndarray, noise_ppm: float,
