@@ -31,6 +31,7 @@ import sys
 from collections.abc import Mapping, Sequence
 from datetime import datetime, timezone
 from pathlib import Path
+from typing import Any
 
 import h5py
 import numpy as np
@@ -81,27 +82,30 @@ class _Appender:
         self.id = dataset.id
         self.chunk = dataset.chunks[0]
         self.width = dataset.shape[1:]
+        self._origin_rest = tuple(0 for _ in self.width)
         self.length = dataset.shape[0]
         self.fill = fill
         self.tail = np.full((self.chunk, *self.width), fill, dtype=dataset.dtype)
 
-    def append(self, values: np.ndarray) -> None:
+    def append(self, values: Sequence[Any] | np.ndarray) -> None:
+        """Grow, write the chunks the values fall in, and flush; ``values`` is an array or a list of rows."""
         count = len(values)
         if not count:
             return
         first = self.length
-        self.id.set_extent((first + count, *self.width))
+        ident, chunk, tail = self.id, self.chunk, self.tail
+        ident.set_extent((first + count, *self.width))
         done = 0
         while done < count:
             row = first + done
-            offset = row % self.chunk
-            take = min(self.chunk - offset, count - done)
+            offset = row % chunk
+            take = min(chunk - offset, count - done)
             if offset == 0:
-                self.tail.fill(self.fill)
-            self.tail[offset:offset + take] = values[done:done + take]
-            self.id.write_direct_chunk((row - offset, *(0 for _ in self.width)), self.tail.tobytes())
+                tail.fill(self.fill)
+            tail[offset:offset + take] = values[done:done + take] if done or take < count else values
+            ident.write_direct_chunk((row - offset, *self._origin_rest), tail.tobytes())
             done += take
-        self.id.flush()
+        ident.flush()
         self.length = first + count
 
 
@@ -250,28 +254,32 @@ class RunWriter:
             raise RunFileError(f"{self.path}: no longer writable after a failed write")
         try:
             for role, transcript in self._transcripts.items():
-                start = self._written_events[role]
-                new = transcript.events[start:]
-                if new:
+                start, events = self._written_events[role], transcript.events
+                if len(events) > start:
+                    new = events[start:]
                     self._append_events(role, new)
                     self._written_events[role] = start + len(new)
         except (OSError, RuntimeError) as exc:
             raise self._write_failed(exc) from exc
 
     def _append_events(self, role: str, events: Sequence[tuple[float, float, str, str]]) -> None:
-        """Append (clock_s, wall_s, kind, text) events: a numeric table and the texts as one byte blob."""
+        """Append (clock_s, wall_s, kind, text) events: a numeric table and the texts as one byte blob.
+
+        Built with plain Python lists: a point brings one to three events, too few for numpy's
+        per-call overhead to pay off."""
         if not events:
             return
         events_out, text_out = self._event_tables[role]
-        clock_s, wall_s, kinds, texts = zip(*events, strict=True)
-        encoded = [text.encode("utf-8", errors="replace") for text in texts]
-        table = np.empty((len(events), 4))
-        table[:, 0] = clock_s
-        table[:, 1] = wall_s
-        table[:, 2] = [_KIND_CODES[kind] for kind in kinds]
-        table[:, 3] = text_out.length + np.cumsum(list(map(len, encoded)))
+        end = text_out.length
+        encoded = []
+        rows = []
+        for clock_s, wall_s, kind, text in events:
+            data = text.encode("utf-8", errors="replace")
+            end += len(data)
+            encoded.append(data)
+            rows.append((clock_s, wall_s, _KIND_CODES[kind], end))
         text_out.append(np.frombuffer(b"".join(encoded), dtype="u1"))  # text first: an event never points past it
-        events_out.append(table)
+        events_out.append(rows)
 
     # -- the end ----------------------------------------------------------------------------
     def close(self, status: str, error: str = "", extra: Mapping[str, str] | None = None) -> None:
