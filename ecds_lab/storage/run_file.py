@@ -74,8 +74,8 @@ BROKEN_WRITERS: list[RunWriter] = []
 class _Appender:
     """Appends to a chunked dataset (1-D, or 2-D growing along rows), flushed per call.
 
-    Like the points table, the last chunk is kept in memory and written whole with
-    H5Dwrite_chunk: per point this costs a memory copy, not h5py's selection machinery.
+    The last chunk is kept in memory and written whole with H5Dwrite_chunk: per point this costs
+    a memory copy, not h5py's selection machinery. The points table and the transcripts use it.
     """
 
     def __init__(self, dataset: h5py.Dataset, fill: float) -> None:
@@ -130,7 +130,6 @@ class RunWriter:
             self._transcripts = dict(transcripts)
             self._event_tables: dict[str, tuple[_Appender, _Appender]] = {}
             self._written_events = {role: 0 for role in self._transcripts}
-            self.rows = 0
             self._create_layout(metadata, identities or {})
             self._file.swmr_mode = True
         except BaseException as exc:
@@ -138,7 +137,11 @@ class RunWriter:
             if isinstance(exc, OSError):
                 raise RunFileError(f"{self.path}: cannot create the run file: {exc}") from exc
             raise
-        self._tail = np.full((_TABLE_CHUNK_ROWS, len(COLUMNS)), np.nan, dtype="<f8")
+
+    @property
+    def rows(self) -> int:
+        """Rows written to the points table so far."""
+        return self._points.length
 
     def _abandon(self) -> None:
         """Close the file handle whatever state it is in, and release the writer lock."""
@@ -161,7 +164,7 @@ class RunWriter:
                                      dtype="<f8", chunks=(_TABLE_CHUNK_ROWS, len(COLUMNS)), fillvalue=np.nan)
         table.attrs["columns"] = list(COLUMN_NAMES)
         table.attrs["units"] = [c.unit for c in COLUMNS]
-        self._table = table
+        self._points = _Appender(table, np.nan)
         instrument = entry.create_group("instrument")
         instrument.attrs["NX_class"] = "NXinstrument"
         for role, identity in identities.items():
@@ -197,30 +200,13 @@ class RunWriter:
             self._write_rows(np.asarray(rows, float).reshape(-1, len(COLUMNS)))
 
     def _write_rows(self, rows: Sequence[Sequence[float]] | np.ndarray) -> None:
-        """Grow the table, write the chunks the rows fall in, and flush.
-
-        The table's last chunk is kept in memory (``_tail``) and written whole with
-        H5Dwrite_chunk: no selection or chunk-cache machinery, about 3x cheaper per point than a
-        one-row hyperslab write. Rows past the end of the table stay NaN, its fill value.
-        """
+        """Grow the table, write the chunks the rows fall in, and flush (:class:`_Appender`: the last
+        chunk kept in memory and written whole, about 3x cheaper per point than a one-row hyperslab
+        write). Rows past the end of the table stay NaN, its fill value."""
         if self.broken:
             raise RunFileError(f"{self.path}: no longer writable after a failed write")
-        table = self._table.id
-        first, count = self.rows, len(rows)
         try:
-            table.set_extent((first + count, len(COLUMNS)))
-            done = 0
-            while done < count:
-                row = first + done
-                offset = row % _TABLE_CHUNK_ROWS
-                take = min(_TABLE_CHUNK_ROWS - offset, count - done)
-                if offset == 0:
-                    self._tail.fill(np.nan)
-                self._tail[offset:offset + take] = rows[done:done + take]
-                table.write_direct_chunk((row - offset, 0), self._tail.tobytes())
-                done += take
-            table.flush()
-            self.rows = first + count
+            self._points.append(rows)
             self._nexus.rows_written(rows)
         except (OSError, RuntimeError) as exc:
             raise self._write_failed(exc) from exc

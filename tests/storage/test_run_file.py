@@ -144,8 +144,8 @@ def test_a_row_grown_but_never_written_is_not_a_point(tmp_path):
     path = tmp_path / "killed.h5"
     writer = _writer(path)
     writer.append({name: 1.0 for name in COLUMN_NAMES})
-    writer._table.id.set_extent((2, len(COLUMNS)))
-    writer._table.id.flush()
+    writer._points.id.set_extent((2, len(COLUMNS)))
+    writer._points.id.flush()
     assert read_run(path).points.shape == (1, len(COLUMNS))
 
 
