@@ -172,3 +172,44 @@ def shipped_run(tmp_path_factory: pytest.TempPathFactory) -> Callable[..., Any]:
         return results[key]
 
     return run
+
+
+# -- run files as earlier versions wrote them (tests/storage, tests/replay) ------------------------------------
+
+def _to_per_role_transcripts(f: Any, transcripts: dict[str, list[Any]]) -> None:
+    """Replace an open run file's transcript log with the layout written before decision 0006: one group per
+    role, ``events`` (N x 4 float64: clock_s, wall_s, kind code, end offset into ``text``) and ``text`` (bytes)."""
+    import numpy as np
+
+    from ecds_lab.transports.transcript import KINDS
+
+    group = f["entry/transcripts"]
+    del group["log"]
+    for role, events in transcripts.items():
+        encoded = [e.text.encode("utf-8") for e in events]
+        ends = np.cumsum([len(text) for text in encoded])
+        table = [(e.clock_s, e.wall_s, float(KINDS.index(e.kind)), float(end))
+                 for e, end in zip(events, ends, strict=True)]
+        per_role = group.create_group(role)
+        out = per_role.create_dataset("events", data=np.array(table, "<f8").reshape(-1, 4), maxshape=(None, 4),
+                                      chunks=(64, 4))
+        out.attrs["columns"] = ["clock_s", "wall_s", "kind", "text_end"]
+        per_role.create_dataset("text", data=np.frombuffer(b"".join(encoded), "u1"), maxshape=(None,),
+                                chunks=(2048,))
+
+
+@pytest.fixture
+def per_role_transcripts() -> Callable[[Path], Path]:
+    """``per_role_transcripts(path)``: the closed run file at ``path`` rewritten in place with the transcript
+    layout of files written before the transcript log (one ``events``/``text`` group per role)."""
+    import h5py
+
+    from ecds_lab.storage.reader import read_run
+
+    def rewrite(path: Path) -> Path:
+        transcripts = read_run(path).transcripts
+        with h5py.File(path, "a") as f:
+            _to_per_role_transcripts(f, transcripts)
+        return path
+
+    return rewrite

@@ -21,6 +21,7 @@ from ecds_lab.data.measurements import Measurements
 from ecds_lab.errors import RunFileError
 from ecds_lab.storage.lock import is_being_written
 from ecds_lab.storage.recovery import private_folder, read_superblock, readable_copy, truncated, unreadable_rows
+from ecds_lab.storage.transcript_log import LOG_NAME, read_log
 from ecds_lab.transports.transcript import KINDS, TranscriptEvent
 
 
@@ -148,8 +149,18 @@ def _read_identities(entry: h5py.Group) -> dict[str, str]:
 
 
 def _read_transcripts(entry: h5py.Group, file_size: int) -> dict[str, list[TranscriptEvent]]:
+    """role -> its events: from the one transcript log, or from a file written before it (one group per role)."""
+    transcripts = entry["transcripts"]
+    if LOG_NAME in transcripts:
+        return read_log(transcripts[LOG_NAME], file_size)
+    return _read_role_groups(transcripts, file_size)
+
+
+def _read_role_groups(transcripts: h5py.Group, file_size: int) -> dict[str, list[TranscriptEvent]]:
+    """The layout before the transcript log (decision 0006): per role an ``events`` table (clock_s, wall_s,
+    kind, text_end) and its ``text`` bytes."""
     out: dict[str, list[TranscriptEvent]] = {}
-    for role, group in entry["transcripts"].items():
+    for role, group in transcripts.items():
         lost_events = unreadable_rows(group["events"], file_size)  # keep what precedes the first loss:
         lost_text = unreadable_rows(group["text"], file_size)      # a transcript has no gaps
         table = group["events"][:int(np.argmax(lost_events)) if lost_events.any() else None]

@@ -10,15 +10,17 @@ Layout (NeXus-flavoured, so generic viewers find their way):
                              it, the NXlogs and a plot per run kind (root @default): storage/nexus.py
   /entry/instrument/<role>   identity, driver, settings
   /entry/instrument/thermocouples/<name>   NXlog (time, value)
-  /entry/transcripts/<role>  every command and reply: events (clock_s, wall_s, kind, end) + text bytes
+  /entry/transcripts/log     every command and reply of every instrument, one compound record per
+                             event (clock_s, wall_s, role, kind, text), appended with its point:
+                             storage/transcript_log.py
 The table is the source of truth; NXdata and NXlogs are views onto it, live during the run; the
 status and end_time are completed at close (a killed run's file says status 'running').
 
 Data safety: a writer lock beside the file (:mod:`~ecds_lab.storage.lock`) admits one writer per
-path; each point's transcript events are on disk before its row; the file is completed at close
-without reopening it (no window in which a kill leaves a complete run unreadable, and a live SWMR
-reader cannot block the close); a write that fails (full disk) raises RunFileError and the rows
-already flushed stay readable.
+path; each point's transcript events (every role's, in one append) are on disk before its row;
+the file is completed at close without reopening it (no window in which a kill leaves a complete
+run unreadable, and a live SWMR reader cannot block the close); a write that fails (full disk)
+raises RunFileError and the rows already flushed stay readable.
 """
 
 from __future__ import annotations
@@ -43,15 +45,12 @@ from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.errors import RunFileError
 from ecds_lab.storage.lock import WriterLock
 from ecds_lab.storage.nexus import NexusLayout, finish, sweep_shape
+from ecds_lab.storage.transcript_log import create_log, encode
 from ecds_lab.transports.transcript import KINDS, Transcript
 
 #: The points table is flushed every row, and each row rewrites its whole chunk: small chunks
 #: (32 rows, 5 KB) keep that cheap. Columns written once at close use large chunks.
 _TABLE_CHUNK_ROWS = 32
-#: Transcripts are appended (and flushed) with every point, so their chunks are small too.
-_EVENT_CHUNK_ROWS = 64
-_TEXT_CHUNK = 2048
-_KIND_CODES = {kind: float(code) for code, kind in enumerate(KINDS)}
 _IN_COLUMN_ORDER = operator.itemgetter(*COLUMN_NAMES)
 
 
@@ -72,41 +71,65 @@ BROKEN_WRITERS: list[RunWriter] = []
 
 
 class _Appender:
-    """Appends to a chunked dataset (1-D, or 2-D growing along rows), flushed per call.
+    """Appends to a chunked dataset (1-D, or 2-D growing along rows; any dtype, compound too), flushed per call.
 
     The last chunk is kept in memory and written whole with H5Dwrite_chunk: per point this costs
-    a memory copy, not h5py's selection machinery. The points table and the transcripts use it.
+    a memory copy, not h5py's selection machinery. The points table and the transcript log use it.
+    ``values`` may also be ``bytes``: whole rows packed in the dataset's own layout (the transcript log's
+    records, packed by :func:`~ecds_lab.storage.transcript_log.encode`), copied into the tail as they are.
+    With ``ahead`` the extent grows a whole chunk at a time, not per call (about a quarter of an append's
+    cost): rows past ``length`` then hold the dataset's fill value until written, which must mark
+    them as not written for a reader of a killed file, and :meth:`trim` sets the exact length.
     """
 
-    def __init__(self, dataset: h5py.Dataset, fill: float) -> None:
+    def __init__(self, dataset: h5py.Dataset, fill: Any, *, ahead: bool = False) -> None:
         self.id = dataset.id
         self.chunk = dataset.chunks[0]
         self.width = dataset.shape[1:]
         self._origin_rest = tuple(0 for _ in self.width)
         self.length = dataset.shape[0]
+        self.extent = self.length
+        self.ahead = ahead
         self.fill = fill
         self.tail = np.full((self.chunk, *self.width), fill, dtype=dataset.dtype)
+        self._tail_bytes = self.tail.reshape(-1).view(np.uint8).data  # the same memory, as bytes
+        self._row_bytes = self.tail[0].nbytes
 
-    def append(self, values: Sequence[Any] | np.ndarray) -> None:
-        """Grow, write the chunks the values fall in, and flush; ``values`` is an array or a list of rows."""
-        count = len(values)
+    def append(self, values: Sequence[Any] | np.ndarray | bytes) -> None:
+        """Grow, write the chunks the values fall in, and flush; ``values`` is an array, a list of rows
+        or packed rows (bytes)."""
+        packed = values if isinstance(values, bytes) else None
+        size = self._row_bytes
+        count = len(values) // size if packed is not None else len(values)
         if not count:
             return
         first = self.length
         ident, chunk, tail = self.id, self.chunk, self.tail
-        ident.set_extent((first + count, *self.width))
+        end = first + count
+        if end > self.extent:
+            self.extent = -(-end // chunk) * chunk if self.ahead else end
+            ident.set_extent((self.extent, *self.width))
         done = 0
         while done < count:
             row = first + done
             offset = row % chunk
             take = min(chunk - offset, count - done)
             if offset == 0:
-                tail.fill(self.fill)
-            tail[offset:offset + take] = values[done:done + take] if done or take < count else values
-            ident.write_direct_chunk((row - offset, *self._origin_rest), tail.tobytes())
+                tail[...] = self.fill
+            if packed is not None:
+                self._tail_bytes[offset * size:(offset + take) * size] = packed[done * size:(done + take) * size]
+            else:
+                tail[offset:offset + take] = values[done:done + take] if done or take < count else values
+            ident.write_direct_chunk((row - offset, *self._origin_rest), tail)  # its buffer, not a copy
             done += take
         ident.flush()
-        self.length = first + count
+        self.length = end
+
+    def trim(self) -> None:
+        """Shrink an extent grown ahead to the rows written (at the end of the run)."""
+        if self.extent != self.length:
+            self.id.set_extent((self.length, *self.width))
+            self.extent = self.length
 
 
 class RunWriter:
@@ -128,8 +151,9 @@ class RunWriter:
                 raise RunFileError(f"{self.path} exists; choose another -o or pass --overwrite")
             self._file = h5py.File(self.path, "w", libver="latest")
             self._transcripts = dict(transcripts)
-            self._event_tables: dict[str, tuple[_Appender, _Appender]] = {}
-            self._written_events = {role: 0 for role in self._transcripts}
+            #: per role: its code in the log, its transcript's event list, and how many of them are written
+            self._sources = [(code, transcript.events) for code, transcript in enumerate(self._transcripts.values())]
+            self._written = [0] * len(self._sources)
             self._create_layout(metadata, identities or {})
             self._file.swmr_mode = True
         except BaseException as exc:
@@ -173,13 +197,8 @@ class RunWriter:
         self._nexus = NexusLayout(self._file, table, metadata.get("kind", ""), sweep_shape(metadata))
         records = entry.create_group("transcripts")
         records.attrs.update({"NX_class": "NXcollection", "kinds": list(KINDS)})
-        for role in self._transcripts:
-            group = records.create_group(role)
-            events = group.create_dataset("events", shape=(0, 4), maxshape=(None, 4), dtype="<f8",
-                                          chunks=(_EVENT_CHUNK_ROWS, 4))
-            text = group.create_dataset("text", shape=(0,), maxshape=(None,), dtype="u1", chunks=(_TEXT_CHUNK,))
-            events.attrs["columns"] = ["clock_s", "wall_s", "kind", "text_end"]
-            self._event_tables[role] = (_Appender(events, np.nan), _Appender(text, 0))
+        log = create_log(records, list(self._transcripts))
+        self._log = _Appender(log, log.fillvalue, ahead=True)
 
     # -- per point ------------------------------------------------------------------------
     def append(self, values: Mapping[str, float]) -> None:
@@ -232,40 +251,34 @@ class RunWriter:
 
     def add_transcript_events(self, role: str, events: Sequence[tuple[float, float, str, str]]) -> None:
         """Append earlier transcript events (a resumed run keeps its predecessor's traffic)."""
-        self._append_events(role, events)
+        if role not in self._transcripts:
+            raise RunFileError(f"{self.path}: no transcript for {role!r}; this run records "
+                               f"{', '.join(self._transcripts) or 'none'}")
+        records: list[bytes] = []
+        encode(list(self._transcripts).index(role), events, records)
+        self._append_log(records)
 
     def write_transcripts(self) -> None:
-        """Write (and flush) transcript events recorded since the last call."""
+        """Write (and flush) the transcript events of every role recorded since the last call: one append."""
+        records: list[bytes] = []
+        written = self._written
+        for index, (code, events) in enumerate(self._sources):
+            start = written[index]
+            if len(events) > start:
+                encode(code, events[start:], records)
+                written[index] = len(events)
+        self._append_log(records)
+
+    def _append_log(self, records: list[bytes]) -> None:
+        """One append of log records to disk, flushed (or RunFileError, the file kept as last flushed)."""
         if self.broken:
             raise RunFileError(f"{self.path}: no longer writable after a failed write")
+        if not records:
+            return
         try:
-            for role, transcript in self._transcripts.items():
-                start, events = self._written_events[role], transcript.events
-                if len(events) > start:
-                    new = events[start:]
-                    self._append_events(role, new)
-                    self._written_events[role] = start + len(new)
+            self._log.append(b"".join(records))
         except (OSError, RuntimeError) as exc:
             raise self._write_failed(exc) from exc
-
-    def _append_events(self, role: str, events: Sequence[tuple[float, float, str, str]]) -> None:
-        """Append (clock_s, wall_s, kind, text) events: a numeric table and the texts as one byte blob.
-
-        Built with plain Python lists: a point brings one to three events, too few for numpy's
-        per-call overhead to pay off."""
-        if not events:
-            return
-        events_out, text_out = self._event_tables[role]
-        end = text_out.length
-        encoded = []
-        rows = []
-        for clock_s, wall_s, kind, text in events:
-            data = text.encode("utf-8", errors="replace")
-            end += len(data)
-            encoded.append(data)
-            rows.append((clock_s, wall_s, _KIND_CODES[kind], end))
-        text_out.append(np.frombuffer(b"".join(encoded), dtype="u1"))  # text first: an event never points past it
-        events_out.append(rows)
 
     # -- the end ----------------------------------------------------------------------------
     def close(self, status: str, error: str = "", extra: Mapping[str, str] | None = None) -> None:
@@ -284,6 +297,7 @@ class RunWriter:
         self._check_room_to_complete()
         try:
             self.write_transcripts()
+            self._log.trim()
             self._complete(status, error, extra)
             self._file.flush()
         except (OSError, RuntimeError, RunFileError) as exc:

@@ -32,10 +32,16 @@ def session_copy(tmp_path: Path) -> Callable[..., Path]:
 
 
 def _as_real_lab_recording(f: h5py.File) -> None:
-    for group in f["entry/transcripts"].values():
-        events = group["events"][()]
-        events[:, 0] += MONOTONIC_ORIGIN_S
-        group["events"][...] = events
+    transcripts = f["entry/transcripts"]
+    if "log" in transcripts:  # the transcript log
+        log = transcripts["log"][()]
+        log["clock_s"] += MONOTONIC_ORIGIN_S
+        transcripts["log"][...] = log
+    else:  # files written before it: one group per role
+        for group in transcripts.values():
+            events = group["events"][()]
+            events[:, 0] += MONOTONIC_ORIGIN_S
+            group["events"][...] = events
     f["entry"].attrs["station_yaml"] = (ROOT / "experiments" / "stations" / "real_lab_template.yaml").read_text()
 
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 import logging
 import os
 import re
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -39,6 +40,24 @@ def test_a_fresh_simulated_run_replays_exactly(fresh_sweep, capsys):
     out = capsys.readouterr().out
     assert out == (f"{fresh_sweep}: recorded 20 points (completed), replayed 20 (completed)\n"
                    "reproduced: every point equal\n")
+
+
+def test_a_run_file_with_per_role_transcripts_replays_exactly(fresh_sweep, tmp_path, per_role_transcripts,
+                                                               as_real_lab_recording, capsys):
+    """Files written before the transcript log (one events/text group per role) keep replaying."""
+    old = per_role_transcripts(Path(shutil.copyfile(fresh_sweep, tmp_path / "per-role.h5")))
+    with h5py.File(old, "r") as f:
+        assert "log" not in f["entry/transcripts"] and "events" in f["entry/transcripts/bridge"]
+    assert read_run(old).transcripts == read_run(fresh_sweep).transcripts
+    result = replay_run(old)
+    assert result.reproduced, result.differences
+    assert result.replayed_points == result.original_points == 20
+    assert main(["replay", str(old)]) == 0
+    assert "reproduced: every point equal" in capsys.readouterr().out
+    with h5py.File(old, "a") as f:  # and as a real-lab recording (wall-clock transcript times)
+        as_real_lab_recording(f)
+    assert min(events[0].clock_s for events in read_run(old).transcripts.values() if events) > 1e6
+    assert replay_run(old).reproduced
 
 
 # -- a changed driver is caught -------------------------------------------------------------------

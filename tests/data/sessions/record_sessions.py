@@ -88,8 +88,12 @@ def _copy_group(src: h5py.Group, dst: h5py.Group) -> None:
             _copy_group(item, group)
         else:
             data = item[()]
+            if not item.shape:  # a scalar field (NXentry start_time, end_time): nothing to chunk
+                ds = dst.create_dataset(key, data=data)
+                _copy_attrs(item, ds)
+                continue
             chunks = tuple(max(1, min(n, c)) for n, c in zip(item.shape, item.chunks or item.shape, strict=True))
-            ds = dst.create_dataset(key, data=data, maxshape=item.maxshape, chunks=chunks or None,
+            ds = dst.create_dataset(key, data=data, maxshape=item.maxshape, chunks=chunks,
                                     compression="gzip", compression_opts=9, shuffle=True)
             _copy_attrs(item, ds)
 
