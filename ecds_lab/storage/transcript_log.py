@@ -5,15 +5,17 @@
   clock_s    f8   the run clock when the event crossed the link (s)
   wall_s     f8   the wall clock then (s since the Unix epoch)
   role       u1   index into the dataset's ``roles`` attribute (bridge, slide, ...)
-  kind       u1   index into its ``kinds`` attribute (sent, received, error)
   continues  u1   1: the event's text goes on in the next record (same role, kind and times)
   size       u1   the text bytes this record holds (exact even for a text that ends in NUL bytes)
   text       S48  UTF-8 text, NUL-padded
+  kind       u1   index into its ``kinds`` attribute (sent, received, error); 255: never written
 
 One point's traffic of every instrument is one append to this table (decision 0006); a text longer
 than 48 bytes is split over consecutive records. Records never written (grown by a writer that was
 killed before writing them) hold the fill value, kind 255, and end the log for a reader; an event
 whose continuation was cut off is dropped, so a killed file reads back as complete events only.
+``kind`` is each record's last byte: a write cut short by a kill (the kernel stops between pages)
+leaves a prefix of the chunk written, so a record whose kind is written is written whole.
 Files written before this log hold one group per role instead (``events`` + ``text``, read by
 :mod:`~ecds_lab.storage.reader`).
 """
@@ -31,14 +33,14 @@ from ecds_lab.transports.transcript import KINDS, TranscriptEvent
 
 LOG_NAME = "log"
 TEXT_BYTES = 48
-RECORD = np.dtype([("clock_s", "<f8"), ("wall_s", "<f8"), ("role", "u1"), ("kind", "u1"),
-                   ("continues", "u1"), ("size", "u1"), ("text", f"S{TEXT_BYTES}")])
+RECORD = np.dtype([("clock_s", "<f8"), ("wall_s", "<f8"), ("role", "u1"), ("continues", "u1"), ("size", "u1"),
+                   ("text", f"S{TEXT_BYTES}"), ("kind", "u1")])
 #: The kind of a record never written: the fill value of the log.
 UNWRITTEN = 255
 #: A record packed as RECORD lays it out (little-endian, no padding): what the writer appends.
-_PACK = struct.Struct(f"<ddBBBB{TEXT_BYTES}s").pack
-assert struct.calcsize(f"<ddBBBB{TEXT_BYTES}s") == RECORD.itemsize
-FILL = np.array((np.nan, np.nan, UNWRITTEN, UNWRITTEN, 0, 0, b""), dtype=RECORD)[()]
+_PACK = struct.Struct(f"<ddBBB{TEXT_BYTES}sB").pack
+assert struct.calcsize(f"<ddBBB{TEXT_BYTES}sB") == RECORD.itemsize
+FILL = np.array((np.nan, np.nan, UNWRITTEN, 0, 0, b"", UNWRITTEN), dtype=RECORD)[()]
 KIND_CODES = {kind: code for code, kind in enumerate(KINDS)}
 #: Records per chunk: the log is appended (and its last chunk rewritten) once per point, so chunks
 #: stay small (64 x 68 bytes).
@@ -66,12 +68,12 @@ def encode(role: int, events: Iterable[tuple[float, float, str, str]], into: lis
         data = text.encode("utf-8", errors="replace")
         size = len(data)
         if size <= TEXT_BYTES:
-            into.append(pack(clock_s, wall_s, role, KIND_CODES[kind], 0, size, data))
+            into.append(pack(clock_s, wall_s, role, 0, size, data, KIND_CODES[kind]))
             continue
         code = KIND_CODES[kind]
         last = (size - 1) // TEXT_BYTES * TEXT_BYTES
-        into.extend(pack(clock_s, wall_s, role, code, int(start < last), min(TEXT_BYTES, size - start),
-                         data[start:start + TEXT_BYTES]) for start in range(0, size, TEXT_BYTES))
+        into.extend(pack(clock_s, wall_s, role, int(start < last), min(TEXT_BYTES, size - start),
+                         data[start:start + TEXT_BYTES], code) for start in range(0, size, TEXT_BYTES))
 
 
 def read_log(log: h5py.Dataset, file_size: int) -> dict[str, list[TranscriptEvent]]:

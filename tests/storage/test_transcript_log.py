@@ -79,7 +79,7 @@ def test_the_log_describes_itself_and_is_exact_once_closed(tmp_path, transcripts
     with h5py.File(path, "r", swmr=True) as f:
         log = f["entry/transcripts/log"]
         assert list(log.attrs["roles"]) == list(ROLES) and list(log.attrs["kinds"]) == list(KINDS)
-        assert log.dtype.names == ("clock_s", "wall_s", "role", "kind", "continues", "size", "text")
+        assert log.dtype.names == ("clock_s", "wall_s", "role", "continues", "size", "text", "kind")
         assert log.shape == (CHUNK_RECORDS,)  # grown a chunk ahead while the run writes ...
         assert log[1]["kind"] == UNWRITTEN  # ... past the records written: the fill value says so
         assert f["entry/transcripts"].attrs["NX_class"] == "NXcollection"
@@ -138,6 +138,33 @@ def test_a_run_killed_inside_a_transcript_append_reads_back_complete_events(tmp_
     assert done.returncode == 9, done.stderr
     events = read_run(path).transcripts["bridge"]
     assert [e.text for e in events] == [f"command {point}" for point in range(CHUNK_RECORDS - 2)]
+
+
+def test_a_chunk_write_cut_short_at_any_byte_reads_back_complete_events(tmp_path, transcripts):
+    """A kill during the chunk's write leaves a prefix of it on disk (the kernel stops between pages, which
+    fall anywhere in a chunk): at every cut inside the new records, the reader sees the event whole or not
+    at all (``kind``, each record's last byte, is written last)."""
+    path = tmp_path / "torn.h5"
+    writer = _writer(path, transcripts)
+    transcripts["bridge"].record(1.0, SENT, "XALL?")
+    writer.write_transcripts()
+    chunk = writer._log.id.get_chunk_info(0)
+    before = path.read_bytes()[chunk.byte_offset:chunk.byte_offset + chunk.size]
+    transcripts["scanner"].record(2.0, RECEIVED, "+2.20066087E+01," * 4)  # 64 bytes: two records
+    writer.write_transcripts()
+    assert writer._log.id.get_chunk_info(0).byte_offset == chunk.byte_offset  # rewritten in place
+    whole = path.read_bytes()
+    after = whole[chunk.byte_offset:chunk.byte_offset + chunk.size]
+    new = range(RECORD.itemsize, 3 * RECORD.itemsize + 1)
+    assert after[:new.start] == before[:new.start] and after[new.stop:] == before[new.stop:]
+    for cut in new:
+        torn = tmp_path / f"torn{cut}.h5"
+        end = chunk.byte_offset + chunk.size
+        torn.write_bytes(whole[:chunk.byte_offset] + after[:cut] + before[cut:] + whole[end:])
+        read = read_run(torn).transcripts
+        assert read["bridge"] == transcripts["bridge"].events, cut
+        assert read["scanner"] == (transcripts["scanner"].events if cut == new.stop - 1 else []), cut
+    writer.close("completed")
 
 
 def test_resumed_events_go_to_their_role_and_an_unknown_role_is_refused(tmp_path, transcripts):
