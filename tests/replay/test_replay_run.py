@@ -60,6 +60,19 @@ def test_a_run_file_with_per_role_transcripts_replays_exactly(fresh_sweep, tmp_p
     assert replay_run(old).reproduced
 
 
+def test_a_fresh_run_with_wall_clock_transcript_times_replays(fresh_sweep, tmp_path, as_real_lab_recording):
+    """The transcript log of a run made now, edited as a real lab's recording would be (monotonic times)."""
+    path = Path(shutil.copyfile(fresh_sweep, tmp_path / "real-lab.h5"))
+    with h5py.File(path, "a") as f:
+        assert "log" in f["entry/transcripts"]
+        as_real_lab_recording(f)
+    recorded = read_run(path)
+    assert min(events[0].clock_s for events in recorded.transcripts.values() if events) > 1e6
+    result = replay_run(path)
+    assert result.reproduced, result.differences
+    assert result.replay_status == recorded.status == "completed"
+
+
 # -- a changed driver is caught -------------------------------------------------------------------
 def _first_position(path: Path, role: str, command: str) -> tuple[int, int]:
     """1-based transcript position of the first time ``command`` was sent, and the transcript's length."""
