@@ -86,18 +86,20 @@ def read_log(log: h5py.Dataset, file_size: int) -> dict[str, list[TranscriptEven
     unwritten = records["kind"] == UNWRITTEN
     if unwritten.any():
         records = records[:int(np.argmax(unwritten))]
+    ends = np.flatnonzero(records["continues"] == 0)  # each event's last record
+    records = records[:ends[-1] + 1 if len(ends) else 0]  # records after the last one: an event cut off
     blob = np.ascontiguousarray(records["text"]).tobytes()  # with every NUL byte: ``size`` says where text ends
+    pieces = [blob[at:at + size]
+              for at, size in zip(range(0, len(blob), TEXT_BYTES), records["size"].tolist(), strict=True)]
+    starts = [0, *(ends[:-1] + 1).tolist()][:len(ends)]  # each event's first record
+    texts = [(pieces[end] if start == end else b"".join(pieces[start:end + 1])).decode("utf-8")
+             for start, end in zip(starts, ends.tolist(), strict=True)]
     out: dict[str, list[TranscriptEvent]] = {role: [] for role in roles}
-    pieces: list[bytes] = []
-    for index, (clock_s, wall_s, role, kind, continues, size) in enumerate(zip(
-            records["clock_s"].tolist(), records["wall_s"].tolist(), records["role"].tolist(),
-            records["kind"].tolist(), records["continues"].tolist(), records["size"].tolist(), strict=True)):
-        start = index * TEXT_BYTES
-        pieces.append(blob[start:start + size])
-        if continues:
-            continue
-        out[roles[role]].append(TranscriptEvent(clock_s, wall_s, kinds[kind], b"".join(pieces).decode("utf-8")))
-        pieces = []
+    per_role = [out[role] for role in roles]
+    kind_names = [kinds[code] for code in records["kind"][ends].tolist()]
+    for role, clock_s, wall_s, kind, text in zip(records["role"][ends].tolist(), records["clock_s"][ends].tolist(),
+                                                 records["wall_s"][ends].tolist(), kind_names, texts, strict=True):
+        per_role[role].append(TranscriptEvent(clock_s, wall_s, kind, text))
     return out
 
 

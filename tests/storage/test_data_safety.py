@@ -18,7 +18,7 @@ from ecds_lab.data.columns import INDEX
 from ecds_lab.errors import RunFileError
 from ecds_lab.storage.lock import lock_path
 from ecds_lab.storage.reader import read_run
-from ecds_lab.storage.recovery import lookup3, read_superblock
+from ecds_lab.storage.recovery import _chunks, lookup3, read_superblock
 from ecds_lab.storage.run_file import RunWriter, metadata_for
 from ecds_lab.transports.transcript import SENT
 
@@ -229,6 +229,21 @@ def test_a_killed_runs_transcript_covers_every_kept_reading(tmp_path, experiment
         assert measured == np.isfinite(run.column("ls_h")).sum()
         last_row_wall = run.column("wall_time_s").max()
         assert bridge[-1].wall_s <= last_row_wall
+
+
+def test_the_chunk_index_is_read_in_one_pass_or_chunk_by_chunk_alike(sweep_file):
+    """HDF5 >= 1.12.3 iterates the chunk index in one pass; older libraries are asked chunk by chunk."""
+
+    class ChunkByChunk:  # a dataset id of an HDF5 without H5Dchunk_iter
+        def __init__(self, real):
+            self.get_num_chunks, self.get_chunk_info = real.get_num_chunks, real.get_chunk_info
+
+    with h5py.File(sweep_file, "r") as f:
+        for name in ("entry/points", "entry/transcripts/log"):
+            ident = f[name].id
+            assert hasattr(ident, "chunk_iter")
+            assert _chunks(ident) == _chunks(ChunkByChunk(ident))
+            assert len(_chunks(ident)) == ident.get_num_chunks() > 0
 
 
 def test_the_superblock_checksum_is_hdf5s(sweep_file):

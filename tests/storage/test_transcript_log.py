@@ -56,6 +56,15 @@ def test_texts_of_every_length_and_byte_read_back_exactly(tmp_path, transcripts)
     assert [e.text for e in done["bridge"] if e.clock_s % 1 == 0.5] == [text[::-1] for text in TEXTS]
 
 
+def test_a_log_without_traffic_reads_as_empty_transcripts(tmp_path, transcripts):
+    path = tmp_path / "quiet.h5"
+    writer = _writer(path, transcripts)
+    writer.append(_row(0))
+    assert read_run(path).transcripts == {role: [] for role in ROLES}
+    writer.close("completed")
+    assert read_run(path).transcripts == {role: [] for role in ROLES}
+
+
 def test_one_points_traffic_of_every_role_is_one_append(tmp_path, transcripts, monkeypatch):
     writer = _writer(tmp_path / "one.h5", transcripts)
     appends = []
