@@ -203,3 +203,22 @@ def test_a_file_with_per_role_transcripts_reads_as_before(tmp_path, transcripts,
     recorded = read_run(old)
     assert recorded.transcripts == read_run(path).transcripts == {role: transcripts[role].events for role in ROLES}
     np.testing.assert_array_equal(recorded.points, read_run(path).points)
+
+
+def test_the_close_trims_the_log_under_a_live_reader(tmp_path, transcripts):
+    """A viewer holding the file (SWMR) while the run closes: the close still shrinks the log to its records."""
+    path = tmp_path / "watched.h5"
+    writer = _writer(path, transcripts)
+    transcripts["bridge"].record(1.0, SENT, "*TRG")
+    writer.append(_row(0))
+    with h5py.File(path, "r", swmr=True) as reader:
+        log = reader["entry/transcripts/log"]
+        assert log.shape == (CHUNK_RECORDS,)
+        transcripts["bridge"].record(2.0, SENT, "*WAI")
+        writer.append(_row(1))
+        writer.close("completed")
+        log.refresh()
+        assert log.shape == (2,) and list(log["kind"]) == [KINDS.index(SENT)] * 2
+    recorded = read_run(path)
+    assert recorded.status == "completed" and recorded.notes == []
+    assert recorded.transcripts["bridge"] == transcripts["bridge"].events
