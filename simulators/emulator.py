@@ -93,7 +93,12 @@ class LineEmulator(ABC):
     def reply(self, text: str, delay_s: float = 0.0) -> None:
         """Queue one reply line, ready ``delay_s`` simulated seconds from now."""
         ready = self.lab.clock.now() + max(0.0, delay_s)
-        for line in [*self._unsolicited(), self._maybe_cut(text)]:
+        faults = self.lab.faults
+        if faults.unsolicited_lines or faults.short_replies:  # injected faults only: skipped on a clean link
+            lines = [*self._unsolicited(), self._maybe_cut(text)]
+        else:
+            lines = [text]
+        for line in lines:
             heapq.heappush(self._scheduled, (ready, next(self._order), line.encode("ascii") + self.reply_termination))
 
     def _unsolicited(self) -> list[str]:
