@@ -80,7 +80,7 @@ class BridgeModel:
             acc = self.settings.accuracy
             spread = acc.relative * acc.realised_fraction
             rng = np.random.default_rng([abs(hash(key)) % (2**32), self._seed or 0])
-            gain, phase = rng.uniform(-spread, spread, 2)
+            gain, phase = rng.uniform(-spread, spread, 2).tolist()  # Python floats: no numpy scalars downstream
             error = self._errors[key] = (1.0 + gain) * complex(math.cos(phase), math.sin(phase))
         return error
 
