@@ -13,6 +13,8 @@ import heapq
 import itertools
 import re
 from abc import ABC, abstractmethod
+from collections.abc import Callable
+from operator import methodcaller
 
 from ecds_lab.simulators.lab import SimulatedLab
 
@@ -32,7 +34,10 @@ class LineEmulator(ABC):
     def __init__(self, lab: SimulatedLab) -> None:
         self.lab = lab
         self._line = bytearray()
-        self._line_end = re.compile(b"[" + re.escape(self.line_endings) + b"]")
+        # Splits the input buffer at every line ending: a plain bytes split when one byte ends a line.
+        self._split_lines: Callable[[bytearray], list[bytearray]] = (
+            methodcaller("split", self.line_endings) if len(self.line_endings) == 1
+            else re.compile(b"[" + re.escape(self.line_endings) + b"]").split)
         self._scheduled: list[tuple[float, int, bytes]] = []
         self._order = itertools.count()
         #: Set to a bytearray to capture every byte the host sends (protocol tests assert on it).
@@ -57,9 +62,9 @@ class LineEmulator(ABC):
                     self.handle_realtime(bytes((byte,)))
             data = data.translate(None, self.realtime_bytes)
         self._line += data
-        *lines, rest = self._line_end.split(self._line)
-        if lines:
-            self._line = bytearray(rest)
+        lines = self._split_lines(self._line)
+        if len(lines) > 1:
+            self._line = bytearray(lines.pop())  # the start of a line still to come
             for line in lines:
                 self._command = line.decode("ascii", errors="replace").strip()
                 self.handle_line(self._command)
