@@ -76,11 +76,15 @@ class LineEmulator(ABC):
     def take_ready(self) -> bytes:
         """All reply bytes whose time has come."""
         now = self.lab.clock.now()
-        if not self._scheduled or self._scheduled[0][0] > now:
+        scheduled = self._scheduled
+        if not scheduled or scheduled[0][0] > now:
             return b""
-        out = bytearray()
-        while self._scheduled and self._scheduled[0][0] <= now:
-            out += heapq.heappop(self._scheduled)[2]
+        first = heapq.heappop(scheduled)[2]
+        if not scheduled or scheduled[0][0] > now:  # the usual case: one reply line
+            return first
+        out = bytearray(first)
+        while scheduled and scheduled[0][0] <= now:
+            out += heapq.heappop(scheduled)[2]
         return bytes(out)
 
     def on_open(self) -> None:  # noqa: B027 - optional hook: most instruments take no notice of a port opening
