@@ -13,8 +13,6 @@ import heapq
 import itertools
 import re
 from abc import ABC, abstractmethod
-from collections.abc import Callable
-from operator import methodcaller
 
 from ecds_lab.simulators.lab import SimulatedLab
 
@@ -34,10 +32,9 @@ class LineEmulator(ABC):
     def __init__(self, lab: SimulatedLab) -> None:
         self.lab = lab
         self._line = bytearray()
-        # Splits the input buffer at every line ending: a plain bytes split when one byte ends a line.
-        self._split_lines: Callable[[bytearray], list[bytearray]] = (
-            methodcaller("split", self.line_endings) if len(self.line_endings) == 1
-            else re.compile(b"[" + re.escape(self.line_endings) + b"]").split)
+        self._line_end = re.compile(b"[" + re.escape(self.line_endings) + b"]")
+        #: One byte ends a line: a plain bytes split finds the lines (quicker than the pattern).
+        self._single_ending = len(self.line_endings) == 1
         self._scheduled: list[tuple[float, int, bytes]] = []
         self._order = itertools.count()
         #: Set to a bytearray to capture every byte the host sends (protocol tests assert on it).
@@ -62,7 +59,7 @@ class LineEmulator(ABC):
                     self.handle_realtime(bytes((byte,)))
             data = data.translate(None, self.realtime_bytes)
         self._line += data
-        lines = self._split_lines(self._line)
+        lines = self._line.split(self.line_endings) if self._single_ending else self._line_end.split(self._line)
         if len(lines) > 1:
             self._line = bytearray(lines.pop())  # the start of a line still to come
             for line in lines:
