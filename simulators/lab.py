@@ -313,4 +313,6 @@ class SimulatedLab:
         raise KeyError(quantity)
 
     def noisy(self, value: float, sigma: float) -> float:
-        return value + float(self.rng.normal(0.0, sigma)) if sigma > 0 else value
+        """``value`` plus normal noise; sigma times a standard normal is the draw ``rng.normal(0, sigma)`` makes
+        (numpy computes 0 + sigma z from the same z), without its per-call argument handling."""
+        return value + sigma * self.rng.standard_normal() if sigma > 0 else value
