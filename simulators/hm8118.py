@@ -298,13 +298,14 @@ class HM8118Emulator(LineEmulator):
             z = samples[MEDIAN_READINGS // 2]
         else:
             z = self.lab.measured_impedance(frequency, speed, level, self._readings())
+        magnitude = abs(z)
         if not settings["RNGH"]:
-            settings["RNGE"] = self.auto_range(abs(z))
+            settings["RNGE"] = self.auto_range(magnitude)
         if function in (6, 7, 8):  # Z-theta, Y-theta, R-X: no equivalent circuit involved
             theta = math.degrees(cmath.phase(z))
-            return {6: (abs(z), theta), 7: (abs(1 / z), -theta), 8: (z.real, z.imag)}[function]
-        circuit = self._code("CIRC")
-        parallel = circuit == 1 or (circuit == 2 and abs(z) > 1e3)
+            return {6: (magnitude, theta), 7: (abs(1 / z), -theta), 8: (z.real, z.imag)}[function]
+        circuit = int(settings["CIRC"])
+        parallel = circuit == 1 or (circuit == 2 and magnitude > 1e3)
         y = 1 / z
         if function == 9:  # G-B
             return y.real, y.imag
@@ -312,7 +313,7 @@ class HM8118Emulator(LineEmulator):
         q = abs(z.imag) / z.real if z.real else math.inf
         if function in (1, 2, 5):  # L-Q, L-R, R-Q
             inductance = (-1 / (omega * y.imag) if y.imag else math.inf) if parallel else z.imag / omega
-            return {1: (inductance, q), 2: (inductance, resistance), 5: (resistance, q)}[function]
+            return (inductance, q) if function == 1 else (inductance, resistance) if function == 2 else (resistance, q)
         capacitance = y.imag / omega if parallel else (-1 / (omega * z.imag) if z.imag else math.inf)
         return (capacitance, 1 / q if q else math.inf) if function == 3 else (capacitance, resistance)  # C-D, C-R
 
