@@ -102,6 +102,8 @@ class Transport(ABC):
     # -- internals ---------------------------------------------------------------------------
     def _pace(self) -> None:
         """Wait on the clock until ``min_interval_s`` has passed since the previous command."""
+        if self.min_interval_s <= 0:
+            return
         now = self.clock.now()
         if self._last_command_at is not None:
             wait = self._last_command_at + self.min_interval_s - now
