@@ -223,11 +223,12 @@ class HM8118Emulator(LineEmulator):
     # -- measuring -------------------------------------------------------------------------
     def _readings(self) -> int:
         """Readings behind one displayed value: 1, NAVG averaged, or the median of three."""
-        averaging = self._code("AVGM")
-        return 1 if averaging == 0 else self._code("NAVG") if averaging == 1 else MEDIAN_READINGS
+        averaging = int(self.settings["AVGM"])
+        return 1 if averaging == 0 else int(self.settings["NAVG"]) if averaging == 1 else MEDIAN_READINGS
 
     def _duration(self) -> float:
-        return MEASUREMENT_TIME_S[self._code("RATE")] * self._readings() + self._code("$STL") / 1000
+        settings = self.settings
+        return MEASUREMENT_TIME_S[int(settings["RATE"])] * self._readings() + int(settings["$STL"]) / 1000
 
     def _trigger(self) -> None:
         """*TRG starts a measurement; the lab is sampled now, the result is ready after the measuring time."""
