@@ -49,13 +49,14 @@ def integer_in_range(low: int, high: int) -> Validator:
 def one_of(allowed: Iterable[float], unit: str = "") -> Validator:
     """Accept only listed numbers (e.g. a bridge's discrete test frequencies); names the nearest."""
     values = sorted(float(v) for v in allowed)
+    accepted = frozenset(values)  # membership without walking the list (a bridge frequency is checked per switch)
 
     def check(value: Any, label: str) -> float:
         try:
             number = float(value)
         except (TypeError, ValueError):
             raise InvalidSettingError(f"{label}: {value!r} is not a number") from None
-        if number not in values:
+        if number not in accepted:
             nearest = min(values, key=lambda v: abs(v - number))
             raise InvalidSettingError(
                 f"{label}: {number:g}{unit} is not supported; nearest allowed is {nearest:g}{unit} "

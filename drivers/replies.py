@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from ecds_lab.drivers.instrument import Instrument
 from ecds_lab.errors import ReplyFormatError, TransportTimeout
@@ -34,10 +34,15 @@ class Field:
     syntax: str = NUMBER
     low: float = -float("inf")
     high: float = float("inf")
+    #: ``syntax`` compiled once (a field is checked on every reply).
+    pattern: re.Pattern[str] = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "pattern", re.compile(self.syntax))
 
     def parse(self, text: str) -> float:
         text = text.strip()
-        if not re.fullmatch(self.syntax, text):
+        if not self.pattern.fullmatch(text):
             raise ValueError(f"{self.name} {text!r} is not a number of the expected form")
         value = float(text)
         if not self.low <= value <= self.high:
@@ -59,7 +64,7 @@ class ReplyFormat:
         """The reply's values; ValueError saying what is wrong with it."""
         parts = reply.split(",")
         expected = count if count is not None else self.count
-        fields = list(self.fields) if expected is None else [self.fields[0]] * expected
+        fields = self.fields if expected is None else (self.fields[0],) * expected
         if len(parts) != len(fields):
             raise ValueError(f"{len(parts)} field(s), expected {len(fields)} "
                              f"({', '.join(f.name for f in fields)}): cut short or run together?")

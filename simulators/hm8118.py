@@ -77,6 +77,7 @@ BIAS_CODES = {0: "off", 1: "internal", 2: "external"}
 OUTPUT_CODES = {0: "value", 1: "deviation", 2: "percent"}
 #: ``RNGE`` codes and the upper |Z| each range serves when auto-ranging (assumption, see above).
 RANGE_LIMITS_OHM = {1: 3.0, 2: 25.0, 3: 400.0, 4: 6.4e3, 5: 100e3, 6: math.inf}
+_RANGES = tuple(RANGE_LIMITS_OHM.items())  # (code, limit) in ascending order, walked on every reading
 MEASUREMENT_TIME_S = {0: 0.07, 1: 0.19, 2: 0.6}
 COMPENSATION_TIME_S = 1.5  # per frequency
 #: Time the bridge needs to take in one command line; a line arriving sooner is lost (see above).
@@ -222,10 +223,12 @@ class HM8118Emulator(LineEmulator):
     # -- measuring -------------------------------------------------------------------------
     def _readings(self) -> int:
         """Readings behind one displayed value: 1, NAVG averaged, or the median of three."""
-        return {0: 1, 1: self._code("NAVG"), 2: MEDIAN_READINGS}[self._code("AVGM")]
+        averaging = int(self.settings["AVGM"])
+        return 1 if averaging == 0 else int(self.settings["NAVG"]) if averaging == 1 else MEDIAN_READINGS
 
     def _duration(self) -> float:
-        return MEASUREMENT_TIME_S[self._code("RATE")] * self._readings() + self._code("$STL") / 1000
+        settings = self.settings
+        return MEASUREMENT_TIME_S[int(settings["RATE"])] * self._readings() + int(settings["$STL"]) / 1000
 
     def _trigger(self) -> None:
         """*TRG starts a measurement; the lab is sampled now, the result is ready after the measuring time."""
@@ -276,29 +279,34 @@ class HM8118Emulator(LineEmulator):
 
     def auto_range(self, impedance_ohm: float) -> int:
         """The range auto-ranging picks for |Z| (the lowest whose limit covers it)."""
-        return next(code for code, limit in RANGE_LIMITS_OHM.items() if impedance_ohm <= limit)
+        for code, limit in _RANGES:
+            if impedance_ohm <= limit:
+                return code
+        raise ValueError(f"|Z| = {impedance_ohm!r} Ohm is in no range")  # NaN: the last limit is infinite
 
     def _measure(self) -> tuple[float, float] | None:
         """Main and secondary value of the active function from the lab's coil impedance."""
-        if self._code("PMOD") in (0, 10, 11):  # AUTO display and transformer modes: nothing to read
+        settings = self.settings
+        function = int(settings["PMOD"])
+        if function in (0, 10, 11):  # AUTO display and transformer modes: nothing to read
             return None
-        frequency = float(self.settings["FREQ"])
+        frequency = float(settings["FREQ"])
         omega = 2 * math.pi * frequency
-        speed, level = SPEED_CODES[self._code("RATE")], self.settings["VOLT"]
-        if self._code("AVGM") == 2:
+        speed, level = SPEED_CODES[int(settings["RATE"])], settings["VOLT"]
+        if int(settings["AVGM"]) == 2:
             samples = sorted((self.lab.measured_impedance(frequency, speed, level) for _ in range(MEDIAN_READINGS)),
                              key=abs)
             z = samples[MEDIAN_READINGS // 2]
         else:
             z = self.lab.measured_impedance(frequency, speed, level, self._readings())
-        if not self.settings["RNGH"]:
-            self.settings["RNGE"] = self.auto_range(abs(z))
-        function = self._code("PMOD")
+        magnitude = abs(z)
+        if not settings["RNGH"]:
+            settings["RNGE"] = self.auto_range(magnitude)
         if function in (6, 7, 8):  # Z-theta, Y-theta, R-X: no equivalent circuit involved
             theta = math.degrees(cmath.phase(z))
-            return {6: (abs(z), theta), 7: (abs(1 / z), -theta), 8: (z.real, z.imag)}[function]
-        circuit = self._code("CIRC")
-        parallel = circuit == 1 or (circuit == 2 and abs(z) > 1e3)
+            return {6: (magnitude, theta), 7: (abs(1 / z), -theta), 8: (z.real, z.imag)}[function]
+        circuit = int(settings["CIRC"])
+        parallel = circuit == 1 or (circuit == 2 and magnitude > 1e3)
         y = 1 / z
         if function == 9:  # G-B
             return y.real, y.imag
@@ -306,7 +314,7 @@ class HM8118Emulator(LineEmulator):
         q = abs(z.imag) / z.real if z.real else math.inf
         if function in (1, 2, 5):  # L-Q, L-R, R-Q
             inductance = (-1 / (omega * y.imag) if y.imag else math.inf) if parallel else z.imag / omega
-            return {1: (inductance, q), 2: (inductance, resistance), 5: (resistance, q)}[function]
+            return (inductance, q) if function == 1 else (inductance, resistance) if function == 2 else (resistance, q)
         capacitance = y.imag / omega if parallel else (-1 / (omega * z.imag) if z.imag else math.inf)
         return (capacitance, 1 / q if q else math.inf) if function == 3 else (capacitance, resistance)  # C-D, C-R
 

@@ -59,7 +59,8 @@ class Transport(ABC):
     # -- what drivers use --------------------------------------------------------------------
     def write(self, command: str) -> None:
         """Send one command with the write termination, after the pacing pause."""
-        self._pace()
+        if self.min_interval_s > 0:
+            self._pace()
         self._send_logged(command, (command + self.write_termination).encode("ascii"))
 
     def write_bytes(self, data: bytes) -> None:
@@ -71,13 +72,15 @@ class Transport(ABC):
 
         ``timeout_s`` replaces the link's timeout for this read (a slow measurement, a compensation run).
         """
-        self._check_open()
+        if self._closed:
+            self._check_open()
         timeout = self.timeout_s if timeout_s is None else timeout_s
         line = self._receive_line(timeout)
         if line is None:
             self._log(ERROR, "timeout")
             raise TransportTimeout(f"{self.name}: no reply within {timeout:g} s")
-        self._log(RECEIVED, line)
+        if self.transcript is not None:  # _log, inline: this runs for every line of every reading
+            self.transcript.record(self.clock.now(), RECEIVED, line)
         return line
 
     def query(self, command: str, timeout_s: float | None = None) -> str:
@@ -98,6 +101,7 @@ class Transport(ABC):
 
     # -- internals ---------------------------------------------------------------------------
     def _pace(self) -> None:
+        """Wait on the clock until ``min_interval_s`` has passed since the previous command."""
         if self.min_interval_s <= 0:
             return
         now = self.clock.now()
@@ -108,8 +112,10 @@ class Transport(ABC):
         self._last_command_at = self.clock.now()
 
     def _send_logged(self, text: str, data: bytes) -> None:
-        self._check_open()
-        self._log(SENT, text)
+        if self._closed:
+            self._check_open()
+        if self.transcript is not None:  # _log, inline: this runs for every command of every reading
+            self.transcript.record(self.clock.now(), SENT, text)
         try:
             self._send(data)
         except EcdsLabError:  # already ours and named (a link's TransportError, a replay's ReplayDivergence)

@@ -28,6 +28,11 @@ class TranscriptEvent(NamedTuple):
     text: str
 
 
+#: Builds a TranscriptEvent from its four fields without the Python-level ``__new__`` NamedTuple generates
+#: (the same tuple, one call frame less on every command and reply).
+_new_event = tuple.__new__
+
+
 @dataclass
 class Transcript:
     """Append-only log of one instrument's traffic; cheap enough to be always on."""
@@ -36,7 +41,7 @@ class Transcript:
     events: list[TranscriptEvent] = field(default_factory=list)
 
     def record(self, clock_s: float, kind: str, text: str) -> None:
-        self.events.append(TranscriptEvent(clock_s, time.time(), kind, text))
+        self.events.append(_new_event(TranscriptEvent, (clock_s, time.time(), kind, text)))
 
     def __len__(self) -> int:
         return len(self.events)

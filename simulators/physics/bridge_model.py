@@ -75,13 +75,14 @@ class BridgeModel:
     def _systematic(self, frequency_hz: float, z: complex) -> complex:
         """(1 + gain error) e^{j phase error} of this instrument at this frequency and range."""
         key = (frequency_hz, _range(abs(z)))
-        if key not in self._errors:
+        error = self._errors.get(key)
+        if error is None:
             acc = self.settings.accuracy
             spread = acc.relative * acc.realised_fraction
             rng = np.random.default_rng([abs(hash(key)) % (2**32), self._seed or 0])
-            gain, phase = rng.uniform(-spread, spread, 2)
-            self._errors[key] = (1.0 + gain) * complex(math.cos(phase), math.sin(phase))
-        return self._errors[key]
+            gain, phase = rng.uniform(-spread, spread, 2).tolist()  # Python floats: no numpy scalars downstream
+            error = self._errors[key] = (1.0 + gain) * complex(math.cos(phase), math.sin(phase))
+        return error
 
     def read(self, z: complex, frequency_hz: float, speed: str, voltage_v: float, averages: int,
              rng: np.random.Generator) -> complex:

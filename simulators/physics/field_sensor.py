@@ -3,7 +3,8 @@
 Z = [R_wire(T_w) + j w (s L_air + dZ_plate / (j w))] || C_p || G_p, with s = 1 + strain of the former,
 dZ_plate from Dodd & Deeds at the effective lift-off (bending included) and the plate's sigma, mu_r
 at the temperature under the winding. The reflection coefficient and the lift-off factor are
-remembered between readings, so a reading at an unchanged state costs one dot product.
+remembered between readings, so a reading at an unchanged state costs one dot product; the series
+branch itself is memoised on its arguments (a sweep reads the same state many times in a row).
 """
 
 from __future__ import annotations
@@ -18,6 +19,8 @@ from ecds_lab.simulators.physics.plate import Plate
 
 #: Grid cut-off: nodes with a x beyond this (e^{-2 a x} < 1e-13) are left out of the plate integral.
 CUTOFF = 15.0
+#: Series branches remembered (per frequency and state); the memo is emptied when it grows beyond this.
+MEMO_SIZE = 64
 
 
 class FieldSensor:
@@ -31,6 +34,7 @@ class FieldSensor:
         self._reflections: dict[tuple[float, float, float, float], np.ndarray] = {}
         self._decay_key: tuple[float, float] = (math.nan, math.nan)
         self._decay = np.zeros(0)
+        self._branches: dict[tuple[float, ...], complex] = {}
 
     def _reflection(self, omega: float, sigma: float, mu_r: float, scale: float, nodes: int) -> np.ndarray:
         """phi at the first ``nodes`` spatial frequencies (remembered per plate state and frequency)."""
@@ -65,7 +69,22 @@ class FieldSensor:
 
     def series_branch(self, omega: float, x_m: float, t_winding_c: float, t_plate_c: float, ambient_c: float,
                       strain: float) -> complex:
-        """R + jwL of winding and plate (before the former's parallel elements)."""
+        """R + jwL of winding and plate (before the former's parallel elements).
+
+        Memoised: for this sensor's coil and plate the branch is a pure function of the arguments, so a
+        remembered value is exactly what computing it again would give, whatever was asked in between.
+        """
+        key = (omega, x_m, t_winding_c, t_plate_c, ambient_c, strain)
+        found = self._branches.get(key)
+        if found is None:
+            found = self._series_branch(omega, x_m, t_winding_c, t_plate_c, ambient_c, strain)
+            if len(self._branches) >= MEMO_SIZE:
+                self._branches.clear()
+            self._branches[key] = found
+        return found
+
+    def _series_branch(self, omega: float, x_m: float, t_winding_c: float, t_plate_c: float, ambient_c: float,
+                       strain: float) -> complex:
         scale = 1.0 + strain
         reflected = self.plate_inductance(omega, x_m, t_plate_c, ambient_c, scale)
         l_air = self.kernel.air_inductance_h * scale

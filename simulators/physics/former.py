@@ -93,11 +93,11 @@ class FormerState:
         wet = self.settings.moisture
         if not wet.enabled:
             return
-        self.groove = self._relax(self.groove, t_former_c, dt_s, wet.groove_scale_k, wet.groove_drying_tau_at_100c_s)
-        self.bulk = self._relax(self.bulk, t_former_c, dt_s, wet.bulk_scale_k, wet.bulk_drying_tau_at_100c_s)
+        self.groove = self._relax(wet, self.groove, t_former_c, dt_s, wet.groove_scale_k,
+                                  wet.groove_drying_tau_at_100c_s)
+        self.bulk = self._relax(wet, self.bulk, t_former_c, dt_s, wet.bulk_scale_k, wet.bulk_drying_tau_at_100c_s)
 
-    def _relax(self, m: float, t_c: float, dt_s: float, scale_k: float, tau100_s: float) -> float:
-        wet = self.settings.moisture
+    def _relax(self, wet: Moisture, m: float, t_c: float, dt_s: float, scale_k: float, tau100_s: float) -> float:
         equilibrium = min(1.0, math.exp(-(t_c - self.ambient_c) / scale_k))
         if m > equilibrium:
             tau = tau100_s * 2.0 ** ((100.0 - t_c) / wet.drying_doubling_k)

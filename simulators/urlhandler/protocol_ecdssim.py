@@ -33,7 +33,8 @@ class Serial(SerialBase):
             self._emulator = emulator(parts.netloc, parts.path.strip("/"))
         except KeyError as exc:
             raise SerialException(str(exc.args[0])) from exc
-        self._rx = b""  # reply bytes the host has not read yet
+        self._rx = b""  # reply bytes collected from the emulator; the host has read them up to _rx_at
+        self._rx_at = 0
         self.is_open = True
         self._emulator.on_open()
 
@@ -52,9 +53,9 @@ class Serial(SerialBase):
 
     @property
     def in_waiting(self) -> int:
-        if not self._rx:
+        if self._rx_at >= len(self._rx):
             self._collect()
-        return len(self._rx)
+        return len(self._rx) - self._rx_at
 
     def read(self, size: int = 1) -> bytes:
         """Ready bytes; if none, wait on the simulated clock up to the timeout, then raise.
@@ -63,16 +64,18 @@ class Serial(SerialBase):
         that the read timed out; otherwise it would keep polling for its wall-clock timeout
         while every empty read let more simulated time pass.
         """
-        if not self.is_open:
-            raise PortNotOpenError()
-        if not self._rx:
+        at = self._rx_at
+        if at >= len(self._rx) or not self.is_open:  # one test on the path pyvisa-py takes for every byte
+            if not self.is_open:
+                raise PortNotOpenError()
             self._collect()
             if not self._rx:
                 self._wait_for_reply()
                 if not self._rx:
                     raise SerialTimeoutException(f"{self._port}: no reply within {self._timeout} s (simulated)")
-        data, self._rx = self._rx[:size], self._rx[size:]
-        return data
+            at = 0
+        self._rx_at = at + size
+        return self._rx[at:at + size]  # read position moved instead of copying the rest for every byte
 
     def write(self, data: bytes) -> int:
         if not self.is_open:
@@ -81,14 +84,16 @@ class Serial(SerialBase):
         return len(data)
 
     def reset_input_buffer(self) -> None:
-        self._collect()
-        self._rx = b""
+        self._emulator.take_ready()
+        self._rx, self._rx_at = b"", 0
 
     def reset_output_buffer(self) -> None:
         """Nothing is buffered on the way out."""
 
     def _collect(self) -> None:
-        self._rx += self._emulator.take_ready()
+        """Unread bytes plus the replies whose time has come (the read position back at 0)."""
+        self._rx = self._rx[self._rx_at:] + self._emulator.take_ready()
+        self._rx_at = 0
 
     def _wait_for_reply(self) -> None:
         """Let simulated time pass until a reply is ready, at most the port timeout."""
