@@ -192,7 +192,7 @@ def test_lab_readings_are_the_pinned_ones(station):
 
 
 def _digest(events) -> str:
-    return hashlib.sha256("\n".join(f"{e.clock_s!r} {e.kind} {e.text}" for e in events).encode()).hexdigest()
+    return hashlib.sha256("\n".join(f"{float(e.clock_s)!r} {e.kind} {e.text}" for e in events).encode()).hexdigest()
 
 
 def test_a_run_through_the_station_gives_the_pinned_rows_and_transcripts(tmp_path):
