@@ -126,7 +126,8 @@ PINNED_LAB = {
 }
 
 # Computed on main 699995a: the sweep_experiment run on the default station (simulated_lab.yaml), its columns
-# as read_run returns them, and per role the event count and SHA-256 of the lines f"{clock_s!r} {kind} {text}".
+# as read_run returns them, and per role the event count and SHA-256 of the lines f"{float(clock_s)!r} {kind} {text}"
+# (the events of main's per-role layout and of the transcript log are the same, line for line).
 PINNED_COLUMNS = {
     'time_s': (
         23.55721359549996, 24.15721359549996, 25.15721359549996, 26.057213595499963,
@@ -178,10 +179,10 @@ PINNED_COLUMNS = {
     ),
 }
 PINNED_TRANSCRIPTS = {
-    'bridge': (152, '0aa59f46ec980a922a34d4b03b4a332ed5fe6ce8801fba8dd8548b7cb82e589b'),
-    'heater': (23, 'd0c0cc7308cd279861adf14eb14216af9ea5d0157d6b8d71fa78e5e97b5b93d6'),
-    'scanner': (31, '3ecf4d199be717feb4e819b74efe9e3f40678247f2a293e47385a48f1d0c3389'),
-    'slide': (63, '3124e569f6d446a276981f6765059fec3188cd253487f6cad4587f9578e2a4d5'),
+    'bridge': (152, '1f463f760422e070ab2faec7133f2dbeb9a9071711dc6eeab1e92f244f2e94d5'),
+    'heater': (23, '96ff8b606330896fd5bca7e17125c6bb196e5045d3c0349f97cb3c95e4209205'),
+    'scanner': (31, '2a5f13133721c4bee1aa11199fbf2086a8ce5283f4011ff95d13c0839bef3bfa'),
+    'slide': (63, 'ff52e534c33690b7e330da3bec3c8d9045d818821b6236644d5d238d831fe25f'),
 }
 
 
