@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+import json
 from functools import cache
 
 import numpy as np
@@ -9,6 +11,7 @@ import pytest
 
 from ecds_lab.simulators import campaign
 from ecds_lab.simulators.config import LabConfig
+from ecds_lab.simulators.lab import SimulatedLab
 
 #: 16 positions over 20-100 mm keep each campaign near 700 readings (fast, still every phase).
 POSITIONS_MM = tuple(float(x) for x in np.linspace(20.0, 100.0, 16))
@@ -24,3 +27,63 @@ def hidden_effect_campaign(*effects: str, seed: int = 7):
 @pytest.fixture
 def campaign_with():
     return hidden_effect_campaign
+
+
+#: The faithful lab with every imperfection off; a test switches on the one part it is about.
+QUIET_FIELD_LAB: dict = {
+    "former": {"moisture": {"enabled": False}, "expansion": {"enabled": False}},
+    "plate": {"conductivity": {"enabled": False}, "permeability": {"enabled": False},
+              "gradient": {"enabled": False}, "bending": {"enabled": False}},
+    "slide": {"backlash": {"enabled": False}, "lead_screw": {"enabled": False}, "repeatability": {"enabled": False}},
+    "bridge": {"accuracy": {"enabled": False}, "glitches": {"enabled": False}},
+}
+
+
+def _merged(base: dict, changes: dict) -> dict:
+    out = {key: dict(value) if isinstance(value, dict) else value for key, value in base.items()}
+    for key, value in changes.items():
+        out[key] = _merged(out.get(key, {}), value) if isinstance(value, dict) else value
+    return out
+
+
+def field_lab_config(seed: int = 3, **parts: dict) -> LabConfig:
+    """The faithful lab (physics: field) with only ``parts`` switched on, e.g. plate={"bending": {...}}."""
+    return LabConfig(physics="field", seed=seed, **_merged(QUIET_FIELD_LAB, parts))
+
+
+@pytest.fixture
+def field_lab():
+    """Factory: a fresh faithful simulated lab with only the given parts of its physics switched on."""
+    return lambda seed=3, **parts: SimulatedLab(field_lab_config(seed, **parts))
+
+
+def spread_rows(data, count: int, seed: int) -> list[int]:
+    """Rows away from the ends of every sweep (where a glitch cannot be told from a turning point)."""
+    rng = np.random.default_rng(seed)
+    finite = np.flatnonzero(np.isfinite(data.x_m) & (data.x_mm > 30) & (data.x_mm < 90))
+    return sorted(rng.choice(finite, count, replace=False).tolist())
+
+
+@pytest.fixture
+def glitched():
+    """Factory: (data with ``count`` readings the bridge got wrong by ``ppm``, the rows hit)."""
+    def make(data, count: int, ppm: float, seed: int):
+        rows = spread_rows(data, count, seed)
+        ls = data.ls_h.copy()
+        ls[rows] *= 1 + ppm * 1e-6
+        return dataclasses.replace(data, ls_h=ls), rows
+    return make
+
+
+@cache
+def _field_paper_campaign(parts_json: str, frequencies_hz: tuple[float, ...]):
+    config = field_lab_config(**json.loads(parts_json))
+    return campaign.paper_campaign(config, seed=config.seed, positions_mm=POSITIONS_MM, frequencies_hz=frequencies_hz)
+
+
+@pytest.fixture
+def field_campaign():
+    """Factory: the paper's campaign on the faithful lab with only ``parts`` on (made once per session)."""
+    def make(frequencies_hz: tuple[float, ...] = campaign.PAPER_FREQUENCIES_HZ, **parts: dict):
+        return _field_paper_campaign(json.dumps(parts, sort_keys=True), tuple(frequencies_hz))
+    return make

@@ -31,28 +31,14 @@ def lab_with(**effects: dict) -> SimulatedLab:
     return SimulatedLab(LabConfig(effects={name: {"enabled": True, **size} for name, size in effects.items()}, seed=3))
 
 
-def with_glitches(data: Measurements, rows: list[int], ppm: float) -> Measurements:
-    """Readings the bridge got wrong: a relative jump of ``ppm`` at ``rows``."""
-    ls = data.ls_h.copy()
-    ls[rows] *= 1 + ppm * 1e-6
-    return dataclasses.replace(data, ls_h=ls)
-
-
-def spread_rows(data: Measurements, count: int, seed: int) -> list[int]:
-    """Rows away from the ends of every sweep (where a glitch cannot be told from a turning point)."""
-    rng = np.random.default_rng(seed)
-    finite = np.flatnonzero(np.isfinite(data.x_m) & (data.x_mm > 30) & (data.x_mm < 90))
-    return sorted(rng.choice(finite, count, replace=False).tolist())
-
-
 # -- class 1: glitches ------------------------------------------------------------------------------
-def test_glitches_do_not_hide_a_real_backlash():
+def test_glitches_do_not_hide_a_real_backlash(glitched):
     lab = lab_with(slide_backlash={"backlash_um": 30.0})
     data = campaign.displacement_sweep(lab, campaign.PAPER_POSITIONS_MM, (15000.0,))
     data = Measurements.concatenate([data, campaign.displacement_sweep(lab, campaign.PAPER_POSITIONS_MM,
                                                                        (15000.0,))])
-    rows = spread_rows(data, 2, seed=1)
-    result = run_diagnosis(with_glitches(data, rows, 3000.0))
+    data, rows = glitched(data, 2, 3000.0, seed=1)
+    result = run_diagnosis(data)
     assert [o.row for o in result.outliers] == rows
     assert all(abs(o.residual_sigma) > 10 and "glitch" in o.reason for o in result.outliers)
     assert result.claimed == ["slide_backlash"], [(c.effect, c.rejected) for c in result.candidates]
@@ -60,10 +46,9 @@ def test_glitches_do_not_hide_a_real_backlash():
     assert backlash == pytest.approx(30e-6, rel=0.25)
 
 
-def test_a_campaign_with_no_effect_and_glitches_is_adequate(campaign_with):
-    data = campaign_with()
-    rows = spread_rows(data, 5, seed=2)
-    report = run_diagnosis(with_glitches(data, rows, -2500.0)).to_json()
+def test_a_campaign_with_no_effect_and_glitches_is_adequate(campaign_with, glitched):
+    data, rows = glitched(campaign_with(), 5, -2500.0, seed=2)
+    report = run_diagnosis(data).to_json()
     assert report["verdict"] == "adequate", report["explanation"]
     assert [o["row"] for o in report["outliers"]] == rows
     assert all(o["residual_sigma"] < -10 for o in report["outliers"])
