@@ -1,0 +1,68 @@
+"""slide_lead_screw: the slide's lead screw has a periodic positioning error over each revolution.
+
+A stepper slide's position comes from counting the screw's turns; thread-form errors, an
+eccentric or bent screw and a wobbling nut ("drunken thread") make the carriage run ahead and
+behind in a cycle of one screw lead. Its first harmonic is x_true = x + A sin(2 pi x / p + phi).
+In quadrature, x_eff = x + a sin(2 pi x / p) + b cos(2 pi x / p): a and b enter linearly, the lead
+p is the one nonlinear parameter (the sign of x relative to the machine coordinate only moves phi).
+The same position shows the same error from either direction (unlike backlash or random scatter
+between moves). Positions taken on a regular grid alias a lead to others (p and 1/(1/p + k/g)):
+only leads longer than twice the closest spacing of the positions can be told.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import ClassVar
+
+import numpy as np
+
+from ecds_lab.data.measurements import Measurements
+from ecds_lab.model.effects import Effect, register
+from ecds_lab.model.parameters import Parameter
+
+#: Physically possible leads (m): fine screws of 0.5 mm up to the 20 mm of fast ball screws.
+LEAD_RANGE_M = (0.5e-3, 20e-3)
+#: Common leads of slide screws (m): metric threads, trapezoidal and ball screws.
+COMMON_LEADS_M = (1e-3, 2e-3, 2.5e-3, 4e-3, 5e-3, 8e-3, 10e-3)
+#: A period needs this many distinct positions (3 parameters and a margin against chance).
+MIN_POSITIONS = 8
+_NAMES = ("screw_sin", "screw_cos", "screw_lead")
+
+
+@register
+class SlideLeadScrew(Effect):
+    name = "slide_lead_screw"
+    explains = "the slide's lead screw runs ahead and behind in a cycle of one screw revolution"
+    #: Periodic errors of a slide screw are micrometres to tens of micrometres (the paper's slide: accuracy in
+    #: the low tens of um); the lead is that of a real screw.
+    plausible: ClassVar[dict[str, tuple[float, float]]] = {"screw_sin": (-50e-6, 50e-6),
+                                                           "screw_cos": (-50e-6, 50e-6),
+                                                           "screw_lead": LEAD_RANGE_M}
+    key_parameters = ("screw_sin", "screw_cos")
+    reveal = ("step finer than the screw's lead (e.g. 0.5 mm steps over two turns), or check the positions "
+              "against a laser or dial-gauge reference")
+    alternative_starts = tuple({"screw_lead": lead} for lead in COMMON_LEADS_M)
+
+    def parameters(self) -> list[Parameter]:
+        return [
+            Parameter("screw_sin", 0.0, -200e-6, 200e-6, "m", "periodic error of the screw, sine part", 2e-6),
+            Parameter("screw_cos", 0.0, -200e-6, 200e-6, "m", "periodic error of the screw, cosine part", 2e-6),
+            Parameter("screw_lead", 2e-3, 0.3e-3, 30e-3, "m", "lead of the screw (travel per revolution)", 0.1e-3),
+        ]
+
+    def unidentifiable(self, data: Measurements) -> dict[str, str]:
+        positions = np.unique(np.round(data.x_m[np.isfinite(data.x_m)], 6))
+        if len(positions) < MIN_POSITIONS:
+            return {n: f"{len(positions)} distinct positions (a periodic error needs {MIN_POSITIONS})" for n in _NAMES}
+        closest = float(np.diff(positions).min())
+        if 2 * closest >= LEAD_RANGE_M[1]:
+            return {n: f"the closest positions are {closest * 1e3:.3g} mm apart: no screw lead up to "
+                       f"{LEAD_RANGE_M[1] * 1e3:g} mm can be resolved" for n in _NAMES}
+        return {}
+
+    def effective_distance(self, x_m: np.ndarray, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
+        finite = np.isfinite(data.x_m)
+        phase = 2 * np.pi * np.where(finite, data.x_m, 0.0) / p["screw_lead"]
+        error = p["screw_sin"] * np.sin(phase) + p["screw_cos"] * np.cos(phase)
+        return x_m + np.where(finite, error, 0.0)
