@@ -6,8 +6,9 @@ behind in a cycle of one screw lead. Its first harmonic is x_true = x + A sin(2 
 In quadrature, x_eff = x + a sin(2 pi x / p) + b cos(2 pi x / p): a and b enter linearly, the lead
 p is the one nonlinear parameter (the sign of x relative to the machine coordinate only moves phi).
 The same position shows the same error from either direction (unlike backlash or random scatter
-between moves). Positions taken on a regular grid alias a lead to others (p and 1/(1/p + k/g)):
-only leads longer than twice the closest spacing of the positions can be told.
+between moves). Positions taken on a regular grid g alias a lead to others (p and 1/(1/p + k/g)):
+only leads longer than twice the closest spacing of the positions can be told, so the effect is
+tested only where steps resolve the common leads (up to 10 mm: steps of 5 mm or less).
 """
 
 from __future__ import annotations
@@ -56,9 +57,10 @@ class SlideLeadScrew(Effect):
         if len(positions) < MIN_POSITIONS:
             return {n: f"{len(positions)} distinct positions (a periodic error needs {MIN_POSITIONS})" for n in _NAMES}
         closest = float(np.diff(positions).min())
-        if 2 * closest >= LEAD_RANGE_M[1]:
-            return {n: f"the closest positions are {closest * 1e3:.3g} mm apart: no screw lead up to "
-                       f"{LEAD_RANGE_M[1] * 1e3:g} mm can be resolved" for n in _NAMES}
+        if 2 * closest > COMMON_LEADS_M[-1]:
+            return {n: f"the closest positions are {closest * 1e3:.3g} mm apart: a screw lead of "
+                       f"{COMMON_LEADS_M[-1] * 1e3:g} mm or less cannot be resolved (it needs steps of "
+                       f"{COMMON_LEADS_M[-1] * 500:g} mm or less)" for n in _NAMES}
         return {}
 
     def effective_distance(self, x_m: np.ndarray, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
