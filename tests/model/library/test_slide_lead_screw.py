@@ -65,3 +65,12 @@ def test_it_is_in_the_library_with_plausible_sizes_and_the_common_leads_as_start
     assert [s["screw_lead"] for s in effect.alternative_starts] == list(COMMON_LEADS_M)
     assert all(effect.plausible["screw_lead"][0] <= lead <= effect.plausible["screw_lead"][1]
                for lead in COMMON_LEADS_M)
+
+
+def test_a_lead_the_positions_cannot_resolve_moves_nothing(screw):
+    """On 2 mm steps a 3 mm lead is an alias of a 6 mm one: the data cannot tell it, so it shifts nothing."""
+    data = at_positions(np.arange(20.0, 60.0, 2.0))
+    assert screw.shortest_lead(data) == pytest.approx(4e-3)
+    p = {"screw_sin": 10e-6, "screw_cos": 0.0}
+    np.testing.assert_array_equal(screw.effective_distance(data.x_m, data, {**p, "screw_lead": 3e-3}), data.x_m)
+    assert np.ptp(screw.effective_distance(data.x_m, data, {**p, "screw_lead": 6e-3}) - data.x_m) > 15e-6
