@@ -87,3 +87,43 @@ def field_campaign():
     def make(frequencies_hz: tuple[float, ...] = campaign.PAPER_FREQUENCIES_HZ, **parts: dict):
         return _field_paper_campaign(json.dumps(parts, sort_keys=True), tuple(frequencies_hz))
     return make
+
+
+#: Steps finer than a screw's lead near the coil, as the demo's sweep (1 mm, then 2, 2.5 and 5 mm).
+FINE_POSITIONS_MM = tuple(np.r_[np.arange(20.0, 30.0, 1.0), np.arange(30.0, 40.0, 2.0), np.arange(40.0, 50.0, 2.5),
+                                np.arange(50.0, 100.1, 5.0)].tolist())
+
+
+@cache
+def faithful_sweep(seed: int = 1, *, screw_um: float = 0.0, lead_mm: float = 4.0, repeatability_um: float = 0.0):
+    """A room-temperature sweep (both directions, both frequencies, two readings each) on the faithful
+    lab (``physics: field``) without backlash, with a lead screw's periodic error of ``screw_um`` over
+    ``lead_mm`` and a random scatter of ``repeatability_um`` (1 sigma) per move; 0 switches one off."""
+    slide = {"backlash": {"enabled": False},
+             "lead_screw": {"enabled": screw_um > 0, "amplitude_um": screw_um, "pitch_mm": lead_mm},
+             "repeatability": {"enabled": repeatability_um > 0, "sigma_um": repeatability_um}}
+    lab = SimulatedLab(LabConfig(physics="field", seed=seed, slide=slide))
+    return campaign.displacement_sweep(lab, FINE_POSITIONS_MM, repeats=2)
+
+
+@pytest.fixture
+def faithful_sweep_with():
+    return faithful_sweep
+
+
+def with_metal_object(data, ppm: float = -400.0, at_mm: float = 47.0, width_mm: float = 5.0):
+    """The README's example (docs/user_effects.md): a metal object beside the slide changes L by ``ppm``
+    in a Gaussian of ``width_mm`` around ``at_mm``."""
+    x_mm = np.where(np.isfinite(data.x_m), data.x_mm, np.inf)
+    bump = 1 + ppm * 1e-6 * np.exp(-0.5 * ((x_mm - at_mm) / width_mm) ** 2)
+    return dataclasses.replace(data, ls_h=data.ls_h * bump)
+
+
+@pytest.fixture
+def metal_object():
+    return with_metal_object
+
+
+@pytest.fixture
+def fine_positions_mm():
+    return FINE_POSITIONS_MM

@@ -1,0 +1,88 @@
+"""slide_lead_screw: the slide's lead screw has a periodic positioning error over each revolution.
+
+A stepper slide's position comes from counting the screw's turns; thread-form errors, an
+eccentric or bent screw and a wobbling nut ("drunken thread") make the carriage run ahead and
+behind in a cycle of one screw lead. Its first harmonic is x_true = x + A sin(2 pi x / p + phi).
+In quadrature, x_eff = x + a sin(2 pi x / p) + b cos(2 pi x / p): a and b enter linearly, the lead
+p is the one nonlinear parameter (the sign of x relative to the machine coordinate only moves phi).
+The same position shows the same error from either direction (unlike backlash or random scatter
+between moves). Positions taken on a regular grid g alias a lead to others (p and 1/(1/p + k/g)):
+only leads longer than twice the closest spacing of the positions can be told. A shorter lead
+therefore moves nothing in these data (its error is not determinable, so never claimed), and the
+effect is tested only where the steps resolve the common leads (up to 10 mm: steps of 5 mm or less).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import ClassVar
+
+import numpy as np
+
+from ecds_lab.data.measurements import Measurements
+from ecds_lab.model.effects import Effect, register
+from ecds_lab.model.parameters import Parameter
+
+#: Physically possible leads (m): fine screws of 0.5 mm up to the 20 mm of fast ball screws.
+LEAD_RANGE_M = (0.5e-3, 20e-3)
+#: Common leads of slide screws (m): metric threads, trapezoidal and ball screws.
+COMMON_LEADS_M = (1e-3, 2e-3, 2.5e-3, 4e-3, 5e-3, 8e-3, 10e-3)
+#: A period needs this many distinct positions (3 parameters and a margin against chance).
+MIN_POSITIONS = 8
+_NAMES = ("screw_sin", "screw_cos", "screw_lead")
+
+
+@register
+class SlideLeadScrew(Effect):
+    name = "slide_lead_screw"
+    explains = "the slide's lead screw runs ahead and behind in a cycle of one screw revolution"
+    #: Periodic errors of a slide screw are micrometres to tens of micrometres (the paper's slide: accuracy in
+    #: the low tens of um); the lead is that of a real screw.
+    plausible: ClassVar[dict[str, tuple[float, float]]] = {"screw_sin": (-50e-6, 50e-6),
+                                                           "screw_cos": (-50e-6, 50e-6),
+                                                           "screw_lead": LEAD_RANGE_M}
+    key_parameters = ("screw_sin", "screw_cos")
+    reveal = ("step finer than the screw's lead (e.g. 0.5 mm steps over two turns), or check the positions "
+              "against a laser or dial-gauge reference")
+    alternative_starts = tuple({"screw_lead": lead} for lead in COMMON_LEADS_M)
+    _memo_data: Measurements | None = None
+    _memo_shortest: float = 0.0
+
+    def parameters(self) -> list[Parameter]:
+        return [
+            Parameter("screw_sin", 0.0, -200e-6, 200e-6, "m", "periodic error of the screw, sine part", 2e-6),
+            Parameter("screw_cos", 0.0, -200e-6, 200e-6, "m", "periodic error of the screw, cosine part", 2e-6),
+            Parameter("screw_lead", COMMON_LEADS_M[-1], 0.3e-3, 30e-3, "m", "lead of the screw (travel per revolution)",
+                      0.1e-3),
+        ]
+
+    def unidentifiable(self, data: Measurements) -> dict[str, str]:
+        count, closest = _positions(data)
+        if count < MIN_POSITIONS:
+            return {n: f"{count} distinct positions (a periodic error needs {MIN_POSITIONS})" for n in _NAMES}
+        if 2 * closest > COMMON_LEADS_M[-1]:
+            return {n: f"the closest positions are {closest * 1e3:.3g} mm apart: a screw lead of "
+                       f"{COMMON_LEADS_M[-1] * 1e3:g} mm or less cannot be resolved (it needs steps of "
+                       f"{COMMON_LEADS_M[-1] * 500:g} mm or less)" for n in _NAMES}
+        return {}
+
+    def shortest_lead(self, data: Measurements) -> float:
+        """The shortest lead these positions resolve (m): twice their closest spacing (remembered per data)."""
+        if data is not self._memo_data:
+            self._memo_data, self._memo_shortest = data, 2 * _positions(data)[1]
+        return self._memo_shortest
+
+    def effective_distance(self, x_m: np.ndarray, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
+        if p["screw_lead"] < self.shortest_lead(data):  # an alias of a longer lead: nothing these data can tell
+            return x_m
+        finite = np.isfinite(data.x_m)
+        phase = 2 * np.pi * np.where(finite, data.x_m, 0.0) / p["screw_lead"]
+        error = p["screw_sin"] * np.sin(phase) + p["screw_cos"] * np.cos(phase)
+        return x_m + np.where(finite, error, 0.0)
+
+
+def _positions(data: Measurements) -> tuple[int, float]:
+    """How many distinct positions (to 1 um) the data hold, and the closest spacing of two (m; inf for one)."""
+    positions = np.unique(np.round(data.x_m[np.isfinite(data.x_m)], 6))
+    return len(positions), float(np.diff(positions).min()) if len(positions) > 1 else math.inf

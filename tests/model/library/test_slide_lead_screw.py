@@ -1,0 +1,76 @@
+"""slide_lead_screw: the periodic error of the screw shifts the effective distance; the effect is
+testable only where the positions can resolve a lead."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from ecds_lab.data.measurements import Measurements
+from ecds_lab.data.sensor import SensorConfig
+from ecds_lab.model.effects import library, make_effect
+from ecds_lab.model.library.slide_lead_screw import COMMON_LEADS_M, SlideLeadScrew
+
+
+def at_positions(x_mm) -> Measurements:
+    x = np.asarray(x_mm, float)
+    n = len(x)
+    return Measurements(time_s=np.arange(n, dtype=float), x_m=x * 1e-3, freq_hz=np.full(n, 15000.0),
+                        t_coil_c=np.full(n, 22.0), t_target_c=np.full(n, 22.0), ls_h=np.full(n, 0.05),
+                        rs_ohm=np.full(n, 20.0))
+
+
+@pytest.fixture
+def screw() -> SlideLeadScrew:
+    return SlideLeadScrew(SensorConfig())
+
+
+def test_the_distance_runs_ahead_and_behind_over_one_lead(screw):
+    lead = 4e-3
+    data = at_positions([40.0, 41.0, 42.0, 43.0, 44.0, math.inf])
+    p = {"screw_sin": 10e-6, "screw_cos": -3e-6, "screw_lead": lead}
+    moved = screw.effective_distance(data.x_m, data, p)
+    shift = moved[:5] - data.x_m[:5]
+    # 40 mm is ten turns: phase 0 (cos part only); 41 mm a quarter turn (sin part); 42 mm half a turn.
+    np.testing.assert_allclose(shift * 1e6, [-3.0, 10.0, 3.0, -10.0, -3.0], atol=1e-6)
+    assert np.isinf(moved[5])  # the coil in air stays in air
+
+
+def test_the_hook_shifts_the_distance_it_is_given(screw):
+    """Chained after another distance effect, the error adds to that effect's distance."""
+    data = at_positions(np.linspace(20.0, 30.0, 11))
+    p = {"screw_sin": 5e-6, "screw_cos": 0.0, "screw_lead": 5e-3}
+    moved = data.x_m - 1e-4
+    np.testing.assert_allclose(screw.effective_distance(moved, data, p) - moved,
+                               screw.effective_distance(data.x_m, data, p) - data.x_m, atol=1e-15)
+
+
+def test_too_few_positions_or_steps_too_coarse_leave_it_undetermined(screw):
+    few = screw.unidentifiable(at_positions([20.0, 40.0, 60.0, 80.0, 100.0] * 4))
+    assert set(few) == {"screw_sin", "screw_cos", "screw_lead"} and "5 distinct positions" in few["screw_lead"]
+    coarse = screw.unidentifiable(at_positions(np.linspace(20.0, 100.0, 13)))  # 6.67 mm steps
+    assert set(coarse) == {"screw_sin", "screw_cos", "screw_lead"} and "6.67 mm apart" in coarse["screw_sin"]
+    fine = np.r_[np.arange(20.0, 30.0, 1.0), np.arange(30.0, 100.1, 5.0)]
+    assert screw.unidentifiable(at_positions([*fine, math.inf])) == {}
+
+
+def test_it_is_in_the_library_with_plausible_sizes_and_the_common_leads_as_starts():
+    assert library()["slide_lead_screw"] is SlideLeadScrew
+    effect = make_effect("slide_lead_screw", SensorConfig())
+    bounds = {p.name: (p.lower, p.upper) for p in effect.parameters()}
+    for name, (low, high) in effect.plausible.items():
+        assert bounds[name][0] < low < high < bounds[name][1]  # a fit beyond the plausible range can show it
+    assert [s["screw_lead"] for s in effect.alternative_starts] == list(COMMON_LEADS_M)
+    assert all(effect.plausible["screw_lead"][0] <= lead <= effect.plausible["screw_lead"][1]
+               for lead in COMMON_LEADS_M)
+
+
+def test_a_lead_the_positions_cannot_resolve_moves_nothing(screw):
+    """On 2 mm steps a 3 mm lead is an alias of a 6 mm one: the data cannot tell it, so it shifts nothing."""
+    data = at_positions(np.arange(20.0, 60.0, 2.0))
+    assert screw.shortest_lead(data) == pytest.approx(4e-3)
+    p = {"screw_sin": 10e-6, "screw_cos": 0.0}
+    np.testing.assert_array_equal(screw.effective_distance(data.x_m, data, {**p, "screw_lead": 3e-3}), data.x_m)
+    assert np.ptp(screw.effective_distance(data.x_m, data, {**p, "screw_lead": 6e-3}) - data.x_m) > 15e-6
