@@ -76,7 +76,8 @@ MAX_OUTLIER_ROUNDS = 3
 DISPLAY_UNITS = {"bending": ("um/K", 1e6), "bending_quadratic": ("um/K^2", 1e6), "backlash": ("um", 1e6),
                  "moist_dC": ("pF", 1e12), "moist_dG": ("uS", 1e6), "tau_tempco": ("%/K", 100.0),
                  "lag_tau": ("s", 1.0), "drying_rate": ("1/h", 3600.0), "tau_t": ("us", 1e6),
-                 "former_alpha": ("ppm/K", 1e6)}
+                 "former_alpha": ("ppm/K", 1e6), "screw_sin": ("um", 1e6), "screw_cos": ("um", 1e6),
+                 "screw_lead": ("mm", 1e3)}
 
 
 @dataclass
