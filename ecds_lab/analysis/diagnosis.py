@@ -339,13 +339,15 @@ def _round(screen: Measurements, clean: Measurements, current: Step, names: list
         ranked.append(_candidate(screen, model, name, base, noise, weight, len(clean)))
     ranked.sort(key=_evidence)
     # Alternative starts where another valley could change the outcome: not once the model or the
-    # leading candidate is at the noise, and not for candidates far behind the leader.
+    # leading candidate is at the noise, and not for candidates far behind the leader, unless their
+    # first start gained almost nothing (a periodic error started at the wrong period, say).
     leader_gain = max((c.chi2_gain for c in ranked), default=0.0)
     solved = any(c.rmse_ppm <= ADEQUATE_RATIO * noise.ppm and not c.not_better for c in ranked[:1])
     if current.rmse_ppm > ADEQUATE_RATIO * noise.ppm and not solved:
         for i, candidate in enumerate(ranked[:LEADING]):
             if candidate.not_better or (candidate.rmse_ppm > ADEQUATE_RATIO * noise.ppm
-                                        and candidate.chi2_gain >= 0.1 * leader_gain):
+                                        and (candidate.chi2_gain >= 0.1 * leader_gain
+                                             or candidate.chi2_gain < MIN_CHI2_GAIN)):
                 ranked[i] = _refined(screen, candidate, base, noise, weight, len(clean))
     for candidate in ranked:
         _check(candidate)
