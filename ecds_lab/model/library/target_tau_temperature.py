@@ -18,10 +18,12 @@ One resistivity ratio r(T) = rho(T)/rho_0 = tau_0/tau_T(T) acts in two ways:
    looks like a distance shift (bending). Bending shifts the distance alike at every frequency, the
    recession as f^-1/2 (thick plate): two frequencies tell them apart, one cannot.
 
-Both describe the same eddy currents, so they share out the action by Eq. (2)'s screening factor
-f_T at the baseline's tau_T: the recession carries the share f_T (the plate screens: the field
-lives in a skin), the tau_T change the share 1 - f_T (the plate hardly screens: the currents scale
-with sigma). Without this a thick plate's conductivity change would be counted twice at 500 Hz.
+Both describe the same eddy currents, so they share out the action by the plate's thickness in
+skin depths: the recession carries w = 1 - exp(-2 d/delta) (the share of the field the plate
+absorbs: a thick plate screens through its skin), the tau_T change the rest 1 - w (a sheet thin
+against delta acts through its sheet conductance sigma d, i.e. through tau_T; a fitted thickness
+near zero gives back the equivalent circuit's effect alone). Without this a thick plate's
+conductivity change would be counted twice at 500 Hz.
 
 The recession's size comes from the sensor's target material, not from a fitted size: the
 textbook resistivity of copper (1.68e-8 Ohm m at 20 C, mu_r = 1, delta/2 = 0.27 mm at 15 kHz)
@@ -75,7 +77,7 @@ class TargetTauTemperature(Effect):
     key_parameters = ("tau_tempco",)
     #: The thickness is the one valley-prone parameter: the 500 Hz share of the recession rises to a
     #: flat maximum near 3 delta(500 Hz), so thin and thick starts are tried as well.
-    alternative_starts: ClassVar[tuple[dict[str, float], ...]] = ({"plate_thickness": 1.5e-3},
+    alternative_starts: ClassVar[tuple[dict[str, float], ...]] = ({"plate_thickness": 0.05e-3},
                                                                   {"plate_thickness": 8e-3})
     reveal = ("measure at 500 Hz as well as 15 kHz with the target hot: a conductivity change alters the "
               "eddy-current screening at both in a way a bending cannot (the skin depth scales as f^-1/2)")
@@ -92,7 +94,7 @@ class TargetTauTemperature(Effect):
                       1e-6),
         ]
         if self.resistivity_ohm_m is not None:  # a few millimetres: a typical target plate; the fit moves it
-            out.append(Parameter("plate_thickness", 3e-3, 0.2e-3, 50e-3, "m",
+            out.append(Parameter("plate_thickness", 3e-3, 0.02e-3, 50e-3, "m",
                                  "thickness of the target plate (sets how its skin recession changes with frequency)",
                                  1e-3))
         return out
@@ -130,11 +132,12 @@ class TargetTauTemperature(Effect):
         d_t = t_target_c - reference_c
         return p["tau_tempco"] * d_t + p["tau_tempco2"] * d_t**2
 
-    @staticmethod
-    def _screening(data: Measurements, p: Mapping[str, float]) -> np.ndarray:
-        """f_T of Eq. (2) at the baseline's tau_T: the share of the conductivity's action that is the recession."""
-        wt2 = (2 * np.pi * data.freq_hz * p["tau_t"]) ** 2
-        return wt2 / (1 + wt2)
+    def _skin_share(self, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
+        """w = 1 - exp(-2 d/delta): the share of the conductivity's action that is the skin recession."""
+        rho = self.resistivity_ohm_m
+        if rho is None:
+            return np.zeros(len(data))
+        return -np.expm1(-2.0 * p["plate_thickness"] / skin_depth_m(rho, data.freq_hz))
 
     def effective_distance(self, x_m: np.ndarray, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
         rho = self.resistivity_ohm_m
@@ -144,10 +147,10 @@ class TargetTauTemperature(Effect):
         delta = skin_depth_m(rho, data.freq_hz)  # rho(T)/rho_0 = tau_0/tau_T(T)
         change = (recession_m(delta * np.exp(-0.5 * log_ratio), p["plate_thickness"])
                   - recession_m(delta, p["plate_thickness"]))
-        return x_m + self._screening(data, p) * change
+        return x_m + self._skin_share(data, p) * change
 
     def target_tau(self, tau_s: np.ndarray, inputs: Inputs, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
         log_ratio = self._log_tau_ratio(inputs.t_target_c, self.sensor.reference_temperature_c, p)
         if self.resistivity_ohm_m is not None:
-            log_ratio = log_ratio * (1 - self._screening(data, p))
+            log_ratio = log_ratio * (1 - self._skin_share(data, p))
         return tau_s * np.exp(log_ratio)
