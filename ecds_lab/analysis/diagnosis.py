@@ -396,7 +396,8 @@ def _unreleased(fitted: FitResult, base: FitResult, data: Measurements) -> FitRe
     """Baseline parameters the effect made free (``Effect.identifies``) are kept only when the data
     constrain them (standard error below half the value), otherwise fixed where the fit left them;
     secondary parameters of the effect the data leave wholly undetermined are fixed at their
-    defaults. Neither then blurs the effect's key parameters."""
+    defaults; its nuisance parameters (``Effect.nuisance_parameters``) the data determine poorly are
+    held where the fit left them. None then blurs the effect's key parameters."""
     released = [n for n in fitted.free_names if n not in base.free_names and n in base.values]
     loose = {n: fitted.values[n] for n in released
              if not fitted.stderr.get(n, math.inf) < 0.5 * abs(fitted.values[n])}
@@ -405,6 +406,9 @@ def _unreleased(fitted: FitResult, base: FitResult, data: Measurements) -> FitRe
     defaults = {q.name: q.value for q in effect.parameters()}
     loose.update({n: defaults[n] for n in defaults  # secondary parameters the data cannot fix at all
                   if n in fitted.free_names and n not in keys and not math.isfinite(fitted.stderr.get(n, math.inf))})
+    loose.update({n: fitted.values[n] for n in effect.nuisance_parameters  # poorly determined shape parameters
+                  if n in fitted.free_names and n not in loose
+                  and not fitted.stderr.get(n, math.inf) < abs(fitted.values[n])})
     if not loose:
         return fitted
     return fit_model(fitted.model, data, start=fitted.values, fixed=loose, multistart=False, screening=True)

@@ -75,9 +75,11 @@ class TargetTauTemperature(Effect):
     #: Conductivity of metals falls ~0.3-0.45 %/K; permeability changes of steel add to it: |a| <= 2 %/K.
     plausible: ClassVar[dict[str, tuple[float, float]]] = {"tau_tempco": (-0.02, 0.02), "tau_tempco2": (-5e-5, 5e-5)}
     key_parameters = ("tau_tempco",)
+    #: One frequency shows the thickness only through the shape in x of the change (shift or screening).
+    nuisance_parameters = ("plate_thickness",)
     #: The thickness is the one valley-prone parameter: the 500 Hz share of the recession rises to a
     #: flat maximum near 3 delta(500 Hz), so thin and thick starts are tried as well.
-    alternative_starts: ClassVar[tuple[dict[str, float], ...]] = ({"plate_thickness": 0.05e-3},
+    alternative_starts: ClassVar[tuple[dict[str, float], ...]] = ({"plate_thickness": 1e-5},
                                                                   {"plate_thickness": 8e-3})
     reveal = ("measure at 500 Hz as well as 15 kHz with the target hot: a conductivity change alters the "
               "eddy-current screening at both in a way a bending cannot (the skin depth scales as f^-1/2)")
@@ -93,8 +95,8 @@ class TargetTauTemperature(Effect):
             Parameter("tau_tempco2", 0.0, -1e-4, 1e-4, "1/K^2", "curvature of ln(tau_T) in target temperature",
                       1e-6),
         ]
-        if self.resistivity_ohm_m is not None:  # a few millimetres: a typical target plate; the fit moves it
-            out.append(Parameter("plate_thickness", 3e-3, 0.02e-3, 50e-3, "m",
+        if self.resistivity_ohm_m is not None:  # starts near delta(15 kHz), where both shares move with it
+            out.append(Parameter("plate_thickness", 0.5e-3, 1e-6, 50e-3, "m",
                                  "thickness of the target plate (sets how its skin recession changes with frequency)",
                                  1e-3))
         return out
@@ -110,10 +112,6 @@ class TargetTauTemperature(Effect):
             return fixed
         if span < 30.0 or len(np.unique(np.round(data.t_target_c / 5.0))) < 3:
             fixed["tau_tempco2"] = f"target temperature span {span:.1f} K < 30 K or fewer than 3 levels of 5 K"
-        finite = np.isfinite(data.x_m)
-        if thickness and len(np.unique(data.freq_hz[finite])) < 2:
-            fixed["plate_thickness"] = ("one frequency with the target present: the thickness shows only in how the "
-                                        "conductivity's action changes with frequency")
         return fixed
 
     def identifies(self, data: Measurements) -> set[str]:
