@@ -58,6 +58,9 @@ BOUND_MARGIN = 1e-3
 #: Two passing effects whose chi-square gains (in noise units) differ by less than this (plus a tenth
 #: of the larger) are not separated.
 SEPARATION_CHI2 = 10.0
+#: Once the leading candidate is at the noise, others are refitted from their alternative starts only
+#: when their chi-square gain is at least this share of the leader's (they might tie with it).
+TIE_REACH = 0.5
 #: The signature of an effect: readings whose prediction it moves by at least this share of the noise.
 SIGNATURE_SHARE = 0.5
 #: Candidates (best by evidence) refitted from their alternative starts, and cross-validated.
@@ -337,14 +340,16 @@ def _round(screen: Measurements, clean: Measurements, current: Step, names: list
             continue
         ranked.append(_candidate(screen, model, name, base, noise, weight, len(clean)))
     ranked.sort(key=_evidence)
-    # Alternative starts where another valley could change the outcome: not once the model or the
-    # leading candidate is at the noise, and not for candidates far behind the leader.
+    # Alternative starts where another valley could change the outcome: not once the model is at the
+    # noise, and not for candidates far behind the leader; once the leader is at the noise, only for
+    # those close enough to tie with it (a tie is judged between each candidate's best fits).
     leader_gain = max((c.chi2_gain for c in ranked), default=0.0)
     solved = any(c.rmse_ppm <= ADEQUATE_RATIO * noise.ppm and not c.not_better for c in ranked[:1])
-    if current.rmse_ppm > ADEQUATE_RATIO * noise.ppm and not solved:
+    if current.rmse_ppm > ADEQUATE_RATIO * noise.ppm:
         for i, candidate in enumerate(ranked[:LEADING]):
-            if candidate.not_better or (candidate.rmse_ppm > ADEQUATE_RATIO * noise.ppm
-                                        and candidate.chi2_gain >= 0.1 * leader_gain):
+            behind = candidate.rmse_ppm > ADEQUATE_RATIO * noise.ppm
+            if (candidate.not_better and not solved) or (
+                    behind and candidate.chi2_gain >= (TIE_REACH if solved else 0.1) * leader_gain):
                 ranked[i] = _refined(screen, candidate, base, noise, weight, len(clean))
     for candidate in ranked:
         _check(candidate)
@@ -405,10 +410,10 @@ def _unreleased(fitted: FitResult, base: FitResult, data: Measurements) -> FitRe
     keys = effect.key_parameters or ()
     defaults = {q.name: q.value for q in effect.parameters()}
     loose.update({n: defaults[n] for n in defaults  # secondary parameters the data cannot fix at all
-                  if n in fitted.free_names and n not in keys and not math.isfinite(fitted.stderr.get(n, math.inf))})
+                  if n in fitted.free_names and n not in keys and n not in effect.nuisance_parameters
+                  and not math.isfinite(fitted.stderr.get(n, math.inf))})
     loose.update({n: fitted.values[n] for n in effect.nuisance_parameters  # poorly determined shape parameters
-                  if n in fitted.free_names and n not in loose
-                  and not fitted.stderr.get(n, math.inf) < abs(fitted.values[n])})
+                  if n in fitted.free_names and not fitted.stderr.get(n, math.inf) < abs(fitted.values[n])})
     if not loose:
         return fitted
     return fit_model(fitted.model, data, start=fitted.values, fixed=loose, multistart=False, screening=True)

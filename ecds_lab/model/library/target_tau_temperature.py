@@ -96,7 +96,7 @@ class TargetTauTemperature(Effect):
                       1e-6),
         ]
         if self.resistivity_ohm_m is not None:  # starts near delta(15 kHz), where both shares move with it
-            out.append(Parameter("plate_thickness", 0.5e-3, 1e-6, 50e-3, "m",
+            out.append(Parameter("plate_thickness", 0.1e-3, 1e-6, 50e-3, "m",
                                  "thickness of the target plate (sets how its skin recession changes with frequency)",
                                  1e-3))
         return out
