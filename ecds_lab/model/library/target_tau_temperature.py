@@ -25,13 +25,19 @@ against delta acts through its sheet conductance sigma d, i.e. through tau_T; a 
 near zero gives back the equivalent circuit's effect alone). Without this a thick plate's
 conductivity change would be counted twice at 500 Hz.
 
-The recession's size comes from the sensor's target material, not from a fitted size: the
+The recession's size comes from the sensor's target material, not from a fitted size s_ref: the
 textbook resistivity of copper (1.68e-8 Ohm m at 20 C, mu_r = 1, delta/2 = 0.27 mm at 15 kHz)
-fixes delta at every frequency, so at one frequency the recession determines the tempco, and at
-two frequencies the one thing the analysis does not know, the plate's thickness, is fitted from
-how the action changes with frequency (a size, a thickness and a tempco cannot all be told from
-two frequencies). A magnetic target (steel, mu_r ~100-200 and itself changing with temperature)
-does not recede like this; there the effect is the tau_T change alone, as before.
+fixes delta at every frequency, and the one thing the analysis does not know, the plate's
+thickness, is fitted (a size, a thickness and a tempco cannot all be told from two frequencies;
+with the size known, the tempco and the thickness can). With two frequencies the thickness shows
+in how the action changes with frequency; with one, only in its shape in x (a shift for a thick
+plate, a change of screening for a thin one), so it is a nuisance parameter: where the data
+determine it poorly the diagnosis holds it where the fit left it. It starts thin (0.1 mm, both
+shares move with it there), with a sheet-like and a thick start as alternatives. With a bending
+as well, two frequencies give two temperature responses for three unknowns (tempco, thickness,
+bending): the data then cannot size the bending apart from the thickness. A magnetic target
+(steel, mu_r ~100-200 and itself changing with temperature) does not recede like this; there the
+effect is the tau_T change alone, as before.
 """
 
 from __future__ import annotations
@@ -95,7 +101,7 @@ class TargetTauTemperature(Effect):
             Parameter("tau_tempco2", 0.0, -1e-4, 1e-4, "1/K^2", "curvature of ln(tau_T) in target temperature",
                       1e-6),
         ]
-        if self.resistivity_ohm_m is not None:  # starts near delta(15 kHz), where both shares move with it
+        if self.resistivity_ohm_m is not None:  # thin: both shares (recession, tau_T change) move with it
             out.append(Parameter("plate_thickness", 0.1e-3, 1e-6, 50e-3, "m",
                                  "thickness of the target plate (sets how its skin recession changes with frequency)",
                                  1e-3))
