@@ -49,6 +49,7 @@ from typing import ClassVar
 import numpy as np
 
 from ecds_lab.data.measurements import Measurements
+from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.model.effects import Effect, Inputs, register
 from ecds_lab.model.parameters import Parameter
 
@@ -84,11 +85,16 @@ class TargetTauTemperature(Effect):
     #: One frequency shows the thickness only through the shape in x of the change (shift or screening).
     nuisance_parameters = ("plate_thickness",)
     #: The thickness is the one valley-prone parameter: the 500 Hz share of the recession rises to a
-    #: flat maximum near 3 delta(500 Hz), so thin and thick starts are tried as well.
-    alternative_starts: ClassVar[tuple[dict[str, float], ...]] = ({"plate_thickness": 1e-5},
-                                                                  {"plate_thickness": 8e-3})
+    #: flat maximum near 3 delta(500 Hz), so sheet-like and thick starts are tried as well.
+    THICKNESS_STARTS: ClassVar[tuple[dict[str, float], ...]] = ({"plate_thickness": 1e-5},
+                                                                {"plate_thickness": 8e-3})
     reveal = ("measure at 500 Hz as well as 15 kHz with the target hot: a conductivity change alters the "
               "eddy-current screening at both in a way a bending cannot (the skin depth scales as f^-1/2)")
+
+    def __init__(self, sensor: SensorConfig) -> None:
+        super().__init__(sensor)
+        if self.resistivity_ohm_m is not None:  # only a non-magnetic target has a thickness to start from
+            self.alternative_starts = self.THICKNESS_STARTS  # type: ignore[misc]  # per sensor, not per class
 
     @property
     def resistivity_ohm_m(self) -> float | None:
