@@ -58,6 +58,9 @@ BOUND_MARGIN = 1e-3
 #: Two passing effects whose chi-square gains (in noise units) differ by less than this (plus a tenth
 #: of the larger) are not separated.
 SEPARATION_CHI2 = 10.0
+#: Once the leading candidate is at the noise, others are refitted from their alternative starts only
+#: when their chi-square gain is at least this share of the leader's (they might tie with it).
+TIE_REACH = 0.5
 #: The signature of an effect: readings whose prediction it moves by at least this share of the noise.
 SIGNATURE_SHARE = 0.5
 #: Candidates (best by evidence) refitted from their alternative starts, and cross-validated.
@@ -338,16 +341,18 @@ def _round(screen: Measurements, clean: Measurements, current: Step, names: list
             continue
         ranked.append(_candidate(screen, model, name, base, noise, weight, len(clean)))
     ranked.sort(key=_evidence)
-    # Alternative starts where another valley could change the outcome: not once the model or the
-    # leading candidate is at the noise, and not for candidates far behind the leader, unless their
-    # first start gained almost nothing (a periodic error started at the wrong period, say).
+    # Alternative starts where another valley could change the outcome: not once the model is at the
+    # noise, and not for candidates far behind the leader unless their first start gained almost nothing
+    # (a periodic error started at the wrong period, say); once the leader is at the noise, only for
+    # those close enough to tie with it (a tie is judged between each candidate's best fits).
     leader_gain = max((c.chi2_gain for c in ranked), default=0.0)
     solved = any(c.rmse_ppm <= ADEQUATE_RATIO * noise.ppm and not c.not_better for c in ranked[:1])
-    if current.rmse_ppm > ADEQUATE_RATIO * noise.ppm and not solved:
+    if current.rmse_ppm > ADEQUATE_RATIO * noise.ppm:
         for i, candidate in enumerate(ranked[:LEADING]):
-            if candidate.not_better or (candidate.rmse_ppm > ADEQUATE_RATIO * noise.ppm
-                                        and (candidate.chi2_gain >= 0.1 * leader_gain
-                                             or candidate.chi2_gain < MIN_CHI2_GAIN)):
+            behind = candidate.rmse_ppm > ADEQUATE_RATIO * noise.ppm
+            stuck = not solved and candidate.chi2_gain < MIN_CHI2_GAIN
+            if (candidate.not_better and not solved) or (
+                    behind and (stuck or candidate.chi2_gain >= (TIE_REACH if solved else 0.1) * leader_gain)):
                 ranked[i] = _refined(screen, candidate, base, noise, weight, len(clean))
     for candidate in ranked:
         _check(candidate)
@@ -399,7 +404,8 @@ def _unreleased(fitted: FitResult, base: FitResult, data: Measurements) -> FitRe
     """Baseline parameters the effect made free (``Effect.identifies``) are kept only when the data
     constrain them (standard error below half the value), otherwise fixed where the fit left them;
     secondary parameters of the effect the data leave wholly undetermined are fixed at their
-    defaults. Neither then blurs the effect's key parameters."""
+    defaults; its nuisance parameters (``Effect.nuisance_parameters``) the data determine poorly are
+    held where the fit left them. None then blurs the effect's key parameters."""
     released = [n for n in fitted.free_names if n not in base.free_names and n in base.values]
     loose = {n: fitted.values[n] for n in released
              if not fitted.stderr.get(n, math.inf) < 0.5 * abs(fitted.values[n])}
@@ -407,7 +413,10 @@ def _unreleased(fitted: FitResult, base: FitResult, data: Measurements) -> FitRe
     keys = effect.key_parameters or ()
     defaults = {q.name: q.value for q in effect.parameters()}
     loose.update({n: defaults[n] for n in defaults  # secondary parameters the data cannot fix at all
-                  if n in fitted.free_names and n not in keys and not math.isfinite(fitted.stderr.get(n, math.inf))})
+                  if n in fitted.free_names and n not in keys and n not in effect.nuisance_parameters
+                  and not math.isfinite(fitted.stderr.get(n, math.inf))})
+    loose.update({n: fitted.values[n] for n in effect.nuisance_parameters  # poorly determined shape parameters
+                  if n in fitted.free_names and not fitted.stderr.get(n, math.inf) < abs(fitted.values[n])})
     if not loose:
         return fitted
     return fit_model(fitted.model, data, start=fitted.values, fixed=loose, multistart=False, screening=True)

@@ -72,6 +72,10 @@ class Effect:
     key_parameters: ClassVar[tuple[str, ...]] = ()
     #: The measurement that shows this effect best (suggested when the data cannot separate it).
     reveal: ClassVar[str] = ""
+    #: Secondary parameters that only shape the effect (e.g. a plate's thickness): where the data
+    #: determine one poorly (standard error above its value) the diagnosis holds it where the fit left
+    #: it, so it does not blur the key parameters' standard errors.
+    nuisance_parameters: ClassVar[tuple[str, ...]] = ()
 
     def __init__(self, sensor: SensorConfig) -> None:
         self.sensor = sensor

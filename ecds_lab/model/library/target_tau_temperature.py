@@ -1,55 +1,166 @@
-"""target_tau_temperature: tau_T follows the target's conductivity, which falls as the target heats.
+"""target_tau_temperature: the target's conductivity falls as it heats; the eddy currents follow.
 
-tau_T = L_T/R_T is proportional to the plate's conductivity (copper: ~0.39 %/K). Written as
-ln tau = ln tau0 + a dT + b dT^2 (dT = target temperature rise), which covers both a linear fall
-of conductivity and a linear rise of resistivity to within a fraction of a percent over 100 K.
+One resistivity ratio r(T) = rho(T)/rho_0 = tau_0/tau_T(T) acts in two ways:
+
+1. The equivalent circuit's time constant tau_T = L_T/R_T falls with the conductivity (copper:
+   ~0.39 %/K): ln tau = ln tau0 + a dT + b dT^2 (dT = target temperature rise), which covers a
+   linear fall of conductivity and a linear rise of resistivity alike over 100 K.
+2. The skin-depth recession. A plate thick against the skin depth delta = sqrt(2 rho/(omega mu_0))
+   has the surface impedance (1 + j)/(sigma delta): its reactive part is that of a perfect conductor
+   whose surface lies delta/2 behind the face, so the coil senses the distance x + delta/2. As the
+   resistivity rises delta grows as sqrt(rho) and the effective distance with it, alike at every
+   distance (copper at 15 kHz: ~0.5 um/K). A plate of thickness d (a slab over air, textbook
+   transmission-line form, field scale >> delta) recedes by Re{coth(gamma d)/gamma},
+   gamma = (1 + j)/delta: delta/2 when d >> delta, and its change with rho fades as d falls below
+   ~2 delta (copper at 500 Hz: delta = 2.9 mm, where a plate of a few mm recedes less than
+   delta/2 would say). The equivalent circuit cannot express the recession once omega tau_T >> 1
+   (its response to tau_T fades as 1/(omega tau_T)^2); without it a conductivity change at 15 kHz
+   looks like a distance shift (bending). Bending shifts the distance alike at every frequency, the
+   recession as f^-1/2 (thick plate): two frequencies tell them apart, one cannot.
+
+Both describe the same eddy currents, so they share out the action by the plate's thickness in
+skin depths: the recession carries w = 1 - exp(-2 d/delta) (the share of the field the plate
+absorbs: a thick plate screens through its skin), the tau_T change the rest 1 - w (a sheet thin
+against delta acts through its sheet conductance sigma d, i.e. through tau_T; a fitted thickness
+near zero gives back the equivalent circuit's effect alone). Without this a thick plate's
+conductivity change would be counted twice at 500 Hz.
+
+The recession's size comes from the sensor's target material, not from a fitted size s_ref: the
+textbook resistivity of copper (1.68e-8 Ohm m at 20 C, mu_r = 1, delta/2 = 0.27 mm at 15 kHz)
+fixes delta at every frequency, and the one thing the analysis does not know, the plate's
+thickness, is fitted (a size, a thickness and a tempco cannot all be told from two frequencies;
+with the size known, the tempco and the thickness can). With two frequencies the thickness shows
+in how the action changes with frequency; with one, only in its shape in x (a shift for a thick
+plate, a change of screening for a thin one), so it is a nuisance parameter: where the data
+determine it poorly the diagnosis holds it where the fit left it. It starts thin (0.1 mm, both
+shares move with it there), with a sheet-like and a thick start as alternatives. With a bending
+as well, two frequencies give two temperature responses for three unknowns (tempco, thickness,
+bending): the data then cannot size the bending apart from the thickness. A magnetic target
+(steel, mu_r ~100-200 and itself changing with temperature) does not recede like this; there the
+effect is the tau_T change alone, as before.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from typing import ClassVar
 
 import numpy as np
 
 from ecds_lab.data.measurements import Measurements
+from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.model.effects import Effect, Inputs, register
 from ecds_lab.model.parameters import Parameter
+
+#: Vacuum permeability (H/m).
+MU_0 = 4e-7 * math.pi
+#: Resistivity at 20 C (Ohm m) of the non-magnetic target materials (textbook: copper 1.68e-8).
+NON_MAGNETIC_RESISTIVITY_OHM_M = {"copper": 1.68e-8}
+#: Above this |gamma d| coth(gamma d) is 1 to double precision (and tanh would overflow beyond).
+THICK_GAMMA_D = 20.0
+
+
+def skin_depth_m(resistivity_ohm_m: np.ndarray | float, freq_hz: np.ndarray | float) -> np.ndarray:
+    """delta = sqrt(2 rho / (omega mu_0)) of a non-magnetic conductor (m)."""
+    return np.sqrt(2.0 * np.asarray(resistivity_ohm_m) / (2.0 * np.pi * np.asarray(freq_hz) * MU_0))
+
+
+def recession_m(delta_m: np.ndarray, thickness_m: float) -> np.ndarray:
+    """Depth behind the face of the perfect conductor that screens like the plate: Re{coth(gamma d)/gamma},
+    gamma = (1 + j)/delta (delta/2 for d >> delta)."""
+    gamma = (1 + 1j) / delta_m
+    z = np.minimum(np.abs(gamma) * thickness_m, THICK_GAMMA_D) * (1 + 1j) / math.sqrt(2.0)
+    return (1.0 / (np.tanh(z) * gamma)).real
 
 
 @register
 class TargetTauTemperature(Effect):
     name = "target_tau_temperature"
-    explains = "the target's eddy-current time constant changes with target temperature"
+    explains = ("the target's conductivity changes with target temperature: its eddy-current time constant and "
+                "the skin-depth recession of its effective surface follow")
     #: Conductivity of metals falls ~0.3-0.45 %/K; permeability changes of steel add to it: |a| <= 2 %/K.
     plausible: ClassVar[dict[str, tuple[float, float]]] = {"tau_tempco": (-0.02, 0.02), "tau_tempco2": (-5e-5, 5e-5)}
     key_parameters = ("tau_tempco",)
+    #: One frequency shows the thickness only through the shape in x of the change (shift or screening).
+    nuisance_parameters = ("plate_thickness",)
+    #: The thickness is the one valley-prone parameter: the 500 Hz share of the recession rises to a
+    #: flat maximum near 3 delta(500 Hz), so sheet-like and thick starts are tried as well.
+    THICKNESS_STARTS: ClassVar[tuple[dict[str, float], ...]] = ({"plate_thickness": 1e-5},
+                                                                {"plate_thickness": 8e-3})
     reveal = ("measure at 500 Hz as well as 15 kHz with the target hot: a conductivity change alters the "
-              "eddy-current screening mostly at the lower frequency")
+              "eddy-current screening at both in a way a bending cannot (the skin depth scales as f^-1/2)")
+
+    def __init__(self, sensor: SensorConfig) -> None:
+        super().__init__(sensor)
+        if self.resistivity_ohm_m is not None:  # only a non-magnetic target has a thickness to start from
+            self.alternative_starts = self.THICKNESS_STARTS  # type: ignore[misc]  # per sensor, not per class
+
+    @property
+    def resistivity_ohm_m(self) -> float | None:
+        """The target's resistivity at 20 C if it is non-magnetic (its skin recession is modelled), else None."""
+        return NON_MAGNETIC_RESISTIVITY_OHM_M.get(self.sensor.target)
 
     def parameters(self) -> list[Parameter]:
-        return [
+        out = [
             Parameter("tau_tempco", 0.0, -0.03, 0.03, "1/K", "d ln(tau_T) / d(target temperature)", 1e-3),
             Parameter("tau_tempco2", 0.0, -1e-4, 1e-4, "1/K^2", "curvature of ln(tau_T) in target temperature",
                       1e-6),
         ]
+        if self.resistivity_ohm_m is not None:  # thin: both shares (recession, tau_T change) move with it
+            out.append(Parameter("plate_thickness", 0.1e-3, 1e-6, 50e-3, "m",
+                                 "thickness of the target plate (sets how its skin recession changes with frequency)",
+                                 1e-3))
+        return out
 
     def unidentifiable(self, data: Measurements) -> dict[str, str]:
         span = float(np.ptp(data.t_target_c)) if len(data) else 0.0
+        thickness = self.resistivity_ohm_m is not None
         fixed: dict[str, str] = {}
         if span < 5.0:
             fixed.update(tau_tempco=f"target temperature span {span:.1f} K < 5 K", tau_tempco2="as tau_tempco")
-        elif span < 30.0 or len(np.unique(np.round(data.t_target_c / 5.0))) < 3:
+            if thickness:
+                fixed["plate_thickness"] = "as tau_tempco"
+            return fixed
+        if span < 30.0 or len(np.unique(np.round(data.t_target_c / 5.0))) < 3:
             fixed["tau_tempco2"] = f"target temperature span {span:.1f} K < 30 K or fewer than 3 levels of 5 K"
         return fixed
 
     def identifies(self, data: Measurements) -> set[str]:
         """At one frequency tau_T is otherwise tied to the coupling gain; the curvature of f_T along a
-        temperature span of the target can tell it (the fit's standard error says how well)."""
+        temperature span of the target can tell it (the fit's standard error says how well). Not for a
+        non-magnetic target: there the skin recession carries the one frequency's change, and a free tau_T
+        would only trade the recession's share against the tau_T change's."""
+        if self.resistivity_ohm_m is not None:
+            return set()
         finite = np.isfinite(data.x_m)
         span = float(np.ptp(data.t_target_c[finite])) if finite.any() else 0.0
         return {"tau_t"} if span >= 30.0 else set()
 
+    @staticmethod
+    def _log_tau_ratio(t_target_c: np.ndarray, reference_c: float, p: Mapping[str, float]) -> np.ndarray:
+        d_t = t_target_c - reference_c
+        return p["tau_tempco"] * d_t + p["tau_tempco2"] * d_t**2
+
+    def _skin_share(self, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
+        """w = 1 - exp(-2 d/delta): the share of the conductivity's action that is the skin recession."""
+        rho = self.resistivity_ohm_m
+        if rho is None:
+            return np.zeros(len(data))
+        return -np.expm1(-2.0 * p["plate_thickness"] / skin_depth_m(rho, data.freq_hz))
+
+    def effective_distance(self, x_m: np.ndarray, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
+        rho = self.resistivity_ohm_m
+        if rho is None:
+            return x_m
+        log_ratio = self._log_tau_ratio(data.t_target_c, self.sensor.reference_temperature_c, p)
+        delta = skin_depth_m(rho, data.freq_hz)  # rho(T)/rho_0 = tau_0/tau_T(T)
+        change = (recession_m(delta * np.exp(-0.5 * log_ratio), p["plate_thickness"])
+                  - recession_m(delta, p["plate_thickness"]))
+        return x_m + self._skin_share(data, p) * change
+
     def target_tau(self, tau_s: np.ndarray, inputs: Inputs, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
-        d_t = inputs.t_target_c - self.sensor.reference_temperature_c
-        return tau_s * np.exp(p["tau_tempco"] * d_t + p["tau_tempco2"] * d_t**2)
+        log_ratio = self._log_tau_ratio(inputs.t_target_c, self.sensor.reference_temperature_c, p)
+        if self.resistivity_ohm_m is not None:
+            log_ratio = log_ratio * (1 - self._skin_share(data, p))
+        return tau_s * np.exp(log_ratio)
