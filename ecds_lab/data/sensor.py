@@ -51,6 +51,8 @@ class SensorConfig(BaseModel):
     coil: CoilGeometry = CoilGeometry()
     former: Literal["gypsum", "fired_clay", "plastic"] = "fired_clay"
     target: Literal["copper", "steel"] = "copper"
+    target_thickness_m: float | None = Field(None, gt=0, description="the target plate's thickness if known "
+                                                                     "(else the conductivity effect fits it)")
     inductance_h: float = Field(57e-3, gt=0, description="air-coil L at the reference temperature")
     resistance_ohm: float = Field(50.0, gt=0, description="winding resistance at the reference temperature")
     resistance_tempco_per_k: float = 3900e-6

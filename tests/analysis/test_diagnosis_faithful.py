@@ -19,6 +19,7 @@ from ecds_lab.analysis.associations import residual_associations
 from ecds_lab.analysis.diagnosis import run_diagnosis
 from ecds_lab.analysis.fitting import fit
 from ecds_lab.data.measurements import Measurements
+from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.simulators import campaign
 
 POSITIONS_MM = tuple(float(x) for x in np.linspace(20.0, 100.0, 16))
@@ -106,8 +107,11 @@ def test_two_indistinguishable_effects_are_both_named_with_a_measurement_to_sepa
 
 # -- class 4: masking, a three-part truth ------------------------------------------------------------
 def test_a_three_part_truth_is_found_step_by_step(field_campaign):
-    result = run_diagnosis(field_campaign(plate={"bending": {"enabled": True}, "conductivity": {"enabled": True}},
-                                               slide={"backlash": {"enabled": True}}))
+    """Bending, a conductivity change and backlash. The plate's thickness is given (the lab's 5 mm plate):
+    without it two frequencies cannot size a bending apart from the thickness (target_tau_temperature)."""
+    data = field_campaign(plate={"bending": {"enabled": True}, "conductivity": {"enabled": True}},
+                          slide={"backlash": {"enabled": True}})
+    result = run_diagnosis(data, sensor=SensorConfig(target_thickness_m=5e-3))
     assert {"target_bending", "target_tau_temperature", "slide_backlash"} <= set(result.claimed), \
         result.explanation
     assert set(result.claimed) <= {"target_bending", "target_tau_temperature", "slide_backlash", FIELD_SOLUTION}

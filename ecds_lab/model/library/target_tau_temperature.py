@@ -28,7 +28,8 @@ conductivity change would be counted twice at 500 Hz.
 The recession's size comes from the sensor's target material, not from a fitted size s_ref: the
 textbook resistivity of copper (1.68e-8 Ohm m at 20 C, mu_r = 1, delta/2 = 0.27 mm at 15 kHz)
 fixes delta at every frequency, and the one thing the analysis does not know, the plate's
-thickness, is fitted (a size, a thickness and a tempco cannot all be told from two frequencies;
+thickness, is fitted unless the sensor description gives it (``target_thickness_m``) (a size, a
+thickness and a tempco cannot all be told from two frequencies;
 with the size known, the tempco and the thickness can). With two frequencies the thickness shows
 in how the action changes with frequency; with one, only in its shape in x (a shift for a thick
 plate, a change of screening for a thin one), so it is a nuisance parameter: where the data
@@ -93,7 +94,7 @@ class TargetTauTemperature(Effect):
 
     def __init__(self, sensor: SensorConfig) -> None:
         super().__init__(sensor)
-        if self.resistivity_ohm_m is not None:  # only a non-magnetic target has a thickness to start from
+        if self.resistivity_ohm_m is not None and sensor.target_thickness_m is None:  # a thickness to search for
             self.alternative_starts = self.THICKNESS_STARTS  # type: ignore[misc]  # per sensor, not per class
 
     @property
@@ -108,7 +109,8 @@ class TargetTauTemperature(Effect):
                       1e-6),
         ]
         if self.resistivity_ohm_m is not None:  # thin: both shares (recession, tau_T change) move with it
-            out.append(Parameter("plate_thickness", 0.1e-3, 1e-6, 50e-3, "m",
+            known = self.sensor.target_thickness_m
+            out.append(Parameter("plate_thickness", known if known is not None else 0.1e-3, 1e-6, 50e-3, "m",
                                  "thickness of the target plate (sets how its skin recession changes with frequency)",
                                  1e-3))
         return out
@@ -117,6 +119,8 @@ class TargetTauTemperature(Effect):
         span = float(np.ptp(data.t_target_c)) if len(data) else 0.0
         thickness = self.resistivity_ohm_m is not None
         fixed: dict[str, str] = {}
+        if thickness and self.sensor.target_thickness_m is not None:
+            fixed["plate_thickness"] = "given by the sensor description"
         if span < 5.0:
             fixed.update(tau_tempco=f"target temperature span {span:.1f} K < 5 K", tau_tempco2="as tau_tempco")
             if thickness:
