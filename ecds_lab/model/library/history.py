@@ -12,29 +12,50 @@ def first_order_lag(time_s: np.ndarray, u: np.ndarray, tau_s: float) -> np.ndarr
     """Response y of dy/dt = (u - y)/tau to u linear between samples, starting in equilibrium.
 
     Exact for piecewise-linear input: y1 = a y0 + b with a = exp(-dt/tau) and
-    b = u1 - s tau - a (u0 - s tau), s = du/dt. The linear recurrence is solved in closed form,
-    y_i = A_i (y_0 + sum_j b_j / A_j) with A the running product of a, block by block.
+    b = u1 - s tau - a (u0 - s tau), s = du/dt.
     """
     u = np.asarray(u, float)
-    y = np.empty_like(u)
     if len(u) == 0:
-        return y
+        return np.empty_like(u)
     dt = np.maximum(np.diff(time_s), 0.0)
     efolds = dt / tau_s
     a = np.exp(-efolds)
     slope_tau = np.divide(np.diff(u), dt, out=np.zeros_like(dt), where=dt > 0) * tau_s
     b = u[1:] - slope_tau - a * (u[:-1] - slope_tau)
+    return linear_recurrence(efolds, b, float(u[0]))
+
+
+def relaxation(time_s: np.ndarray, rate_per_s: np.ndarray, target: np.ndarray, start: float) -> np.ndarray:
+    """y of dy/dt = -rate (y - target), from y = ``start`` at the first sample.
+
+    ``rate_per_s`` and ``target`` hold one value per interval (len(time_s) - 1): over an interval
+    both are constant, so y1 = target + (y0 - target) exp(-rate dt) exactly.
+    """
+    dt = np.maximum(np.diff(time_s), 0.0)
+    efolds = np.asarray(rate_per_s, float) * dt
+    target = np.asarray(target, float)
+    return linear_recurrence(efolds, -np.expm1(-efolds) * target, start)
+
+
+def linear_recurrence(efolds: np.ndarray, b: np.ndarray, start: float) -> np.ndarray:
+    """y with y[0] = start and y[i+1] = exp(-efolds[i]) y[i] + b[i] (efolds >= 0), vectorised.
+
+    Solved in closed form, y_i = A_i (y_0 + sum_j b_j / A_(j+1)) with A the running product of
+    exp(-efolds), block by block so that no block decays by more than _BLOCK_EFOLDS.
+    """
+    n = len(efolds) + 1
+    y = np.empty(n)
+    y[0] = start
     log_a = np.concatenate([[0.0], np.cumsum(-efolds)])
-    y[0] = u[0]
-    start = 0
-    while start < len(u) - 1:
-        if efolds[start] > _BLOCK_EFOLDS:  # a long gap: the past is forgotten in one step
-            y[start + 1] = a[start] * y[start] + b[start]
-            start += 1
+    begin = 0
+    while begin < n - 1:
+        if efolds[begin] > _BLOCK_EFOLDS:  # a long gap: the past is forgotten in one step
+            y[begin + 1] = np.exp(-efolds[begin]) * y[begin] + b[begin]
+            begin += 1
             continue
-        stop = int(np.searchsorted(-log_a, -log_a[start] + _BLOCK_EFOLDS, side="right"))
-        stop = min(max(stop, start + 2), len(u))
-        rel = log_a[start + 1:stop] - log_a[start]
-        y[start + 1:stop] = np.exp(rel) * (y[start] + np.cumsum(b[start:stop - 1] * np.exp(-rel)))
-        start = stop - 1
+        stop = int(np.searchsorted(-log_a, -log_a[begin] + _BLOCK_EFOLDS, side="right"))
+        stop = min(max(stop, begin + 2), n)
+        rel = log_a[begin + 1:stop] - log_a[begin]
+        y[begin + 1:stop] = np.exp(rel) * (y[begin] + np.cumsum(b[begin:stop - 1] * np.exp(-rel)))
+        begin = stop - 1
     return y

@@ -22,13 +22,14 @@ from scipy.special import expit
 
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.model.effects import Effect, Inputs, register
+from ecds_lab.model.library.history import relaxation
 from ecds_lab.model.parameters import Parameter
 
 
 @register
 class ParasiticCapacitance(Effect):
     name = "parasitic_capacitance"
-    _memo_key: tuple[int, float, float, float, float] | None = None
+    _memo_key: tuple[int, float, float, float, float, float, float] | None = None
     _memo: np.ndarray = np.ones(0)
     explains = "moisture in the former changes the coil's parallel capacitance as heating dries it"
     #: Table 2: the moist former adds ~15 pF; tens of pF at most.
@@ -49,20 +50,25 @@ class ParasiticCapacitance(Effect):
                       10.0),
             Parameter("drying_width", 17.0, 0.2, 60.0, "K", "width of the drying onset (small: a threshold)", 5.0),
             Parameter("drying_order", 1.0, 0.0, 2.0, "1", "order n of dm/dt = -r m^n (0 linear, 1 exponential)", 0.2),
+            Parameter("bound_share", 0.0, 0.0, 1.0, "1", "share of the moisture bound by sorption (0: all free)", 0.2),
+            Parameter("sorption_width", 17.0, 1.0, 100.0, "K", "warming that lowers the equilibrium moisture e-fold",
+                      5.0),
         ]
 
     def unidentifiable(self, data: Measurements) -> dict[str, str]:
         span = float(np.ptp(data.t_coil_c)) if len(data) else 0.0
         if span < 10.0:
             return {n: f"coil temperature span {span:.1f} K < 10 K"
-                    for n in ("moist_dC", "moist_dG", "drying_rate", "drying_onset", "drying_width", "drying_order")}
+                    for n in ("moist_dC", "moist_dG", "drying_rate", "drying_onset", "drying_width", "drying_order",
+                              "bound_share", "sorption_width")}
         if float(data.freq_hz.max()) < 2000:
             return {"moist_dG": "low frequencies only: the loss hardly changes L"}
         return {}
 
     def moisture(self, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
         """m(t) per recording, integrated with the drying rate at the mean temperature of each interval."""
-        key = (id(data), p["drying_rate"], p["drying_onset"], p["drying_width"], p["drying_order"])
+        key = (id(data), p["drying_rate"], p["drying_onset"], p["drying_width"], p["drying_order"],
+               p["bound_share"], p["sorption_width"])
         if self._memo_key == key:
             return self._memo
         out = np.ones(len(data))
@@ -71,7 +77,12 @@ class ParasiticCapacitance(Effect):
             mid = 0.5 * (temp[1:] + temp[:-1])
             rate = p["drying_rate"] * expit((mid - p["drying_onset"]) / p["drying_width"])
             dose = np.concatenate([[0.0], np.cumsum(rate * np.maximum(np.diff(t), 0.0))])
-            out[rows] = _remaining(dose, p["drying_order"])
+            free = _remaining(dose, p["drying_order"])
+            if len(t) > 1 and p["bound_share"] > 0:
+                equilibrium = np.exp(np.minimum(-(mid - temp[0]) / p["sorption_width"], 3.0))
+                bound = relaxation(t, rate, equilibrium, 1.0)
+                free = (1.0 - p["bound_share"]) * free + p["bound_share"] * bound
+            out[rows] = free
         self._memo_key, self._memo = key, out
         return out
 
