@@ -29,6 +29,9 @@ What the diagnosis needs to weigh a claim, declared by each effect: ``plausible`
 (low, high) in SI: the physically possible size), ``key_parameters`` (those that must be clearly
 determined for the effect to be named; default: all its parameters) and ``reveal`` (the
 measurement that shows the effect best, suggested when the data cannot separate it from another).
+An effect that extends a simpler law declares ``simpler_form`` (parameter -> value giving that law):
+fits solve the simpler law first and free those parameters from its solution, so the richer law
+never ends in a worse valley than the simpler one.
 """
 
 from __future__ import annotations
@@ -72,6 +75,9 @@ class Effect:
     key_parameters: ClassVar[tuple[str, ...]] = ()
     #: The measurement that shows this effect best (suggested when the data cannot separate it).
     reveal: ClassVar[str] = ""
+    #: Parameter values that reduce the effect to a simpler law it contains (name -> value). A fit
+    #: not given start values for them solves the simpler law first, then frees them from there.
+    simpler_form: ClassVar[dict[str, float]] = {}
 
     def __init__(self, sensor: SensorConfig) -> None:
         self.sensor = sensor

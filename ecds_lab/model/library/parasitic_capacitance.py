@@ -1,12 +1,20 @@
 """parasitic_capacitance: moisture in the former adds capacitance and loss; heating drives it out.
 
-A porous former holds moisture m (1 at the start of a recording, when it has sat in the lab).
-Heat dries it: dm/dt = -r(T) m^n with r(T) = r_hot / (1 + exp(-(T - T_onset) / width)), T the coil
-thermocouple: exponential in T well below the onset (evaporation), and with a small width a plain
-threshold ("time spent hot" above T_onset);
-the order n spans drying at a constant pace (n = 0: m falls linearly with the drying dose until dry)
-to drying in proportion to what is left (n = 1: exponential). With the dose D = int r dt,
-m = (1 - (1 - n) D)^(1 / (1 - n)), or exp(-D) for n = 1.
+A porous, hygroscopic former holds moisture m (1 at the start of a recording, when it has sat in
+the lab) of two kinds, as in the textbook picture of drying (constant-rate, then falling-rate period):
+- free water (share 1 - b) dries out and does not come back: dm_f/dt = -r(T) m_f^n. Its order n
+  spans drying at a constant pace (n = 0: linear in the drying dose until dry) to drying in
+  proportion to what is left (n = 1). With the dose D = int r dt, m_f = (1 - (1 - n) D)^(1 / (1 - n)),
+  or exp(-D) for n = 1.
+- bound (sorbed) water (share b) relaxes toward the equilibrium moisture of the sorption isotherm:
+  dm_b/dt = -r(T) (m_b - m_eq(T)). Warming the former at the room's absolute humidity lowers the
+  relative humidity at its pores like 1 / p_sat(T) (Clausius-Clapeyron: p_sat e-folds every ~18 K
+  near room temperature), so m_eq = exp(-(T - T_0) / s), T_0 the recording's first coil temperature;
+  held warm, the former stops drying once at m_eq, and cooling lets it take moisture up again.
+The drying rate r(T) = r_hot / (1 + exp(-(T - T_onset) / width)), T the coil thermocouple, is
+exponential in T well below the onset (evaporation, Arrhenius-like) and with a small width a plain
+threshold ("time spent hot" above T_onset). b = 0 is the simpler law with free water only: fits
+solve it first, then free b and s from its solution (``Effect.simpler_form``).
 The coil's parallel capacitance is C_p + dC m and its loss conductance 1/R_p + dG m (Table 2:
 62.5 pF / 92 kOhm moist, 47.5 pF / 984 kOhm dry). Seen through L || C, the apparent L changes
 like 1/(1 - w^2 L C): strongly at 15 kHz, hardly at 500 Hz, and with hysteresis on cooling.
@@ -39,7 +47,11 @@ class ParasiticCapacitance(Effect):
               "and leaves a hysteresis on cooling")
     alternative_starts = ({"drying_rate": 1e-4}, {"drying_rate": 1e-2},
                           *({"drying_order": 0.0, "drying_rate": 3e-4, "drying_onset": onset, "drying_width": 1.0}
-                            for onset in (60.0, 90.0)))
+                            for onset in (60.0, 90.0)),
+                          # all moisture bound, desorbing with an activation energy of ~50 kJ/mol (rate
+                          # e-folding every ~20 K) from a former a few mm thick (~1e-3/s at 100 C).
+                          {"bound_share": 1.0, "drying_rate": 1e-2, "drying_onset": 150.0, "drying_width": 20.0})
+    simpler_form: ClassVar[dict[str, float]] = {"bound_share": 0.0, "sorption_width": 18.0}
 
     def parameters(self) -> list[Parameter]:
         return [
@@ -50,9 +62,10 @@ class ParasiticCapacitance(Effect):
                       10.0),
             Parameter("drying_width", 17.0, 0.2, 60.0, "K", "width of the drying onset (small: a threshold)", 5.0),
             Parameter("drying_order", 1.0, 0.0, 2.0, "1", "order n of dm/dt = -r m^n (0 linear, 1 exponential)", 0.2),
-            Parameter("bound_share", 0.0, 0.0, 1.0, "1", "share of the moisture bound by sorption (0: all free)", 0.2),
-            Parameter("sorption_width", 17.0, 1.0, 100.0, "K", "warming that lowers the equilibrium moisture e-fold",
-                      5.0),
+            Parameter("bound_share", 0.0, 0.0, 1.0, "1", "share b of the moisture bound by sorption (0: all free)",
+                      0.2),
+            Parameter("sorption_width", 18.0, 1.0, 100.0, "K",
+                      "warming s that lowers the bound water's equilibrium e-fold (p_sat: ~18 K)", 5.0),
         ]
 
     def unidentifiable(self, data: Measurements) -> dict[str, str]:
@@ -66,7 +79,7 @@ class ParasiticCapacitance(Effect):
         return {}
 
     def moisture(self, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
-        """m(t) per recording, integrated with the drying rate at the mean temperature of each interval."""
+        """m(t) per recording: the drying rate and the equilibrium at the mean temperature of each interval."""
         key = (id(data), p["drying_rate"], p["drying_onset"], p["drying_width"], p["drying_order"],
                p["bound_share"], p["sorption_width"])
         if self._memo_key == key:
@@ -77,12 +90,13 @@ class ParasiticCapacitance(Effect):
             mid = 0.5 * (temp[1:] + temp[:-1])
             rate = p["drying_rate"] * expit((mid - p["drying_onset"]) / p["drying_width"])
             dose = np.concatenate([[0.0], np.cumsum(rate * np.maximum(np.diff(t), 0.0))])
-            free = _remaining(dose, p["drying_order"])
+            moisture = _remaining(dose, p["drying_order"])
             if len(t) > 1 and p["bound_share"] > 0:
+                # colder than at the start: more sorbed water, capped at e^3 (the pores fill up)
                 equilibrium = np.exp(np.minimum(-(mid - temp[0]) / p["sorption_width"], 3.0))
                 bound = relaxation(t, rate, equilibrium, 1.0)
-                free = (1.0 - p["bound_share"]) * free + p["bound_share"] * bound
-            out[rows] = free
+                moisture = (1.0 - p["bound_share"]) * moisture + p["bound_share"] * bound
+            out[rows] = moisture
         self._memo_key, self._memo = key, out
         return out
 
