@@ -217,15 +217,15 @@ def _solve(model: SensorModel, data: Measurements, params: Sequence[Parameter],
 def _simpler_first(model: SensorModel, data: Measurements, params: Sequence[Parameter], simpler: Mapping[str, float],
                    rows: np.ndarray | None, screening: bool) -> tuple[tuple[Any, Scaling], int]:
     """The local fit, nested where effects declare a simpler form (``Effect.simpler_form``): solved
-    with those parameters held at it first, then freed from that solution (a descent from it never
-    ends worse than the simpler law). Also the number of solves."""
+    with those parameters held at it first, then with them free from their own start values and
+    every other parameter at that solution; the better of the two (so never worse than the simpler
+    law). Also the number of solves."""
     if not simpler:
         return _solve(model, data, params, rows, screening), 1
     first = _solve(model, data, update(params, fixed=simpler), rows, screening)
     result, scaling = first
     solution = {k: v for k, v in scaling.values(result.x).items() if k not in simpler}
-    freed = update(params, values={**solution, **simpler})
-    second = _solve(model, data, freed, rows, screening)
+    second = _solve(model, data, update(params, values=solution), rows, screening)
     return (second if second[0].cost <= result.cost else first), 2
 
 

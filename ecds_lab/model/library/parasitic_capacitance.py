@@ -62,7 +62,7 @@ class ParasiticCapacitance(Effect):
                       10.0),
             Parameter("drying_width", 17.0, 0.2, 60.0, "K", "width of the drying onset (small: a threshold)", 5.0),
             Parameter("drying_order", 1.0, 0.0, 2.0, "1", "order n of dm/dt = -r m^n (0 linear, 1 exponential)", 0.2),
-            Parameter("bound_share", 0.0, 0.0, 1.0, "1", "share b of the moisture bound by sorption (0: all free)",
+            Parameter("bound_share", 0.5, 0.0, 1.0, "1", "share b of the moisture bound by sorption (0: all free)",
                       0.2),
             Parameter("sorption_width", 18.0, 1.0, 100.0, "K",
                       "warming s that lowers the bound water's equilibrium e-fold (p_sat: ~18 K)", 5.0),
