@@ -37,3 +37,10 @@ def test_first_order_lag_trails_a_ramp_by_its_time_constant():
     time_s = np.linspace(0.0, 20000.0, 401)
     lagged = first_order_lag(time_s, 1e-3 * time_s, 300.0)
     assert lagged[-1] == pytest.approx(1e-3 * (time_s[-1] - 300.0), rel=1e-9)
+
+
+def test_relaxation_restarts_where_a_new_recording_begins():
+    time_s = np.array([0.0, 100.0, 200.0, 50.0, 150.0])  # the second recording's clock starts anew
+    restart = np.array([False, False, True, False])
+    y = relaxation(time_s, np.full(4, 0.01), np.zeros(4), 1.0, restart=restart)
+    assert y == pytest.approx([1.0, np.exp(-1.0), np.exp(-2.0), 1.0, np.exp(-1.0)], rel=1e-12)

@@ -23,6 +23,7 @@ like 1/(1 - w^2 L C): strongly at 15 kHz, hardly at 500 Hz, and with hysteresis 
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
@@ -37,7 +38,10 @@ from ecds_lab.model.parameters import Parameter
 @register
 class ParasiticCapacitance(Effect):
     name = "parasitic_capacitance"
-    _memo_key: tuple[int, float, float, float, float, float, float] | None = None
+    _memo_data: Measurements | None = None
+    _line_data: Measurements | None = None
+    _line: _Timeline
+    _memo_key: tuple[float, ...] = ()
     _memo: np.ndarray = np.ones(0)
     explains = "moisture in the former changes the coil's parallel capacitance as heating dries it"
     #: Table 2: the moist former adds ~15 pF; tens of pF at most.
@@ -80,24 +84,28 @@ class ParasiticCapacitance(Effect):
 
     def moisture(self, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
         """m(t) per recording: the drying rate and the equilibrium at the mean temperature of each interval."""
-        key = (id(data), p["drying_rate"], p["drying_onset"], p["drying_width"], p["drying_order"],
-               p["bound_share"], p["sorption_width"])
-        if self._memo_key == key:
+        key = (p["drying_rate"], p["drying_onset"], p["drying_width"], p["drying_order"], p["bound_share"],
+               p["sorption_width"])
+        if self._memo_data is data and self._memo_key == key:
             return self._memo
-        out = np.ones(len(data))
-        for rows in data.segment_rows:
-            t, temp = data.time_s[rows], data.t_coil_c[rows]
-            mid = 0.5 * (temp[1:] + temp[:-1])
-            rate = p["drying_rate"] * expit((mid - p["drying_onset"]) / p["drying_width"])
-            dose = np.concatenate([[0.0], np.cumsum(rate * np.maximum(np.diff(t), 0.0))])
-            moisture = _remaining(dose, p["drying_order"])
-            if len(t) > 1 and p["bound_share"] > 0:
-                # colder than at the start: more sorbed water, capped at e^3 (the pores fill up)
-                equilibrium = np.exp(np.minimum(-(mid - temp[0]) / p["sorption_width"], 3.0))
-                bound = relaxation(t, rate, equilibrium, 1.0)
-                moisture = (1.0 - p["bound_share"]) * moisture + p["bound_share"] * bound
-            out[rows] = moisture
-        self._memo_key, self._memo = key, out
+        if len(data) == 0:
+            return np.ones(0)
+        if self._line_data is not data:
+            self._line_data, self._line = data, _Timeline.of(data)
+        line = self._line
+        mid = 0.5 * (line.temp_c[1:] + line.temp_c[:-1])
+        rate = p["drying_rate"] * expit((mid - p["drying_onset"]) / p["drying_width"])
+        step = rate * line.dt_s
+        dose = np.concatenate([[0.0], np.cumsum(step)])
+        moisture = _remaining(dose - dose[line.first], p["drying_order"])
+        if p["bound_share"] > 0:
+            # colder than at the start: more sorbed water, capped at e^3 (the pores fill up)
+            equilibrium = np.exp(np.minimum(-(mid - line.start_c[1:]) / p["sorption_width"], 3.0))
+            bound = relaxation(line.time_s, rate, equilibrium, 1.0, restart=line.restart)
+            moisture = (1.0 - p["bound_share"]) * moisture + p["bound_share"] * bound
+        out = np.empty(len(data))
+        out[line.order] = moisture
+        self._memo_data, self._memo_key, self._memo = data, key, out
         return out
 
     def coil_capacitance(self, c_f: np.ndarray, inputs: Inputs, data: Measurements,
@@ -107,6 +115,34 @@ class ParasiticCapacitance(Effect):
     def parallel_conductance(self, g_s: np.ndarray, inputs: Inputs, data: Measurements,
                              p: Mapping[str, float]) -> np.ndarray:
         return g_s + p["moist_dG"] * self.moisture(data, p)
+
+
+@dataclass(frozen=True)
+class _Timeline:
+    """The readings recording by recording in time order, as one line: ``order`` (rows), their time
+    and coil temperature, ``first`` (each position's recording's first position), ``start_c`` (the
+    temperature there), ``dt_s`` (0 across recordings) and ``restart`` (intervals into a new one)."""
+
+    order: np.ndarray
+    time_s: np.ndarray
+    temp_c: np.ndarray
+    first: np.ndarray
+    start_c: np.ndarray
+    dt_s: np.ndarray
+    restart: np.ndarray
+
+    @staticmethod
+    def of(data: Measurements) -> _Timeline:
+        segments = data.segment_rows
+        order = np.concatenate(segments)
+        lengths = [len(rows) for rows in segments]
+        heads = np.cumsum([0, *lengths[:-1]]).astype(int)
+        first = np.repeat(heads, lengths)
+        time_s, temp_c = data.time_s[order], data.t_coil_c[order]
+        restart = np.zeros(len(order) - 1, bool)
+        restart[heads[1:] - 1] = True
+        dt_s = np.where(restart, 0.0, np.maximum(np.diff(time_s), 0.0))
+        return _Timeline(order, time_s, temp_c, first, temp_c[first], dt_s, restart)
 
 
 def _remaining(dose: np.ndarray, order: float) -> np.ndarray:
