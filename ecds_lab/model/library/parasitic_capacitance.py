@@ -47,8 +47,9 @@ class ParasiticCapacitance(Effect):
     #: Table 2: the moist former adds ~15 pF; tens of pF at most.
     plausible: ClassVar[dict[str, tuple[float, float]]] = {"moist_dC": (-50e-12, 50e-12)}
     key_parameters = ("moist_dC",)
-    reveal = ("hold the coil hot for an hour at 15 kHz, then cool it: drying changes L early in the heating "
-              "and leaves a hysteresis on cooling")
+    reveal = ("hold the coil at two or three temperatures for an hour each at 15 kHz, then cool it: drying "
+              "changes L early in each heating, stops once the former holds its equilibrium moisture, and "
+              "leaves a hysteresis on cooling")
     alternative_starts = ({"drying_rate": 1e-4}, {"drying_rate": 1e-2},
                           *({"drying_order": 0.0, "drying_rate": 3e-4, "drying_onset": onset, "drying_width": 1.0}
                             for onset in (60.0, 90.0)),
