@@ -134,8 +134,9 @@ def fit_model(model: SensorModel, data: Measurements, *, start: Mapping[str, flo
     if start:
         params = update(params, values={k: v for k, v in start.items() if k not in reasons})
     fitted = data if rows is None else data.select(np.asarray(rows, bool))
-    simpler = {name: value for effect in model.effects for name, value in effect.simpler_form.items()
-               if name not in reasons and name not in (start or {})}
+    given = set(reasons) | set(start or {})  # an extension the caller fixed or started is not nested
+    simpler = {name: value for effect in model.effects if not given & set(effect.simpler_form)
+               for name, value in effect.simpler_form.items()}
     best, starts = _simpler_first(model, data, params, simpler, rows, screening)
     if multistart or (multistart is None and _needs_restart(best, _repeat_noise(fitted, best))):
         for candidate in _alternative_starts(model, data, params):
