@@ -30,8 +30,8 @@ What the diagnosis needs to weigh a claim, declared by each effect: ``plausible`
 determined for the effect to be named; default: all its parameters) and ``reveal`` (the
 measurement that shows the effect best, suggested when the data cannot separate it from another).
 An effect that extends a simpler law declares ``simpler_form`` (parameter -> value giving that law):
-fits solve the simpler law first and free those parameters from its solution, so the richer law
-never ends in a worse valley than the simpler one.
+fits solve the simpler law first, then free those parameters from their own start values with the
+rest at that solution, and keep the better: the richer law never ends worse than the simpler one.
 """
 
 from __future__ import annotations
@@ -76,7 +76,7 @@ class Effect:
     #: The measurement that shows this effect best (suggested when the data cannot separate it).
     reveal: ClassVar[str] = ""
     #: Parameter values that reduce the effect to a simpler law it contains (name -> value). A fit
-    #: not given start values for them solves the simpler law first, then frees them from there.
+    #: neither fixing nor starting them solves the simpler law first, then frees them (the better kept).
     simpler_form: ClassVar[dict[str, float]] = {}
 
     def __init__(self, sensor: SensorConfig) -> None:

@@ -14,7 +14,7 @@ the lab) of two kinds, as in the textbook picture of drying (constant-rate, then
 The drying rate r(T) = r_hot / (1 + exp(-(T - T_onset) / width)), T the coil thermocouple, is
 exponential in T well below the onset (evaporation, Arrhenius-like) and with a small width a plain
 threshold ("time spent hot" above T_onset). b = 0 is the simpler law with free water only: fits
-solve it first, then free b and s from its solution (``Effect.simpler_form``).
+solve it first, then free b and s with the rest at its solution (``Effect.simpler_form``).
 The coil's parallel capacitance is C_p + dC m and its loss conductance 1/R_p + dG m (Table 2:
 62.5 pF / 92 kOhm moist, 47.5 pF / 984 kOhm dry). Seen through L || C, the apparent L changes
 like 1/(1 - w^2 L C): strongly at 15 kHz, hardly at 500 Hz, and with hysteresis on cooling.
