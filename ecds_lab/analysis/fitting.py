@@ -134,7 +134,10 @@ def fit_model(model: SensorModel, data: Measurements, *, start: Mapping[str, flo
     if start:
         params = update(params, values={k: v for k, v in start.items() if k not in reasons})
     fitted = data if rows is None else data.select(np.asarray(rows, bool))
-    best, starts = _solve(model, data, params, rows, screening), 1
+    given = set(reasons) | set(start or {})  # an extension the caller fixed or started is not nested
+    simpler = {name: value for effect in model.effects if not given & set(effect.simpler_form)
+               for name, value in effect.simpler_form.items()}
+    best, starts = _simpler_first(model, data, params, simpler, rows, screening)
     if multistart or (multistart is None and _needs_restart(best, _repeat_noise(fitted, best))):
         for candidate in _alternative_starts(model, data, params):
             result = _solve(model, data, candidate, rows, screening)
@@ -210,6 +213,21 @@ def _solve(model: SensorModel, data: Measurements, params: Sequence[Parameter],
         result = least_squares(residuals, theta0, bounds=(lower, upper), method="trf", x_scale=1.0,
                                ftol=tolerance, xtol=tolerance, gtol=tolerance, max_nfev=budget * (len(theta0) + 1))
     return result, scaling
+
+
+def _simpler_first(model: SensorModel, data: Measurements, params: Sequence[Parameter], simpler: Mapping[str, float],
+                   rows: np.ndarray | None, screening: bool) -> tuple[tuple[Any, Scaling], int]:
+    """The local fit, nested where effects declare a simpler form (``Effect.simpler_form``): solved
+    with those parameters held at it first, then with them free from their own start values and
+    every other parameter at that solution; the better of the two (so never worse than the simpler
+    law). Also the number of solves."""
+    if not simpler:
+        return _solve(model, data, params, rows, screening), 1
+    first = _solve(model, data, update(params, fixed=simpler), rows, screening)
+    result, scaling = first
+    solution = {k: v for k, v in scaling.values(result.x).items() if k not in simpler}
+    second = _solve(model, data, update(params, values=solution), rows, screening)
+    return (second if second[0].cost <= result.cost else first), 2
 
 
 class _Trivial:

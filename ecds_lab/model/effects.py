@@ -29,6 +29,9 @@ What the diagnosis needs to weigh a claim, declared by each effect: ``plausible`
 (low, high) in SI: the physically possible size), ``key_parameters`` (those that must be clearly
 determined for the effect to be named; default: all its parameters) and ``reveal`` (the
 measurement that shows the effect best, suggested when the data cannot separate it from another).
+An effect that extends a simpler law declares ``simpler_form`` (parameter -> value giving that law):
+fits solve the simpler law first, then free those parameters from their own start values with the
+rest at that solution, and keep the better: the richer law never ends worse than the simpler one.
 """
 
 from __future__ import annotations
@@ -76,6 +79,9 @@ class Effect:
     #: determine one poorly (standard error above its value) the diagnosis holds it where the fit left
     #: it, so it does not blur the key parameters' standard errors.
     nuisance_parameters: ClassVar[tuple[str, ...]] = ()
+    #: Parameter values that reduce the effect to a simpler law it contains (name -> value). A fit
+    #: neither fixing nor starting them solves the simpler law first, then frees them (the better kept).
+    simpler_form: ClassVar[dict[str, float]] = {}
 
     def __init__(self, sensor: SensorConfig) -> None:
         self.sensor = sensor

@@ -6,35 +6,73 @@ import numpy as np
 
 #: Largest decay (in e-folds) handled in one vectorised block; keeps exp() far from overflow.
 _BLOCK_EFOLDS = 300.0
+#: Longest chunk of rows summed in one row of a 2-D array (their padding stays small).
+_CHUNK_ROWS = 64
+#: Decay that forgets the past entirely (exp(-_FORGET_EFOLDS) is 0 in double precision).
+_FORGET_EFOLDS = 1e4
 
 
 def first_order_lag(time_s: np.ndarray, u: np.ndarray, tau_s: float) -> np.ndarray:
     """Response y of dy/dt = (u - y)/tau to u linear between samples, starting in equilibrium.
 
     Exact for piecewise-linear input: y1 = a y0 + b with a = exp(-dt/tau) and
-    b = u1 - s tau - a (u0 - s tau), s = du/dt. The linear recurrence is solved in closed form,
-    y_i = A_i (y_0 + sum_j b_j / A_j) with A the running product of a, block by block.
+    b = u1 - s tau - a (u0 - s tau), s = du/dt.
     """
     u = np.asarray(u, float)
-    y = np.empty_like(u)
     if len(u) == 0:
-        return y
+        return np.empty_like(u)
     dt = np.maximum(np.diff(time_s), 0.0)
     efolds = dt / tau_s
     a = np.exp(-efolds)
     slope_tau = np.divide(np.diff(u), dt, out=np.zeros_like(dt), where=dt > 0) * tau_s
     b = u[1:] - slope_tau - a * (u[:-1] - slope_tau)
+    return linear_recurrence(efolds, b, float(u[0]))
+
+
+def relaxation(time_s: np.ndarray, rate_per_s: np.ndarray, target: np.ndarray, start: float,
+               restart: np.ndarray | None = None) -> np.ndarray:
+    """y of dy/dt = -rate (y - target), from y = ``start`` at the first sample.
+
+    ``rate_per_s`` and ``target`` hold one value per interval (len(time_s) - 1): over an interval
+    both are constant, so y1 = target + (y0 - target) exp(-rate dt) exactly. ``restart`` (one flag
+    per interval) starts y afresh at ``start`` at the end of the flagged intervals (a new recording).
+    """
+    dt = np.maximum(np.diff(time_s), 0.0)
+    efolds = np.asarray(rate_per_s, float) * dt
+    b = -np.expm1(-efolds) * np.asarray(target, float)
+    if restart is not None and restart.any():
+        efolds[restart], b[restart] = _FORGET_EFOLDS, start
+    return linear_recurrence(efolds, b, start)
+
+
+def linear_recurrence(efolds: np.ndarray, b: np.ndarray, start: float) -> np.ndarray:
+    """y with y[0] = start and y[i+1] = exp(-efolds[i]) y[i] + b[i] (efolds >= 0), vectorised.
+
+    With L the running sum of -efolds, y_i = exp(L_i - L_s) (y_s + sum_(s<=j<i) b_j exp(L_s - L_(j+1)))
+    from any earlier row s. The rows are cut into chunks of at most _CHUNK_ROWS rows spanning less
+    than _BLOCK_EFOLDS (so no exp() overflows); the sums run within every chunk at once (one row of
+    a 2-D array each, so every sum starts from an exact zero), and a scalar recurrence carries y
+    from chunk to chunk.
+    """
+    efolds = np.asarray(efolds, float)
+    b = np.asarray(b, float)
+    n = len(efolds) + 1
     log_a = np.concatenate([[0.0], np.cumsum(-efolds)])
-    y[0] = u[0]
-    start = 0
-    while start < len(u) - 1:
-        if efolds[start] > _BLOCK_EFOLDS:  # a long gap: the past is forgotten in one step
-            y[start + 1] = a[start] * y[start] + b[start]
-            start += 1
-            continue
-        stop = int(np.searchsorted(-log_a, -log_a[start] + _BLOCK_EFOLDS, side="right"))
-        stop = min(max(stop, start + 2), len(u))
-        rel = log_a[start + 1:stop] - log_a[start]
-        y[start + 1:stop] = np.exp(rel) * (y[start] + np.cumsum(b[start:stop - 1] * np.exp(-rel)))
-        start = stop - 1
-    return y
+    level = np.floor(-log_a / _BLOCK_EFOLDS)
+    first = np.flatnonzero(np.concatenate([[True], level[1:] != level[:-1]]))
+    pos = np.arange(n) - np.repeat(first, np.diff(np.append(first, n)))
+    first = np.flatnonzero(pos % _CHUNK_ROWS == 0)
+    owner = np.repeat(np.arange(len(first)), np.diff(np.append(first, n)))
+    pos = np.arange(n) - first[owner]
+    ref = log_a[first][owner]
+    entering = np.zeros((len(first), _CHUNK_ROWS))
+    entering[owner[1:], pos[1:]] = b * np.exp(ref[1:] - log_a[1:])
+    entering[:, 0] = 0.0  # a chunk's first row gets its value from the chunk before
+    within = np.cumsum(entering, axis=1)[owner, pos]
+    last = np.append(first[1:] - 1, n - 1)
+    decay = np.exp(log_a[first[1:]] - log_a[first[:-1]]).tolist()
+    carried, into = within[last].tolist(), b[first[1:] - 1].tolist()
+    heads = [float(start)]
+    for g in range(len(first) - 1):
+        heads.append(decay[g] * (heads[g] + carried[g]) + into[g])
+    return np.exp(log_a - ref) * (np.asarray(heads)[owner] + within)

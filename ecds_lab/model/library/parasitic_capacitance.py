@@ -1,12 +1,20 @@
 """parasitic_capacitance: moisture in the former adds capacitance and loss; heating drives it out.
 
-A porous former holds moisture m (1 at the start of a recording, when it has sat in the lab).
-Heat dries it: dm/dt = -r(T) m^n with r(T) = r_hot / (1 + exp(-(T - T_onset) / width)), T the coil
-thermocouple: exponential in T well below the onset (evaporation), and with a small width a plain
-threshold ("time spent hot" above T_onset);
-the order n spans drying at a constant pace (n = 0: m falls linearly with the drying dose until dry)
-to drying in proportion to what is left (n = 1: exponential). With the dose D = int r dt,
-m = (1 - (1 - n) D)^(1 / (1 - n)), or exp(-D) for n = 1.
+A porous, hygroscopic former holds moisture m (1 at the start of a recording, when it has sat in
+the lab) of two kinds, as in the textbook picture of drying (constant-rate, then falling-rate period):
+- free water (share 1 - b) dries out and does not come back: dm_f/dt = -r(T) m_f^n. Its order n
+  spans drying at a constant pace (n = 0: linear in the drying dose until dry) to drying in
+  proportion to what is left (n = 1). With the dose D = int r dt, m_f = (1 - (1 - n) D)^(1 / (1 - n)),
+  or exp(-D) for n = 1.
+- bound (sorbed) water (share b) relaxes toward the equilibrium moisture of the sorption isotherm:
+  dm_b/dt = -r(T) (m_b - m_eq(T)). Warming the former at the room's absolute humidity lowers the
+  relative humidity at its pores like 1 / p_sat(T) (Clausius-Clapeyron: p_sat e-folds every ~18 K
+  near room temperature), so m_eq = exp(-(T - T_0) / s), T_0 the recording's first coil temperature;
+  held warm, the former stops drying once at m_eq, and cooling lets it take moisture up again.
+The drying rate r(T) = r_hot / (1 + exp(-(T - T_onset) / width)), T the coil thermocouple, is
+exponential in T well below the onset (evaporation, Arrhenius-like) and with a small width a plain
+threshold ("time spent hot" above T_onset). b = 0 is the simpler law with free water only: fits
+solve it first, then free b and s with the rest at its solution (``Effect.simpler_form``).
 The coil's parallel capacitance is C_p + dC m and its loss conductance 1/R_p + dG m (Table 2:
 62.5 pF / 92 kOhm moist, 47.5 pF / 984 kOhm dry). Seen through L || C, the apparent L changes
 like 1/(1 - w^2 L C): strongly at 15 kHz, hardly at 500 Hz, and with hysteresis on cooling.
@@ -15,6 +23,7 @@ like 1/(1 - w^2 L C): strongly at 15 kHz, hardly at 500 Hz, and with hysteresis 
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
@@ -22,23 +31,32 @@ from scipy.special import expit
 
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.model.effects import Effect, Inputs, register
+from ecds_lab.model.library.history import relaxation
 from ecds_lab.model.parameters import Parameter
 
 
 @register
 class ParasiticCapacitance(Effect):
     name = "parasitic_capacitance"
-    _memo_key: tuple[int, float, float, float, float] | None = None
+    _memo_data: Measurements | None = None
+    _line_data: Measurements | None = None
+    _line: _Timeline
+    _memo_key: tuple[float, ...] = ()
     _memo: np.ndarray = np.ones(0)
     explains = "moisture in the former changes the coil's parallel capacitance as heating dries it"
     #: Table 2: the moist former adds ~15 pF; tens of pF at most.
     plausible: ClassVar[dict[str, tuple[float, float]]] = {"moist_dC": (-50e-12, 50e-12)}
     key_parameters = ("moist_dC",)
-    reveal = ("hold the coil hot for an hour at 15 kHz, then cool it: drying changes L early in the heating "
-              "and leaves a hysteresis on cooling")
+    reveal = ("hold the coil at two or three temperatures for an hour each at 15 kHz, then cool it: drying "
+              "changes L early in each heating, stops once the former holds its equilibrium moisture, and "
+              "leaves a hysteresis on cooling")
     alternative_starts = ({"drying_rate": 1e-4}, {"drying_rate": 1e-2},
                           *({"drying_order": 0.0, "drying_rate": 3e-4, "drying_onset": onset, "drying_width": 1.0}
-                            for onset in (60.0, 90.0)))
+                            for onset in (60.0, 90.0)),
+                          # all moisture bound, desorbing with an activation energy of ~50 kJ/mol (rate
+                          # e-folding every ~20 K) from a former a few mm thick (~1e-3/s at 100 C).
+                          {"bound_share": 1.0, "drying_rate": 1e-2, "drying_onset": 150.0, "drying_width": 20.0})
+    simpler_form: ClassVar[dict[str, float]] = {"bound_share": 0.0, "sorption_width": 18.0}
 
     def parameters(self) -> list[Parameter]:
         return [
@@ -49,30 +67,46 @@ class ParasiticCapacitance(Effect):
                       10.0),
             Parameter("drying_width", 17.0, 0.2, 60.0, "K", "width of the drying onset (small: a threshold)", 5.0),
             Parameter("drying_order", 1.0, 0.0, 2.0, "1", "order n of dm/dt = -r m^n (0 linear, 1 exponential)", 0.2),
+            Parameter("bound_share", 0.5, 0.0, 1.0, "1", "share b of the moisture bound by sorption (0: all free)",
+                      0.2),
+            Parameter("sorption_width", 18.0, 1.0, 100.0, "K",
+                      "warming s that lowers the bound water's equilibrium e-fold (p_sat: ~18 K)", 5.0),
         ]
 
     def unidentifiable(self, data: Measurements) -> dict[str, str]:
         span = float(np.ptp(data.t_coil_c)) if len(data) else 0.0
         if span < 10.0:
             return {n: f"coil temperature span {span:.1f} K < 10 K"
-                    for n in ("moist_dC", "moist_dG", "drying_rate", "drying_onset", "drying_width", "drying_order")}
+                    for n in ("moist_dC", "moist_dG", "drying_rate", "drying_onset", "drying_width", "drying_order",
+                              "bound_share", "sorption_width")}
         if float(data.freq_hz.max()) < 2000:
             return {"moist_dG": "low frequencies only: the loss hardly changes L"}
         return {}
 
     def moisture(self, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
-        """m(t) per recording, integrated with the drying rate at the mean temperature of each interval."""
-        key = (id(data), p["drying_rate"], p["drying_onset"], p["drying_width"], p["drying_order"])
-        if self._memo_key == key:
+        """m(t) per recording: the drying rate and the equilibrium at the mean temperature of each interval."""
+        key = (p["drying_rate"], p["drying_onset"], p["drying_width"], p["drying_order"], p["bound_share"],
+               p["sorption_width"])
+        if self._memo_data is data and self._memo_key == key:
             return self._memo
-        out = np.ones(len(data))
-        for rows in data.segment_rows:
-            t, temp = data.time_s[rows], data.t_coil_c[rows]
-            mid = 0.5 * (temp[1:] + temp[:-1])
-            rate = p["drying_rate"] * expit((mid - p["drying_onset"]) / p["drying_width"])
-            dose = np.concatenate([[0.0], np.cumsum(rate * np.maximum(np.diff(t), 0.0))])
-            out[rows] = _remaining(dose, p["drying_order"])
-        self._memo_key, self._memo = key, out
+        if len(data) == 0:
+            return np.ones(0)
+        if self._line_data is not data:
+            self._line_data, self._line = data, _Timeline.of(data)
+        line = self._line
+        mid = 0.5 * (line.temp_c[1:] + line.temp_c[:-1])
+        rate = p["drying_rate"] * expit((mid - p["drying_onset"]) / p["drying_width"])
+        step = rate * line.dt_s
+        dose = np.concatenate([[0.0], np.cumsum(step)])
+        moisture = _remaining(dose - dose[line.first], p["drying_order"])
+        if p["bound_share"] > 0:
+            # colder than at the start: more sorbed water, capped at e^3 (the pores fill up)
+            equilibrium = np.exp(np.minimum(-(mid - line.start_c[1:]) / p["sorption_width"], 3.0))
+            bound = relaxation(line.time_s, rate, equilibrium, 1.0, restart=line.restart)
+            moisture = (1.0 - p["bound_share"]) * moisture + p["bound_share"] * bound
+        out = np.empty(len(data))
+        out[line.order] = moisture
+        self._memo_data, self._memo_key, self._memo = data, key, out
         return out
 
     def coil_capacitance(self, c_f: np.ndarray, inputs: Inputs, data: Measurements,
@@ -82,6 +116,34 @@ class ParasiticCapacitance(Effect):
     def parallel_conductance(self, g_s: np.ndarray, inputs: Inputs, data: Measurements,
                              p: Mapping[str, float]) -> np.ndarray:
         return g_s + p["moist_dG"] * self.moisture(data, p)
+
+
+@dataclass(frozen=True)
+class _Timeline:
+    """The readings recording by recording in time order, as one line: ``order`` (rows), their time
+    and coil temperature, ``first`` (each position's recording's first position), ``start_c`` (the
+    temperature there), ``dt_s`` (0 across recordings) and ``restart`` (intervals into a new one)."""
+
+    order: np.ndarray
+    time_s: np.ndarray
+    temp_c: np.ndarray
+    first: np.ndarray
+    start_c: np.ndarray
+    dt_s: np.ndarray
+    restart: np.ndarray
+
+    @staticmethod
+    def of(data: Measurements) -> _Timeline:
+        segments = data.segment_rows
+        order = np.concatenate(segments)
+        lengths = [len(rows) for rows in segments]
+        heads = np.cumsum([0, *lengths[:-1]]).astype(int)
+        first = np.repeat(heads, lengths)
+        time_s, temp_c = data.time_s[order], data.t_coil_c[order]
+        restart = np.zeros(len(order) - 1, bool)
+        restart[heads[1:] - 1] = True
+        dt_s = np.where(restart, 0.0, np.maximum(np.diff(time_s), 0.0))
+        return _Timeline(order, time_s, temp_c, first, temp_c[first], dt_s, restart)
 
 
 def _remaining(dose: np.ndarray, order: float) -> np.ndarray:

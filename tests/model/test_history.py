@@ -1,0 +1,46 @@
+"""Integration along time for effects with a memory: the vectorised recurrences against their definitions."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ecds_lab.model.library.history import first_order_lag, relaxation
+
+
+def stepwise_relaxation(time_s: np.ndarray, rate: np.ndarray, target: np.ndarray, start: float) -> np.ndarray:
+    """dy/dt = -rate (y - target), one interval at a time (rate and target constant over each)."""
+    y = [start]
+    for dt, r, u in zip(np.diff(time_s), rate, target, strict=True):
+        y.append(u + (y[-1] - u) * np.exp(-r * max(dt, 0.0)))
+    return np.array(y)
+
+
+def test_relaxation_follows_its_recurrence_through_long_gaps_and_repeated_times():
+    rng = np.random.default_rng(1)
+    time_s = np.cumsum(rng.uniform(0.0, 100.0, 3000))
+    time_s[700] = time_s[699]  # two readings at once
+    time_s[2000:] += 1e6  # a night between two parts: thousands of e-folds in one interval
+    rate = rng.uniform(0.0, 0.05, 2999)
+    target = rng.uniform(0.0, 1.0, 2999)
+    expected = stepwise_relaxation(time_s, rate, target, 1.0)
+    assert relaxation(time_s, rate, target, 1.0) == pytest.approx(expected, abs=1e-10)
+
+
+def test_relaxation_toward_a_fixed_target_is_exponential():
+    time_s = np.linspace(0.0, 3600.0, 61)
+    y = relaxation(time_s, np.full(60, 1.0 / 600), np.full(60, 0.2), 1.0)
+    assert y == pytest.approx(0.2 + 0.8 * np.exp(-time_s / 600), rel=1e-12)
+
+
+def test_first_order_lag_trails_a_ramp_by_its_time_constant():
+    time_s = np.linspace(0.0, 20000.0, 401)
+    lagged = first_order_lag(time_s, 1e-3 * time_s, 300.0)
+    assert lagged[-1] == pytest.approx(1e-3 * (time_s[-1] - 300.0), rel=1e-9)
+
+
+def test_relaxation_restarts_where_a_new_recording_begins():
+    time_s = np.array([0.0, 100.0, 200.0, 50.0, 150.0])  # the second recording's clock starts anew
+    restart = np.array([False, False, True, False])
+    y = relaxation(time_s, np.full(4, 0.01), np.zeros(4), 1.0, restart=restart)
+    assert y == pytest.approx([1.0, np.exp(-1.0), np.exp(-2.0), 1.0, np.exp(-1.0)], rel=1e-12)
