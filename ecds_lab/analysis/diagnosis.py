@@ -31,7 +31,7 @@ import numpy as np
 
 from ecds_lab.analysis.associations import Association, residual_associations
 from ecds_lab.analysis.fitting import FitResult, fit_model
-from ecds_lab.analysis.noise import NoiseEstimate, estimate_noise
+from ecds_lab.analysis.noise import NoiseEstimate
 from ecds_lab.analysis.outliers import Outlier, describe, find_glitches
 from ecds_lab.analysis.phases import phase_labels
 from ecds_lab.data.measurements import Measurements
@@ -205,6 +205,7 @@ class Diagnosis:
         return {
             "noise_ppm": round(self.noise.ppm, 3),
             "noise_method": self.noise.method,
+            "noise": self.noise.to_json(),
             "baseline": {"effects": self.effects, "rmse_ppm": round(first.rmse_ppm, 3),
                          "rmse_mm": _rounded(first.position_error_mm, 5),
                          "position_error_fs_pct": _rounded(first.position_error_fs_pct, 4),
@@ -307,17 +308,17 @@ def _robust_fit(data: Measurements, effects: list[str], sensor: SensorConfig, sc
         fitted = fit_model(model, clean, start=screened.values, multistart=False, screening=True)
     else:
         fitted = fit_model(model, clean)
-    noise = estimate_noise(clean, fitted.residuals_ppm)
+    noise = fitted.noise  # the fit's own estimate: fit and diagnose report the same noise
     outliers: list[Outlier] = []
     for _ in range(MAX_OUTLIER_ROUNDS):
-        glitches = find_glitches(clean, fitted.residuals_ppm, noise.ppm)
+        glitches = find_glitches(clean, fitted.residuals_ppm, noise.reading_ppm)
         if not glitches.any() or glitches.sum() > 0.02 * len(clean) + 2:
             break
-        outliers += describe(clean, np.flatnonzero(glitches), fitted.residuals_ppm, noise.ppm, index)
+        outliers += describe(clean, np.flatnonzero(glitches), fitted.residuals_ppm, noise.reading_ppm, index)
         keep = ~glitches
         clean, index = clean.select(keep), index[keep]
         fitted = fit_model(model, clean, start=fitted.values, multistart=False, screening=True)
-        noise = estimate_noise(clean, fitted.residuals_ppm)
+        noise = fitted.noise  # the fit's own estimate: fit and diagnose report the same noise
     outliers.sort(key=lambda o: o.row)
     return clean, index, fitted, noise, outliers
 
@@ -599,13 +600,9 @@ def _cv_rmse(data: Measurements, full: FitResult, folds: np.ndarray) -> float:
 
 def _residual_mm(result: FitResult, data: Measurements) -> np.ndarray:
     """Residual as a position error (mm): relative residual times L over the sensitivity dL/dx."""
-    step = 1e-4
-    predicted = result.predict(data)
-    up = result.model.predict(data, result.values, x_m=data.x_m + step)
-    down = result.model.predict(data, result.values, x_m=data.x_m - step)
-    sensitivity = (up - down) / (2 * step)
+    sensitivity = result.model.relative_sensitivity(data, result.values)
     with np.errstate(all="ignore"):
-        out = result.residuals_ppm * 1e-6 * predicted / sensitivity * 1e3
+        out = result.residuals_ppm * 1e-6 / sensitivity * 1e3
     return np.where(np.isfinite(data.x_m) & (np.abs(sensitivity) > 0), out, np.nan)
 
 
@@ -671,14 +668,14 @@ def explain(result: Diagnosis) -> str:
     ratio = first.rmse_ppm / noise if noise > 0 else math.inf
     if result.verdict == "adequate":
         lines.append(f"{model[0].upper()}{model[1:]} explains the data to the noise level: residual "
-                     f"{first.rmse_ppm:.1f} ppm against {noise:.1f} ppm noise ({result.noise.method}).")
+                     f"{first.rmse_ppm:.1f} ppm against {noise:.1f} ppm noise ({result.noise.source}).")
         best = result.best
         if best is not None:
             why = "; ".join(best.rejected) or "no clear gain"
             lines.append(f"No effect earns its keep (best: {best.effect}: {why}).")
         return " ".join(lines)
     lines.append(f"{model[0].upper()}{model[1:]} leaves {first.rmse_ppm:.1f} ppm of residual, "
-                 f"{ratio:.1f}x the {noise:.1f} ppm noise ({result.noise.method}).")
+                 f"{ratio:.1f}x the {noise:.1f} ppm noise ({result.noise.source}).")
     for before, step in pairwise(result.steps):
         added = step.effects[-1]
         candidate = next(c for c in before.candidates if c.effect == added)
@@ -717,9 +714,18 @@ def explain(result: Diagnosis) -> str:
     return " ".join(lines)
 
 
+def noise_parts(report: dict[str, Any]) -> str:
+    """' (reading 21.7 + positioning 42.0 ppm declared)' for a JSON object with a declared slide repeatability."""
+    parts = report.get("noise") or {}
+    if not parts.get("positioning_ppm"):
+        return ""
+    return (f" (reading {parts['reading_ppm']:.1f} ppm, from {parts['method']}; slide positioning "
+            f"{parts['positioning_ppm']:.1f} ppm, declared repeatability)")
+
+
 def format_diagnosis(report: dict[str, Any]) -> str:
     """Readable summary of the JSON object."""
-    head = (f"verdict: {report['verdict']}   noise {report['noise_ppm']:.1f} ppm   "
+    head = (f"verdict: {report['verdict']}   noise {report['noise_ppm']:.1f} ppm{noise_parts(report)}   "
             f"baseline {report['baseline']['rmse_ppm']:.1f} ppm")
     lines = [head, "", "steps:"]
     for step in report.get("steps", []):

@@ -5,7 +5,8 @@ guess (L0, alpha, beta by linear least squares on de-embedded readings of the co
 air or far away); further starts are tried only when the first fit stays well above
 the noise seen between repeated readings. Standard errors come from the Jacobian,
 scaled by the residual variance. The noise of the readings is estimated once, by
-``analysis.noise.estimate_noise`` on the final residuals, and carried by the result.
+``analysis.noise.estimate_noise`` on the final residuals (with the slide's declared repeatability
+through the fitted model's sensitivity, where the data carry one), and carried by the result.
 """
 
 from __future__ import annotations
@@ -144,7 +145,7 @@ def fit_model(model: SensorModel, data: Measurements, *, start: Mapping[str, flo
             starts += 1
             if result[0].cost < best[0].cost:
                 best = result
-    noise = estimate_noise(fitted, np.asarray(best[0].fun, float))
+    noise = _noise(model, fitted, best)
     return _result(model, data, best, reasons, noise, starts, time.perf_counter() - began)
 
 
@@ -176,6 +177,15 @@ def initial_values(model: SensorModel, data: Measurements, params: Sequence[Para
     if not np.isfinite(coef).all() or coef[0] <= 0:
         return {}
     return {"L0": float(coef[0]), **{n: float(c / coef[0]) for n, c in zip(names, coef[1:], strict=True)}}
+
+
+def _noise(model: SensorModel, data: Measurements, solved: tuple[Any, Scaling]) -> NoiseEstimate:
+    """The noise of a solution's readings: reading noise from its residuals, and the slide's declared
+    repeatability through the fitted model's sensitivity where the data carry one."""
+    sensitivity = None
+    if (data.slide_repeatability_m > 0).any():
+        sensitivity = model.relative_sensitivity(data, solved[1].values(solved[0].x))
+    return estimate_noise(data, np.asarray(solved[0].fun, float), sensitivity)
 
 
 def _repeat_noise(data: Measurements, solved: tuple[Any, Scaling]) -> float | None:

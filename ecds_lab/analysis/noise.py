@@ -10,6 +10,13 @@ One estimator for the whole analysis (fit and diagnosis report the same noise):
    residual (structure the model leaves), so structure cannot inflate the estimate the way
    successive differences do, and the MAD keeps single glitches from inflating it either.
 
+Beside the bridge's reading noise, a station may declare its slide's positioning repeatability
+(1 sigma, from the slide's datasheet; ``Measurements.slide_repeatability_m``). Each move lands a
+little off the commanded distance at random, and the reading follows: sigma_x |d ln L / dx| in ppm.
+The data cannot tell this scatter from structure (each position is visited once per direction),
+so it is a declared (GUM type-B) figure, counted with the fitted model's sensitivity
+(``positioning_noise``), never estimated from the residual. ``NoiseEstimate.ppm`` combines both.
+
 ``smooth_residual`` (a running median) is the reference glitches are judged against
 (``analysis.outliers``): a median is not pulled toward a glitch.
 """
@@ -17,7 +24,7 @@ One estimator for the whole analysis (fit and diagnosis report the same noise):
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.ndimage import median_filter
@@ -43,11 +50,30 @@ MIN_SMOOTH_READINGS = 12
 
 @dataclass(frozen=True)
 class NoiseEstimate:
-    """Noise of one reading in ppm of L, how it was found, and from how many pairs (or readings)."""
+    """Noise of one reading in ppm of L: the bridge's reading noise (how it was found, from how many
+    pairs or readings) and the declared positioning repeatability's share (0 when none is declared)."""
 
-    ppm: float
+    reading_ppm: float
     method: str
     pairs: int
+    positioning_ppm: float = 0.0
+
+    @property
+    def ppm(self) -> float:
+        """The noise models are judged against: reading and positioning parts in quadrature."""
+        return math.hypot(self.reading_ppm, self.positioning_ppm) if self.positioning_ppm else self.reading_ppm
+
+    @property
+    def source(self) -> str:
+        """Where the noise comes from, in words: the reading part's method, and the declared positioning part."""
+        if not self.positioning_ppm:
+            return self.method
+        return (f"reading {self.reading_ppm:.1f} ppm from {self.method}, slide positioning "
+                f"{self.positioning_ppm:.1f} ppm from the declared repeatability")
+
+    def to_json(self) -> dict[str, float | str]:
+        return {"reading_ppm": round(self.reading_ppm, 3), "positioning_ppm": round(self.positioning_ppm, 3),
+                "method": self.method}
 
 
 def _robust_sigma(differences: np.ndarray) -> float:
@@ -94,11 +120,31 @@ def _repeat_pairs(data: Measurements, residuals_ppm: np.ndarray) -> np.ndarray:
     return np.diff(r)[same]
 
 
-def estimate_noise(data: Measurements, residuals_ppm: np.ndarray) -> NoiseEstimate:
-    """Noise of one reading (ppm of L): from repeats where they exist, else from the residual about
-    a flexible smooth of itself (see the module docstring). ``residuals_ppm`` are model residuals,
-    so slow changes the model already explains do not count as noise either way."""
-    r = np.asarray(residuals_ppm, float)
+def positioning_noise(data: Measurements, relative_sensitivity_per_m: np.ndarray | None) -> float:
+    """RMS over all readings of sigma_x |d ln L / dx| (ppm): the declared slide repeatability seen
+    through the model's sensitivity; readings in air, or without a declared figure, count 0."""
+    sigma = np.nan_to_num(np.asarray(data.slide_repeatability_m, float), nan=0.0, posinf=0.0)
+    if relative_sensitivity_per_m is None or not len(sigma) or not (sigma > 0).any():
+        return 0.0
+    with np.errstate(invalid="ignore"):
+        share = np.abs(np.asarray(relative_sensitivity_per_m, float)) * sigma * 1e6
+    share = np.where(np.isfinite(data.x_m) & np.isfinite(share), share, 0.0)
+    return float(np.sqrt(np.mean(share**2)))
+
+
+def estimate_noise(data: Measurements, residuals_ppm: np.ndarray,
+                   relative_sensitivity_per_m: np.ndarray | None = None) -> NoiseEstimate:
+    """Noise of one reading (ppm of L): the reading noise from repeats where they exist, else from the
+    residual about a flexible smooth of itself (see the module docstring); ``residuals_ppm`` are model
+    residuals, so slow changes the model already explains do not count as noise either way. With the
+    model's d ln L / dx per reading (``relative_sensitivity_per_m``), the declared slide repeatability
+    is added (``positioning_noise``)."""
+    reading = _reading_noise(data, np.asarray(residuals_ppm, float))
+    return replace(reading, positioning_ppm=positioning_noise(data, relative_sensitivity_per_m))
+
+
+def _reading_noise(data: Measurements, r: np.ndarray) -> NoiseEstimate:
+    """The bridge's reading noise alone (see ``estimate_noise``)."""
     pairs = _repeat_pairs(data, r)
     if len(pairs) >= MIN_PAIRS:
         return NoiseEstimate(_robust_sigma(pairs), REPEATED, len(pairs))

@@ -45,6 +45,7 @@ def fit_summary(data: Measurements, effects: Sequence[str] = (), sensor: SensorC
         "rmse_ppm": result.rms_ppm,
         "noise_ppm": round(result.noise.ppm, 3),
         "noise_method": result.noise.method,
+        "noise": result.noise.to_json(),
         "dof": result.dof,
         "bic": result.bic,
         "converged": result.success,
@@ -190,13 +191,22 @@ def _errors(errors: PositionErrors, rise_k: np.ndarray | None = None) -> dict[st
     return out
 
 
+def _positioning(summary: dict[str, Any]) -> str:
+    """The noise's parts when the slide's repeatability was declared (else nothing)."""
+    parts = summary.get("noise") or {}
+    if not parts.get("positioning_ppm"):
+        return ""
+    return (f": reading {parts['reading_ppm']:.2f} ppm with slide positioning {parts['positioning_ppm']:.2f} ppm "
+            "from the declared repeatability")
+
+
 def format_fit_summary(summary: dict[str, Any]) -> str:
     """The summary as text for people: parameters with errors, then each calibration's position errors."""
     effects = ", ".join(summary["effects"]) or "none (baseline)"
     noise = summary.get("noise_ppm")
     lines = [f"Fit of {summary['n_points']} readings, effects: {effects}",
              f"  residual RMS {summary['rmse_ppm']:.2f} ppm"
-             + (f" (noise {noise:.2f} ppm, from {summary.get('noise_method', 'the data')})"
+             + (f" (noise {noise:.2f} ppm, from {summary.get('noise_method', 'the data')}{_positioning(summary)})"
                 if noise is not None else "")
              + f", dof {summary['dof']}, BIC {summary['bic']:.1f}", "  parameters:"]
     for name, p in summary["params"].items():

@@ -7,6 +7,7 @@ the transports default to the in-process simulators of one shared simulated lab.
 
 from __future__ import annotations
 
+import math
 from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator, model_validator
@@ -46,6 +47,17 @@ class InstrumentConfig(_Strict):
     link: SerialLink | VisaLink | None = Field(None, discriminator="kind")
     options: dict[str, Any] = {}
     min_interval_s: float | None = Field(None, ge=0, description="pause between commands; default per driver")
+    repeatability_um: float | None = Field(None, description="slide only: the positioning repeatability (1 sigma, "
+                                           "um) from the slide's datasheet; counted in the noise models are "
+                                           "judged against (recorded in every run file)")
+
+    @field_validator("repeatability_um")
+    @classmethod
+    def _repeatability_not_negative(cls, value: float | None) -> float | None:
+        if value is not None and not (math.isfinite(value) and value >= 0):
+            raise ValueError(f"repeatability_um must be a finite number >= 0 (1 sigma in um, from the slide's "
+                             f"datasheet), got {value}")
+        return value
 
     @field_validator("driver")
     @classmethod
@@ -143,6 +155,9 @@ class StationConfig(_Strict):
     def _check(self) -> StationConfig:
         for role in ROLE_NAMES:
             instrument: InstrumentConfig = getattr(self, role)
+            if role != "slide" and instrument.repeatability_um is not None:
+                raise ValueError(f"{role}: repeatability_um belongs to the slide (its positioning repeatability), "
+                                 f"not to the {role}")
             if self.simulated is None and instrument.link is None:
                 raise ValueError(f"{role}: a real station needs a 'link' (serial url or visa resource)")
             _check_options(role, instrument)

@@ -50,6 +50,9 @@ class Measurements:
     x_commanded_m: np.ndarray = field(default_factory=lambda: _NOT_GIVEN)
     #: derived from the commanded distances when not given
     direction: np.ndarray = field(default_factory=lambda: _NOT_GIVEN)
+    #: the slide's declared positioning repeatability (1 sigma, m) per reading, from the station of the
+    #: run file it came from; 0 when unknown (CSV, older files)
+    slide_repeatability_m: np.ndarray = field(default_factory=lambda: _NOT_GIVEN)
     source: str = ""
 
     def __post_init__(self) -> None:
@@ -64,6 +67,8 @@ class Measurements:
             self.x_commanded_m = self.x_m.copy()
         if self.direction is _NOT_GIVEN:
             self.direction = approach_direction(self.x_commanded_m, self.segment)
+        if self.slide_repeatability_m is _NOT_GIVEN:
+            self.slide_repeatability_m = np.zeros(n)
         for f in fields(self):
             value = getattr(self, f.name)
             if isinstance(value, np.ndarray) and len(value) != n:

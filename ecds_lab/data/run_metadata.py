@@ -7,6 +7,7 @@ description (attribute ``sensor``), so analysis knows what was measured without 
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from datetime import datetime
@@ -19,6 +20,9 @@ from ecds_lab.errors import RunFileError
 
 #: The /entry attribute holding the sensor description (JSON of SensorConfig).
 SENSOR_ATTRIBUTE = "sensor"
+#: The /entry attribute holding the slide's declared positioning repeatability (1 sigma, metres) from the
+#: station YAML (``slide.repeatability_um``); absent when the station declares none.
+REPEATABILITY_ATTRIBUTE = "slide_repeatability_m"
 
 
 def sensor_attribute(sensor: SensorConfig) -> str:
@@ -37,6 +41,26 @@ def recorded_sensor(attributes: Mapping[str, str], source: str = "run file") -> 
         raise RunFileError(f"{source}: the recorded sensor description is unreadable: {exc}") from None
 
 
+def repeatability_attribute(repeatability_um: float | None) -> dict[str, str]:
+    """The /entry attribute a run file records for its slide's declared repeatability (none when undeclared)."""
+    return {} if repeatability_um is None else {REPEATABILITY_ATTRIBUTE: repr(repeatability_um * 1e-6)}
+
+
+def recorded_repeatability(attributes: Mapping[str, str], source: str = "run file") -> float:
+    """The slide repeatability (1 sigma, m) a run file records; 0 when it records none (older files)."""
+    text = str(attributes.get(REPEATABILITY_ATTRIBUTE, "")).strip()
+    if not text:
+        return 0.0
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value >= 0):
+        raise RunFileError(f"{source}: /entry attribute {REPEATABILITY_ATTRIBUTE} = {text!r} is not a repeatability "
+                           "in metres (a number >= 0)")
+    return value
+
+
 @dataclass
 class RunMetadata:
     """A run file's description of itself (strings as recorded; empty when absent)."""
@@ -52,6 +76,8 @@ class RunMetadata:
     identities: dict[str, str] = field(default_factory=dict)
     faults: list[str] = field(default_factory=list)
     sensor: SensorConfig | None = None
+    #: the slide's declared positioning repeatability, 1 sigma (m); 0 when the station declared none
+    slide_repeatability_m: float = 0.0
 
     @property
     def wall_duration_s(self) -> float | None:
@@ -80,7 +106,8 @@ class RunMetadata:
                    station=str(station.get("name", "")), status=status,
                    start_time=attributes.get("start_time", ""), end_time=attributes.get("end_time", ""),
                    points=points, planned_points=planned, identities=dict(identities), faults=faults,
-                   sensor=recorded_sensor(attributes, source))
+                   sensor=recorded_sensor(attributes, source),
+                   slide_repeatability_m=recorded_repeatability(attributes, source))
 
 
 def _yaml_mapping(text: str) -> dict:

@@ -116,3 +116,8 @@ class SensorModel:
         with np.errstate(invalid="ignore"):
             slope = (self.predict(data, p, x + step) - self.predict(data, p, x - step)) / (2 * step)
         return np.where(np.isfinite(x), slope, np.nan)
+
+    def relative_sensitivity(self, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
+        """d ln Ls / dx (1/m) at every row: what a distance error does to a reading, relative (NaN in air)."""
+        with np.errstate(all="ignore"):
+            return self.sensitivity(data, p) / self.predict(data, p)

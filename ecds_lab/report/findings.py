@@ -161,7 +161,7 @@ def noise_limited_error_mm(fit: FitResult, sweep: Measurements) -> float:
     """Median over a sweep's readings of noise * L / |dL/dx| (mm): the noise repeated readings show, else the RMS."""
     if not len(sweep):
         return 0.0
-    noise = fit.noise.ppm if fit.noise.method == REPEATED else fit.rms_ppm
+    noise = fit.noise.reading_ppm if fit.noise.method == REPEATED else fit.rms_ppm
     slope = fit.model.sensitivity(sweep, fit.values)
     with np.errstate(divide="ignore"):
         error_m = noise * 1e-6 * sweep.ls_h / np.abs(slope)

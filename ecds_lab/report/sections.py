@@ -169,7 +169,7 @@ def _param_rows(fit: Any) -> list[tuple[str, str, str, str]]:
 def _params_table(group: TargetGroup) -> Html:
     fit = group.fit
     rows = _param_rows(fit)
-    noise = f", noise {fit.noise.ppm:.1f} ppm (from {fit.noise.method})"
+    noise = f", noise {fit.noise.ppm:.1f} ppm (from {fit.noise.source})"
     caption = (f"{group.material} target: baseline fit of {fit.n} readings, residual RMS {fit.rms_ppm:.1f} ppm of L"
                f"{noise}")
     return table(("parameter", "value", "unit", "status"), rows, caption=caption, css="params")
@@ -226,7 +226,7 @@ def diagnosis_section(findings: Findings) -> Parts:
     main = findings.main
     verdict = str(diagnosis.verdict)
     parts: Parts = [Html(f'<p>{badge(verdict.replace("_", " "), "good" if verdict == "adequate" else "bad")} '
-                  f"noise {diagnosis.noise_ppm:.1f} ppm ({diagnosis.noise.method}), baseline residual "
+                  f"noise {diagnosis.noise_ppm:.1f} ppm ({diagnosis.noise.source}), baseline residual "
                   f"{diagnosis.baseline.rms_ppm:.1f} ppm of L ({main.material if main else ''} target data)</p>"),
              paragraph(diagnosis.explanation, "explanation")]
     steps = list(getattr(diagnosis, "steps", []))
@@ -411,7 +411,7 @@ def heating_section(findings: Findings) -> Parts:
     if not fit.parameter("C_p").fixed:
         rows.append(("C_p", value_error(fit.values["C_p"], fit.stderr.get("C_p"), 1e12, "pF")))
     rows.append(("residual RMS", f"{fit.rms_ppm:.1f} ppm of L"
-                 + f" (noise {fit.noise.ppm:.1f} ppm, from {fit.noise.method})"))
+                 + f" (noise {fit.noise.ppm:.1f} ppm, from {fit.noise.source})"))
     rows.append(("readings", f"{fit.n}, coil {np.min(heating.data.t_coil_c):.0f} … "
                              f"{np.max(heating.data.t_coil_c):.0f} °C"))
     expansion = fit.model.sensor.former_expansion_per_k

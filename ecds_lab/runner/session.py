@@ -106,7 +106,8 @@ def _run_experiment(experiment_path: Path, station_path: Path | None, output: Pa
             check_same_station(previous, station_config, identities, station_path)
         writer = RunWriter(output, metadata=metadata_for(
             experiment_text, station_text, plan.name, plan.kind, getattr(experiment, "operator_note", ""),
-            planned_points=str(len(plan.points)), resumed_from=str(resume or ""), sensor=station_config.sensor),
+            planned_points=str(len(plan.points)), resumed_from=str(resume or ""), sensor=station_config.sensor,
+            slide_repeatability_um=station_config.slide.repeatability_um),
             transcripts={role: t.transcript for role, t in station.transports.items() if t.transcript},
             identities=identities, overwrite=overwrite)
         done: set[int] = set()

@@ -18,6 +18,7 @@ import numpy as np
 
 from ecds_lab.data.columns import COLUMN_NAMES, INDEX, PLANNED_POINT
 from ecds_lab.data.measurements import Measurements
+from ecds_lab.data.run_metadata import recorded_repeatability
 from ecds_lab.errors import RunFileError
 from ecds_lab.storage.lock import is_being_written
 from ecds_lab.storage.recovery import private_folder, read_superblock, readable_copy, truncated, unreadable_rows
@@ -188,8 +189,10 @@ def read_measurements(run: RunFile | str | Path) -> Measurements:
         return rows[:, INDEX[name]]
 
     direction = pick("direction")
+    repeatability = recorded_repeatability(run.metadata, str(path))
     return Measurements(
         time_s=pick("time_s"), x_m=pick("x_commanded_mm") * 1e-3, freq_hz=pick("freq_hz"),
         t_coil_c=pick("t_coil_c"), t_target_c=pick("t_target_c"), ls_h=pick("ls_h"), rs_ohm=pick("rs_ohm"),
-        direction=np.nan_to_num(direction).astype(int), source=str(path),
+        direction=np.nan_to_num(direction).astype(int), slide_repeatability_m=np.full(len(rows), repeatability),
+        source=str(path),
     )

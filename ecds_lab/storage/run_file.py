@@ -40,7 +40,7 @@ import numpy as np
 
 from ecds_lab import __version__
 from ecds_lab.data.columns import COLUMN_NAMES, COLUMNS, INDEX
-from ecds_lab.data.run_metadata import SENSOR_ATTRIBUTE, sensor_attribute
+from ecds_lab.data.run_metadata import SENSOR_ATTRIBUTE, repeatability_attribute, sensor_attribute
 from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.errors import RunFileError
 from ecds_lab.storage.lock import WriterLock
@@ -347,9 +347,12 @@ class RunWriter:
             pass
 
 def metadata_for(experiment_yaml: str, station_yaml: str, experiment_name: str, kind: str,
-                 operator_note: str = "", *, sensor: SensorConfig | None = None, **more: str) -> dict[str, str]:
-    """The metadata every run file carries (the YAML exactly as given, the station's sensor if it names one)."""
+                 operator_note: str = "", *, sensor: SensorConfig | None = None,
+                 slide_repeatability_um: float | None = None, **more: str) -> dict[str, str]:
+    """The metadata every run file carries (the YAML exactly as given, the station's sensor if it names one,
+    the slide's declared repeatability in metres if the station declares one)."""
     recorded = {SENSOR_ATTRIBUTE: sensor_attribute(sensor)} if sensor is not None else {}
+    recorded |= repeatability_attribute(slide_repeatability_um)
     return {"experiment_yaml": experiment_yaml, "station_yaml": station_yaml, "experiment": experiment_name,
             "kind": kind, "operator_note": operator_note, **recorded,
             **{k: (v if isinstance(v, str) else json.dumps(v)) for k, v in more.items()}}
