@@ -43,7 +43,7 @@ def recorded_sensor(attributes: Mapping[str, str], source: str = "run file") -> 
 
 def repeatability_attribute(repeatability_um: float | None) -> dict[str, str]:
     """The /entry attribute a run file records for its slide's declared repeatability (none when undeclared)."""
-    return {} if repeatability_um is None else {REPEATABILITY_ATTRIBUTE: repr(repeatability_um * 1e-6)}
+    return {} if repeatability_um is None else {REPEATABILITY_ATTRIBUTE: repr(repeatability_um / 1e6)}
 
 
 def recorded_repeatability(attributes: Mapping[str, str], source: str = "run file") -> float:

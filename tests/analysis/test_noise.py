@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import dataclasses
+import math
+
 import numpy as np
 import pytest
 
@@ -47,3 +50,30 @@ def test_glitches_do_not_inflate_the_estimate():
     data, residual = readings(400, 1, sigma_ppm=20.0)
     residual[[40, 200, 333]] += 5000.0
     assert estimate_noise(data, residual).ppm == pytest.approx(20.0, rel=0.2)
+
+
+def with_repeatability(data: Measurements, sigma_m: np.ndarray | float) -> Measurements:
+    return dataclasses.replace(data, slide_repeatability_m=np.broadcast_to(sigma_m, (len(data),)).copy())
+
+
+def test_the_declared_repeatability_adds_its_rms_through_the_sensitivity_in_quadrature():
+    data, residual = readings(40, 3, sigma_ppm=20.0)
+    x = data.x_m.copy()
+    x[:12] = np.inf  # the coil in air: no distance, no positioning error
+    data = with_repeatability(dataclasses.replace(data, x_m=x), 5e-6)
+    slope = -2.0 / data.x_m  # d ln L / dx (1/m) of an L falling as x^-2, for illustration
+    share = np.where(np.isfinite(x), 2.0 / x * 5e-6 * 1e6, 0.0)
+    estimate = estimate_noise(data, residual, slope)
+    assert estimate.positioning_ppm == pytest.approx(float(np.sqrt(np.mean(share**2))), rel=1e-12)
+    assert estimate.reading_ppm == estimate_noise(data, residual).reading_ppm
+    assert estimate.ppm == pytest.approx(math.hypot(estimate.reading_ppm, estimate.positioning_ppm), rel=1e-12)
+    assert estimate.ppm > 2 * estimate.reading_ppm  # 5 um at 100-500 ppm/mm dominates 20 ppm
+
+
+def test_without_a_declared_repeatability_the_noise_is_exactly_the_reading_noise():
+    data, residual = readings(40, 3, sigma_ppm=20.0)
+    slope = -2.0 / data.x_m
+    for sigma in (0.0, math.nan):
+        estimate = estimate_noise(with_repeatability(data, sigma), residual, slope)
+        assert estimate.positioning_ppm == 0.0
+        assert estimate.ppm == estimate.reading_ppm == estimate_noise(data, residual).ppm
