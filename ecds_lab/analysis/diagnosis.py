@@ -714,8 +714,8 @@ def explain(result: Diagnosis) -> str:
     return " ".join(lines)
 
 
-def noise_parts(report: dict[str, Any]) -> str:
-    """' (reading 21.7 + positioning 42.0 ppm declared)' for a JSON object with a declared slide repeatability."""
+def _noise_parts(report: dict[str, Any]) -> str:
+    """The noise's two parts in words when the data declare a slide repeatability (else nothing)."""
     parts = report.get("noise") or {}
     if not parts.get("positioning_ppm"):
         return ""
@@ -725,7 +725,7 @@ def noise_parts(report: dict[str, Any]) -> str:
 
 def format_diagnosis(report: dict[str, Any]) -> str:
     """Readable summary of the JSON object."""
-    head = (f"verdict: {report['verdict']}   noise {report['noise_ppm']:.1f} ppm{noise_parts(report)}   "
+    head = (f"verdict: {report['verdict']}   noise {report['noise_ppm']:.1f} ppm{_noise_parts(report)}   "
             f"baseline {report['baseline']['rmse_ppm']:.1f} ppm")
     lines = [head, "", "steps:"]
     for step in report.get("steps", []):
