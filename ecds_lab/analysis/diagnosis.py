@@ -343,17 +343,15 @@ def _round(screen: Measurements, clean: Measurements, current: Step, names: list
         ranked.append(_candidate(screen, model, name, base, noise, weight, len(clean)))
     ranked.sort(key=_evidence)
     # Alternative starts where another valley could change the outcome: not once the model is at the
-    # noise, and not for candidates far behind the leader unless their first start gained almost nothing
-    # (a periodic error started at the wrong period, say); once the leader is at the noise, only for
+    # noise, and not for candidates far behind the leader; once the leader is at the noise, only for
     # those close enough to tie with it (a tie is judged between each candidate's best fits).
     leader_gain = max((c.chi2_gain for c in ranked), default=0.0)
     solved = any(c.rmse_ppm <= ADEQUATE_RATIO * noise.ppm and not c.not_better for c in ranked[:1])
     if current.rmse_ppm > ADEQUATE_RATIO * noise.ppm:
         for i, candidate in enumerate(ranked[:LEADING]):
             behind = candidate.rmse_ppm > ADEQUATE_RATIO * noise.ppm
-            stuck = not solved and candidate.chi2_gain < MIN_CHI2_GAIN
             if (candidate.not_better and not solved) or (
-                    behind and (stuck or candidate.chi2_gain >= (TIE_REACH if solved else 0.1) * leader_gain)):
+                    behind and candidate.chi2_gain >= (TIE_REACH if solved else 0.1) * leader_gain):
                 ranked[i] = _refined(screen, candidate, base, noise, weight, len(clean))
     for candidate in ranked:
         _check(candidate)
