@@ -111,6 +111,13 @@ class _Appender:
         first = self.length
         ident, chunk, tail = self.id, self.chunk, self.tail
         end = first + count
+        offset = first % chunk
+        if packed is not None and offset and offset + count <= chunk and end <= self.extent:
+            # the transcript log's usual append: more records into the chunk written last, nothing to flush
+            self._tail_bytes[offset * size:offset * size + len(packed)] = packed
+            ident.write_direct_chunk((first - offset, *self._origin_rest), tail)
+            self.length = end
+            return
         metadata_changed = end > self.extent
         if metadata_changed:
             self.extent = -(-end // chunk) * chunk if self.ahead else end
