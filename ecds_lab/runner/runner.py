@@ -82,7 +82,11 @@ def _startup_objects_frozen() -> Iterator[None]:
     out of the cyclic garbage collector's full collections while the steps run; each full collection, about one
     per 10,000 readings, would otherwise walk them all again (tens of ms). ``gc.freeze``; ``gc.unfreeze`` at the
     end hands them back to the collector (one of them that dies in a reference cycle during the run is freed
-    after it; objects made during the run are collected as usual)."""
+    after it; objects made during the run are collected as usual). A process that froze objects itself
+    (``gc.get_freeze_count()`` above 0) is left as it is: unfreezing would undo its freeze."""
+    if gc.get_freeze_count():
+        yield
+        return
     gc.freeze()
     try:
         yield
