@@ -58,6 +58,12 @@ class LineEmulator(ABC):
                 if byte in self.realtime_bytes:
                     self.handle_realtime(bytes((byte,)))
             data = data.translate(None, self.realtime_bytes)
+        last = len(data) - 1
+        if self._single_ending and not self._line and last >= 0 and data.find(self.line_endings) == last:
+            # the usual write: one whole command line, nothing before it (what the general path below does)
+            self._command = data[:-1].decode("ascii", errors="replace").strip()
+            self.handle_line(self._command)
+            return
         self._line += data
         lines = self._line.split(self.line_endings) if self._single_ending else self._line_end.split(self._line)
         if len(lines) > 1:

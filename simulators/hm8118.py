@@ -166,7 +166,7 @@ class HM8118Emulator(LineEmulator):
             self.lost_lines.append(line)
             return
         self._last_line_at = now
-        for command in line.split(";"):
+        for command in line.split(";") if ";" in line else (line,):
             command = command.strip(" ")
             if command:
                 self._handle(command)

@@ -40,8 +40,9 @@ class RunContext:
 
     def record(self, freq_hz: float, kind: int, point: MeasurePoint | None = None) -> None:
         """One bridge reading with the temperatures and heater powers of the moment, appended to the run file."""
-        self.station.bridge.set_frequency(freq_hz)
-        reading = self.station.bridge.measure()
+        bridge = self.station.bridge
+        bridge.set_frequency(freq_hz)
+        reading = bridge.measure()
         temperatures = self.thermocouples.read()
         powers = self.heaters.powers()
         self.writer.append(reading_row(

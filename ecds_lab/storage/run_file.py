@@ -80,6 +80,11 @@ class _Appender:
     With ``ahead`` the extent grows a whole chunk at a time, not per call (about a quarter of an append's
     cost): rows past ``length`` then hold the dataset's fill value until written, which must mark
     them as not written for a reader of a killed file, and :meth:`trim` sets the exact length.
+    A flush writes the dataset's metadata (extent, chunk index); an append that changed neither (more rows
+    in a chunk already written, within the extent) skips it: a direct chunk write of an unfiltered chunk
+    goes to the file as it is called (H5Dwrite_chunk: no cache in between), so the rows are on disk either
+    way. About every tenth transcript-log append flushes; the points table, whose extent grows per row,
+    always does.
     """
 
     def __init__(self, dataset: h5py.Dataset, fill: Any, *, ahead: bool = False) -> None:
@@ -106,7 +111,15 @@ class _Appender:
         first = self.length
         ident, chunk, tail = self.id, self.chunk, self.tail
         end = first + count
-        if end > self.extent:
+        offset = first % chunk
+        if packed is not None and offset and offset + count <= chunk and end <= self.extent:
+            # the transcript log's usual append: more records into the chunk written last, nothing to flush
+            self._tail_bytes[offset * size:offset * size + len(packed)] = packed
+            ident.write_direct_chunk((first - offset, *self._origin_rest), tail)
+            self.length = end
+            return
+        metadata_changed = end > self.extent
+        if metadata_changed:
             self.extent = -(-end // chunk) * chunk if self.ahead else end
             ident.set_extent((self.extent, *self.width))
         done = 0
@@ -114,15 +127,34 @@ class _Appender:
             row = first + done
             offset = row % chunk
             take = min(chunk - offset, count - done)
-            if offset == 0:
+            if offset == 0:  # a chunk not written before: HDF5 allocates it and adds it to the chunk index
                 tail[...] = self.fill
+                metadata_changed = True
             if packed is not None:
                 self._tail_bytes[offset * size:(offset + take) * size] = packed[done * size:(done + take) * size]
             else:
                 tail[offset:offset + take] = values[done:done + take] if done or take < count else values
             ident.write_direct_chunk((row - offset, *self._origin_rest), tail)  # its buffer, not a copy
             done += take
-        ident.flush()
+        if metadata_changed:
+            ident.flush()
+        self.length = end
+
+    def append_one(self, row: Sequence[Any]) -> None:
+        """Append one row of a 2-D dataset and flush: :meth:`append` for a single row, without its loop
+        (the points table takes one row per reading)."""
+        first = self.length
+        end = first + 1
+        if end > self.extent:
+            self.extent = -(-end // self.chunk) * self.chunk if self.ahead else end
+            self.id.set_extent((self.extent, *self.width))
+        offset = first % self.chunk
+        tail = self.tail
+        if offset == 0:
+            tail[...] = self.fill
+        tail[offset] = row
+        self.id.write_direct_chunk((first - offset, *self._origin_rest), tail)  # its buffer, not a copy
+        self.id.flush()
         self.length = end
 
     def trim(self) -> None:
@@ -203,15 +235,29 @@ class RunWriter:
     # -- per point ------------------------------------------------------------------------
     def append(self, values: Mapping[str, float]) -> None:
         """Append one reading and flush it to disk before returning; columns not given are NaN."""
-        if values.keys() == INDEX.keys():  # the runner gives every column
+        if values.keys() == INDEX.keys():  # every column given
             row = _IN_COLUMN_ORDER(values)
         else:
             unknown = values.keys() - INDEX.keys()
             if unknown:
                 raise RunFileError(f"unknown run file column(s): {', '.join(sorted(unknown))}")
             row = tuple(values.get(name, math.nan) for name in COLUMN_NAMES)
+        self.append_row(row)
+
+    def append_row(self, row: Sequence[float]) -> None:
+        """Append one reading given in column order (``COLUMN_NAMES``) and flush it to disk before returning
+        (the runner's path: no column names to look up per reading)."""
+        if len(row) != len(COLUMNS):
+            raise RunFileError(f"a run file row has {len(COLUMNS)} values ({', '.join(COLUMN_NAMES)}), "
+                               f"not {len(row)}")
         self.write_transcripts()  # the traffic that produced this row is on disk before the row
-        self._write_rows((row,))
+        if self.broken:
+            raise RunFileError(f"{self.path}: no longer writable after a failed write")
+        try:
+            self._points.append_one(row)
+            self._nexus.rows_written((row,))
+        except (OSError, RuntimeError) as exc:
+            raise self._write_failed(exc) from exc
 
     def append_rows(self, rows: np.ndarray) -> None:
         """Append a block of finished rows (used when a resumed run copies its predecessor)."""

@@ -59,8 +59,18 @@ class BridgeModel:
         self.settings = settings
         self._seed = seed
         self._errors: dict[tuple[float, int], complex] = {}
+        self._noise: dict[tuple[float, str, float, int], float] = {}
 
     def noise_relative(self, frequency_hz: float, speed: str, voltage_v: float, averages: int) -> float:
+        """Relative noise (1 sigma) of one reading; a pure function of the settings and the arguments, so it is
+        remembered per arguments (a run asks the same few combinations for every reading)."""
+        key = (frequency_hz, speed, voltage_v, averages)
+        sigma = self._noise.get(key)
+        if sigma is None:
+            sigma = self._noise[key] = self._noise_relative(frequency_hz, speed, voltage_v, averages)
+        return sigma
+
+    def _noise_relative(self, frequency_hz: float, speed: str, voltage_v: float, averages: int) -> float:
         n = self.settings.noise
         if not n.enabled:
             return 0.0

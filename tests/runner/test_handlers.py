@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gc
 import inspect
 from dataclasses import dataclass
 
@@ -79,3 +80,32 @@ def test_a_step_without_a_handler_fails_the_run_naming_the_step(private_handlers
 def test_a_second_handler_for_the_same_step_is_refused(private_handlers):
     with pytest.raises(EcdsLabError, match="MeasurePoint already has a handler: measure_point"):
         handlers.handles(MeasurePoint)(lambda run, step: None)
+
+
+def test_objects_alive_at_the_start_stay_out_of_collections_while_the_steps_run(private_handlers, open_sim_station,
+                                                                                 rows_in_memory):
+    """The runner freezes what is alive when the steps start (gc.freeze) and unfreezes it when they end, also
+    when a step fails; a process that froze objects itself keeps its freeze."""
+    seen: list[int] = []
+
+    @handlers.handles(Pause)
+    def pause(run: RunContext, step: Pause) -> None:
+        seen.append(gc.get_freeze_count())
+        if step.seconds < 0:
+            raise EcdsLabError("a step that fails")
+
+    station = open_sim_station()
+    assert gc.get_freeze_count() == 0
+    status, _ = Runner(station, Plan("p", "test", (Pause(1.0),)), rows_in_memory,  # type: ignore[arg-type]
+                       progress=False).run()
+    assert status == "completed" and seen[-1] > 0 and gc.get_freeze_count() == 0
+    status, _ = Runner(station, Plan("p", "test", (Pause(-1.0),)), rows_in_memory,  # type: ignore[arg-type]
+                       progress=False).run()
+    assert status == "failed" and seen[-1] > 0 and gc.get_freeze_count() == 0
+    gc.freeze()
+    try:
+        frozen = gc.get_freeze_count()
+        Runner(station, Plan("p", "test", (Pause(1.0),)), rows_in_memory, progress=False).run()  # type: ignore[arg-type]
+        assert seen[-1] == frozen and gc.get_freeze_count() == frozen
+    finally:
+        gc.unfreeze()

@@ -149,6 +149,42 @@ def test_a_run_killed_inside_a_transcript_append_reads_back_complete_events(tmp_
     assert [e.text for e in events] == [f"command {point}" for point in range(CHUNK_RECORDS - 2)]
 
 
+def test_a_run_killed_after_an_append_that_needed_no_flush_keeps_its_traffic(tmp_path):
+    """Appends into a chunk already written change no metadata and skip the flush (one flush per new chunk):
+    their records are on disk all the same when the append returns, so a kill right after loses nothing."""
+    path = tmp_path / "unflushed.h5"
+    code = f"""
+        import os
+        from ecds_lab.storage.run_file import RunWriter, metadata_for
+        from ecds_lab.transports.transcript import Transcript
+        bridge = Transcript("bridge")
+        w = RunWriter({str(path)!r}, metadata=metadata_for("kind: x\\n", "", "t", "displacement_sweep"),
+                      transcripts={{"bridge": bridge}})
+
+        class CountsFlushes:
+            flushes = 0
+            def __init__(self, real):
+                self.real = real
+            def __getattr__(self, name):
+                return getattr(self.real, name)
+            def flush(self):
+                CountsFlushes.flushes += 1
+                self.real.flush()
+
+        w._log.id = CountsFlushes(w._log.id)
+        for point in range(3):
+            bridge.record(float(point), "sent", f"command {{point}}")
+            w.write_transcripts()
+        print(CountsFlushes.flushes, flush=True)
+        os._exit(9)
+    """
+    done = subprocess.run([sys.executable, "-c", textwrap.dedent(code)], capture_output=True, text=True,
+                          timeout=120, check=False)
+    assert done.returncode == 9, done.stderr
+    assert done.stdout.split() == ["1"]  # the first append (a new chunk) flushed, the other two did not
+    assert [e.text for e in read_run(path).transcripts["bridge"]] == [f"command {point}" for point in range(3)]
+
+
 def test_a_chunk_write_cut_short_at_any_byte_reads_back_complete_events(tmp_path, transcripts):
     """A kill during the chunk's write leaves a prefix of it on disk (the kernel stops between pages, which
     fall anywhere in a chunk): at every cut inside the new records, the reader sees the event whole or not
