@@ -250,9 +250,10 @@ def run_diagnosis(data: Measurements, effects: Sequence[str] = (), sensor: Senso
     alternatives: list[list[str]] = []
     untestable: dict[str, str] = {}
     base_cv = None
+    claimed_cv: float | None = None
     while len(steps) <= max_steps:
         current = steps[-1]
-        ranked, blocked, current_cv = _round(screen, clean, current, names, sensor, noise, folds)
+        ranked, blocked, current_cv = _round(screen, clean, current, names, sensor, noise, folds, claimed_cv)
         if len(steps) == 1:
             untestable, base_cv = blocked, current_cv
         current.candidates = ranked
@@ -279,6 +280,8 @@ def run_diagnosis(data: Measurements, effects: Sequence[str] = (), sensor: Senso
                 break
         steps.append(Step([*current.effects, best.effect], refit, _residual_mm(refit, clean), full_scale))
         names = [n for n in names if n != best.effect]
+        # Screened on every reading, the claimed fit is the new current model: its held-out error is known.
+        claimed_cv = best.cv_rmse_ppm if refit is best.fit else None
     final = steps[-1]
     associations = residual_associations(clean, final.fit.residuals_ppm, noise.ppm)
     verdict = _verdict(steps, effects, noise, associations, alternatives, untestable)
@@ -325,7 +328,8 @@ def _robust_fit(data: Measurements, effects: list[str], sensor: SensorConfig, sc
 
 # -- one round of candidates ----------------------------------------------------------------------
 def _round(screen: Measurements, clean: Measurements, current: Step, names: list[str], sensor: SensorConfig,
-           noise: NoiseEstimate, folds: np.ndarray | None) -> tuple[list[Candidate], dict[str, str], float | None]:
+           noise: NoiseEstimate, folds: np.ndarray | None,
+           current_cv: float | None = None) -> tuple[list[Candidate], dict[str, str], float | None]:
     """Fit and check every candidate against the current model; ranked best first (passing ones
     first, then by evidence). Also: candidates these data cannot test (name -> why), and the
     current model's held-out error."""
@@ -356,7 +360,9 @@ def _round(screen: Measurements, clean: Measurements, current: Step, names: list
     for candidate in ranked:
         _check(candidate)
     ranked.sort(key=lambda c: (not c.passes, _evidence(c)))
-    base_cv = _cv_rmse(screen, base, folds) if folds is not None and ranked and ranked[0].passes else None
+    base_cv = None
+    if folds is not None and ranked and ranked[0].passes:  # the previous round's claim already has it
+        base_cv = current_cv if current_cv is not None else _cv_rmse(screen, base, folds)
     leader = None
     for candidate in ranked:  # held-out error, lazily: for the leader and whatever might tie with it
         if not candidate.passes or folds is None:
