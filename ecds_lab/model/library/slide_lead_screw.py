@@ -45,7 +45,8 @@ class SlideLeadScrew(Effect):
     key_parameters = ("screw_sin", "screw_cos")
     reveal = ("step finer than the screw's lead (e.g. 0.5 mm steps over two turns), or check the positions "
               "against a laser or dial-gauge reference")
-    alternative_starts = tuple({"screw_lead": lead} for lead in COMMON_LEADS_M)
+    #: The other common leads (the longest is the default start, which every testable campaign resolves).
+    alternative_starts = tuple({"screw_lead": lead} for lead in COMMON_LEADS_M[:-1])
     _memo_data: Measurements | None = None
     _memo_shortest: float = 0.0
 
