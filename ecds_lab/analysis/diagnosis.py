@@ -55,6 +55,8 @@ MIN_CHI2_GAIN = 25.0
 MIN_Z = 3.0
 #: ... and lies farther than this share of its range from either bound.
 BOUND_MARGIN = 1e-3
+#: Alternative starts refitted with the whole model free, the best of their scouts (``_refined``).
+SCOUTS_REFITTED = 2
 #: Two passing effects whose chi-square gains (in noise units) differ by less than this (plus a tenth
 #: of the larger) are not separated.
 SEPARATION_CHI2 = 10.0
@@ -251,11 +253,9 @@ def run_diagnosis(data: Measurements, effects: Sequence[str] = (), sensor: Senso
     untestable: dict[str, str] = {}
     base_cv = None
     claimed_cv: float | None = None
-    valleys: dict[str, dict[str, float]] = {}
     while len(steps) <= max_steps:
         current = steps[-1]
-        ranked, blocked, current_cv = _round(screen, clean, current, names, sensor, noise, folds, valleys,
-                                             claimed_cv)
+        ranked, blocked, current_cv = _round(screen, clean, current, names, sensor, noise, folds, claimed_cv)
         if len(steps) == 1:
             untestable, base_cv = blocked, current_cv
         current.candidates = ranked
@@ -330,11 +330,11 @@ def _robust_fit(data: Measurements, effects: list[str], sensor: SensorConfig, sc
 
 # -- one round of candidates ----------------------------------------------------------------------
 def _round(screen: Measurements, clean: Measurements, current: Step, names: list[str], sensor: SensorConfig,
-           noise: NoiseEstimate, folds: np.ndarray | None, valleys: dict[str, dict[str, float]],
+           noise: NoiseEstimate, folds: np.ndarray | None,
            current_cv: float | None = None) -> tuple[list[Candidate], dict[str, str], float | None]:
     """Fit and check every candidate against the current model; ranked best first (passing ones
     first, then by evidence). Also: candidates these data cannot test (name -> why), and the
-    current model's held-out error. ``valleys``: each refined effect's best parameters so far."""
+    current model's held-out error."""
     base = current.fit if screen is clean else _evaluate(current.fit, screen)
     weight = 1.0  # evidence as the screened readings show it: scaling it up would scale noise up as well
     ranked, untestable = [], {}
@@ -358,7 +358,7 @@ def _round(screen: Measurements, clean: Measurements, current: Step, names: list
             behind = candidate.rmse_ppm > ADEQUATE_RATIO * noise.ppm
             if (candidate.not_better and not solved) or (
                     behind and candidate.chi2_gain >= (TIE_REACH if solved else 0.1) * leader_gain):
-                ranked[i] = _refined(screen, candidate, base, noise, weight, len(clean), valleys)
+                ranked[i] = _refined(screen, candidate, base, noise, weight, len(clean))
     for candidate in ranked:
         _check(candidate)
     ranked.sort(key=lambda c: (not c.passes, _evidence(c)))
@@ -453,30 +453,24 @@ def _scored(name: str, fitted: FitResult, base: FitResult, noise: NoiseEstimate,
 
 
 def _refined(data: Measurements, candidate: Candidate, base: FitResult, noise: NoiseEstimate, weight: float,
-             n_full: int, valleys: dict[str, dict[str, float]]) -> Candidate:
+             n_full: int) -> Candidate:
     """A leading candidate not yet at the noise level, refitted from its effect's alternative starts.
 
     Each start is first scouted with only the effect's own parameters free (the current model held
-    where it is: a few columns instead of all), and the whole model is refitted from the best scout.
-    The first time an effect is refined all its starts are scouted; the valley found (its own
-    parameters) is remembered in ``valleys``, and later rounds start from there instead of searching."""
+    where it is: a few columns instead of all), and the whole model is refitted from the best scouts
+    (a valley whose depth shows only with the model free, a plate's thickness against tau_T, say,
+    need not lead the scouts)."""
     model = candidate.fit.model
-    effect = model.effects[-1]
-    own = [p.name for p in effect.parameters()]
-    remembered = valleys.get(candidate.effect)
-    if remembered is not None:
-        start = remembered
-    else:
-        held = {k: v for k, v in base.values.items() if k not in own}
-        scouts = [fit_model(model, data, start=dict(alternative), fixed=held, multistart=False, screening=True)
-                  for alternative in effect.alternative_starts]
-        if not scouts:
-            return candidate
-        scout = min(scouts, key=lambda f: f.rms_ppm)
-        start = {name: scout.values[name] for name in own}
-    trial = _candidate(data, model, candidate.effect, base, noise, weight, n_full, dict(start))
-    best = trial if trial.fit.rms_ppm < candidate.fit.rms_ppm else candidate
-    valleys[candidate.effect] = {name: best.fit.values[name] for name in own}
+    own = [p.name for p in model.effects[-1].parameters()]
+    held = {k: v for k, v in base.values.items() if k not in own}
+    scouts = sorted((fit_model(model, data, start=dict(alternative), fixed=held, multistart=False, screening=True)
+                     for alternative in model.effects[-1].alternative_starts), key=lambda f: f.rms_ppm)
+    best = candidate
+    for scout in scouts[:SCOUTS_REFITTED]:
+        trial = _candidate(data, model, candidate.effect, base, noise, weight, n_full,
+                           {name: scout.values[name] for name in own})
+        if trial.fit.rms_ppm < best.fit.rms_ppm:
+            best = trial
     return best
 
 

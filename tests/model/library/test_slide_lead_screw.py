@@ -62,7 +62,9 @@ def test_it_is_in_the_library_with_plausible_sizes_and_the_common_leads_as_start
     bounds = {p.name: (p.lower, p.upper) for p in effect.parameters()}
     for name, (low, high) in effect.plausible.items():
         assert bounds[name][0] < low < high < bounds[name][1]  # a fit beyond the plausible range can show it
-    assert [s["screw_lead"] for s in effect.alternative_starts] == list(COMMON_LEADS_M)
+    default = next(p.value for p in effect.parameters() if p.name == "screw_lead")
+    assert default == max(COMMON_LEADS_M)  # the longest common lead first, the others as alternatives
+    assert sorted([s["screw_lead"] for s in effect.alternative_starts] + [default]) == sorted(COMMON_LEADS_M)
     assert all(effect.plausible["screw_lead"][0] <= lead <= effect.plausible["screw_lead"][1]
                for lead in COMMON_LEADS_M)
 
