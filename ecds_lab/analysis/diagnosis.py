@@ -456,19 +456,22 @@ def _refined(data: Measurements, candidate: Candidate, base: FitResult, noise: N
              n_full: int) -> Candidate:
     """A leading candidate not yet at the noise level, refitted from its effect's alternative starts.
 
-    Each start is first scouted with only the effect's own parameters free (the current model held
-    where it is: a few columns instead of all), and the whole model is refitted from the best scouts
+    With more starts than SCOUTS_REFITTED, each is first scouted with only the effect's own parameters
+    free (the current model held where it is: a few columns instead of all), and the whole model is
+    refitted from the best scouts
     (a valley whose depth shows only with the model free, a plate's thickness against tau_T, say,
     need not lead the scouts)."""
     model = candidate.fit.model
     own = [p.name for p in model.effects[-1].parameters()]
-    held = {k: v for k, v in base.values.items() if k not in own}
-    scouts = sorted((fit_model(model, data, start=dict(alternative), fixed=held, multistart=False, screening=True)
-                     for alternative in model.effects[-1].alternative_starts), key=lambda f: f.rms_ppm)
+    starts = [dict(alternative) for alternative in model.effects[-1].alternative_starts]
+    if len(starts) > SCOUTS_REFITTED:
+        held = {k: v for k, v in base.values.items() if k not in own}
+        scouts = sorted((fit_model(model, data, start=start, fixed=held, multistart=False, screening=True)
+                         for start in starts), key=lambda f: f.rms_ppm)
+        starts = [{name: scout.values[name] for name in own} for scout in scouts[:SCOUTS_REFITTED]]
     best = candidate
-    for scout in scouts[:SCOUTS_REFITTED]:
-        trial = _candidate(data, model, candidate.effect, base, noise, weight, n_full,
-                           {name: scout.values[name] for name in own})
+    for start in starts:
+        trial = _candidate(data, model, candidate.effect, base, noise, weight, n_full, start)
         if trial.fit.rms_ppm < best.fit.rms_ppm:
             best = trial
     return best
