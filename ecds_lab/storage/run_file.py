@@ -118,10 +118,10 @@ class _Appender:
             ident.write_direct_chunk((first - offset, *self._origin_rest), tail)
             self.length = end
             return
-        metadata_changed = end > self.extent
-        if metadata_changed:
-            self.extent = -(-end // chunk) * chunk if self.ahead else end
-            ident.set_extent((self.extent, *self.width))
+        if packed is None and count == 1:
+            self._append_one(values[0])
+            return
+        metadata_changed = self._grow(end)
         done = 0
         while done < count:
             row = first + done
@@ -140,14 +140,11 @@ class _Appender:
             ident.flush()
         self.length = end
 
-    def append_one(self, row: Sequence[Any]) -> None:
-        """Append one row of a 2-D dataset and flush: :meth:`append` for a single row, without its loop
-        (the points table takes one row per reading)."""
+    def _append_one(self, row: Any) -> None:
+        """:meth:`append` of one unpacked row, without its loop (the points table takes one row per reading)."""
         first = self.length
         end = first + 1
-        if end > self.extent:
-            self.extent = -(-end // self.chunk) * self.chunk if self.ahead else end
-            self.id.set_extent((self.extent, *self.width))
+        self._grow(end)
         offset = first % self.chunk
         tail = self.tail
         if offset == 0:
@@ -156,6 +153,14 @@ class _Appender:
         self.id.write_direct_chunk((first - offset, *self._origin_rest), tail)  # its buffer, not a copy
         self.id.flush()
         self.length = end
+
+    def _grow(self, end: int) -> bool:
+        """Extend the dataset to hold ``end`` rows (a chunk ahead with ``ahead``); True if it grew."""
+        if end <= self.extent:
+            return False
+        self.extent = -(-end // self.chunk) * self.chunk if self.ahead else end
+        self.id.set_extent((self.extent, *self.width))
+        return True
 
     def trim(self) -> None:
         """Shrink an extent grown ahead to the rows written (at the end of the run)."""
@@ -251,13 +256,7 @@ class RunWriter:
             raise RunFileError(f"a run file row has {len(COLUMNS)} values ({', '.join(COLUMN_NAMES)}), "
                                f"not {len(row)}")
         self.write_transcripts()  # the traffic that produced this row is on disk before the row
-        if self.broken:
-            raise RunFileError(f"{self.path}: no longer writable after a failed write")
-        try:
-            self._points.append_one(row)
-            self._nexus.rows_written((row,))
-        except (OSError, RuntimeError) as exc:
-            raise self._write_failed(exc) from exc
+        self._write_rows((row,))
 
     def append_rows(self, rows: np.ndarray) -> None:
         """Append a block of finished rows (used when a resumed run copies its predecessor)."""
