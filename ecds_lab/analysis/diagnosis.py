@@ -31,7 +31,7 @@ import numpy as np
 
 from ecds_lab.analysis.associations import Association, residual_associations
 from ecds_lab.analysis.fitting import FitResult, fit_model
-from ecds_lab.analysis.noise import NoiseEstimate
+from ecds_lab.analysis.noise import NoiseEstimate, noise_parts_text
 from ecds_lab.analysis.outliers import Outlier, describe, find_glitches
 from ecds_lab.analysis.phases import phase_labels
 from ecds_lab.data.measurements import Measurements
@@ -733,18 +733,10 @@ def explain(result: Diagnosis) -> str:
     return " ".join(lines)
 
 
-def _noise_parts(report: dict[str, Any]) -> str:
-    """The noise's two parts in words when the data declare a slide repeatability (else nothing)."""
-    parts = report.get("noise") or {}
-    if not parts.get("positioning_ppm"):
-        return ""
-    return (f" (reading {parts['reading_ppm']:.1f} ppm, from {parts['method']}; slide positioning "
-            f"{parts['positioning_ppm']:.1f} ppm, declared repeatability)")
-
-
 def format_diagnosis(report: dict[str, Any]) -> str:
     """Readable summary of the JSON object."""
-    head = (f"verdict: {report['verdict']}   noise {report['noise_ppm']:.1f} ppm{_noise_parts(report)}   "
+    parts = noise_parts_text(report.get("noise") or {})
+    head = (f"verdict: {report['verdict']}   noise {report['noise_ppm']:.1f} ppm{f' ({parts})' if parts else ''}   "
             f"baseline {report['baseline']['rmse_ppm']:.1f} ppm")
     lines = [head, "", "steps:"]
     for step in report.get("steps", []):

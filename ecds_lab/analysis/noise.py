@@ -24,7 +24,9 @@ so it is a declared (GUM type-B) figure, counted with the fitted model's sensiti
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 from scipy.ndimage import median_filter
@@ -61,19 +63,25 @@ class NoiseEstimate:
     @property
     def ppm(self) -> float:
         """The noise models are judged against: reading and positioning parts in quadrature."""
-        return math.hypot(self.reading_ppm, self.positioning_ppm) if self.positioning_ppm else self.reading_ppm
+        return math.hypot(self.reading_ppm, self.positioning_ppm)
 
     @property
     def source(self) -> str:
         """Where the noise comes from, in words: the reading part's method, and the declared positioning part."""
-        if not self.positioning_ppm:
-            return self.method
-        return (f"reading {self.reading_ppm:.1f} ppm from {self.method}, slide positioning "
-                f"{self.positioning_ppm:.1f} ppm from the declared repeatability")
+        return noise_parts_text(self.to_json()) or self.method
 
     def to_json(self) -> dict[str, float | str]:
         return {"reading_ppm": round(self.reading_ppm, 3), "positioning_ppm": round(self.positioning_ppm, 3),
                 "method": self.method}
+
+
+def noise_parts_text(parts: Mapping[str, Any]) -> str:
+    """The noise's two parts in words, from ``NoiseEstimate.to_json()`` (as the JSON reports carry it);
+    empty when no slide repeatability was declared (the noise is then the reading noise alone)."""
+    if not parts.get("positioning_ppm"):
+        return ""
+    return (f"reading {parts['reading_ppm']:.1f} ppm from {parts['method']}, slide positioning "
+            f"{parts['positioning_ppm']:.1f} ppm from the declared repeatability")
 
 
 def _robust_sigma(differences: np.ndarray) -> float:

@@ -24,6 +24,7 @@ from ecds_lab.analysis.calibration import (
     temperature_stability_ppm_fs_per_k,
 )
 from ecds_lab.analysis.fitting import FitResult, fit_model
+from ecds_lab.analysis.noise import noise_parts_text
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.model.sensor_model import SensorModel
@@ -191,13 +192,10 @@ def _errors(errors: PositionErrors, rise_k: np.ndarray | None = None) -> dict[st
     return out
 
 
-def _positioning(summary: dict[str, Any]) -> str:
-    """The noise's parts when the slide's repeatability was declared (else nothing)."""
-    parts = summary.get("noise") or {}
-    if not parts.get("positioning_ppm"):
-        return ""
-    return (f": reading {parts['reading_ppm']:.2f} ppm with slide positioning {parts['positioning_ppm']:.2f} ppm "
-            "from the declared repeatability")
+def _noise_origin(summary: dict[str, Any]) -> str:
+    """Where the noise comes from: its two parts when a slide repeatability was declared, else the method."""
+    parts = noise_parts_text(summary.get("noise") or {})
+    return f": {parts}" if parts else f", from {summary.get('noise_method', 'the data')}"
 
 
 def format_fit_summary(summary: dict[str, Any]) -> str:
@@ -206,7 +204,7 @@ def format_fit_summary(summary: dict[str, Any]) -> str:
     noise = summary.get("noise_ppm")
     lines = [f"Fit of {summary['n_points']} readings, effects: {effects}",
              f"  residual RMS {summary['rmse_ppm']:.2f} ppm"
-             + (f" (noise {noise:.2f} ppm, from {summary.get('noise_method', 'the data')}{_positioning(summary)})"
+             + (f" (noise {noise:.2f} ppm{_noise_origin(summary)})"
                 if noise is not None else "")
              + f", dof {summary['dof']}, BIC {summary['bic']:.1f}", "  parameters:"]
     for name, p in summary["params"].items():
