@@ -223,12 +223,11 @@ class HM8118Emulator(LineEmulator):
     # -- measuring -------------------------------------------------------------------------
     def _readings(self) -> int:
         """Readings behind one displayed value: 1, NAVG averaged, or the median of three."""
-        averaging = int(self.settings["AVGM"])
-        return 1 if averaging == 0 else int(self.settings["NAVG"]) if averaging == 1 else MEDIAN_READINGS
+        averaging = self._code("AVGM")
+        return 1 if averaging == 0 else self._code("NAVG") if averaging == 1 else MEDIAN_READINGS
 
     def _duration(self) -> float:
-        settings = self.settings
-        return MEASUREMENT_TIME_S[int(settings["RATE"])] * self._readings() + int(settings["$STL"]) / 1000
+        return MEASUREMENT_TIME_S[self._code("RATE")] * self._readings() + self._code("$STL") / 1000
 
     def _trigger(self) -> None:
         """*TRG starts a measurement; the lab is sampled now, the result is ready after the measuring time."""
@@ -287,13 +286,13 @@ class HM8118Emulator(LineEmulator):
     def _measure(self) -> tuple[float, float] | None:
         """Main and secondary value of the active function from the lab's coil impedance."""
         settings = self.settings
-        function = int(settings["PMOD"])
+        function = self._code("PMOD")
         if function in (0, 10, 11):  # AUTO display and transformer modes: nothing to read
             return None
         frequency = float(settings["FREQ"])
         omega = 2 * math.pi * frequency
-        speed, level = SPEED_CODES[int(settings["RATE"])], settings["VOLT"]
-        if int(settings["AVGM"]) == 2:
+        speed, level = SPEED_CODES[self._code("RATE")], settings["VOLT"]
+        if self._code("AVGM") == 2:
             samples = sorted((self.lab.measured_impedance(frequency, speed, level) for _ in range(MEDIAN_READINGS)),
                              key=abs)
             z = samples[MEDIAN_READINGS // 2]
@@ -305,7 +304,7 @@ class HM8118Emulator(LineEmulator):
         if function in (6, 7, 8):  # Z-theta, Y-theta, R-X: no equivalent circuit involved
             theta = math.degrees(cmath.phase(z))
             return {6: (magnitude, theta), 7: (abs(1 / z), -theta), 8: (z.real, z.imag)}[function]
-        circuit = int(settings["CIRC"])
+        circuit = self._code("CIRC")
         parallel = circuit == 1 or (circuit == 2 and magnitude > 1e3)
         y = 1 / z
         if function == 9:  # G-B
