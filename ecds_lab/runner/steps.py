@@ -147,6 +147,11 @@ class SetHeater(HeaterStep):
         return f"{self.heater} heater to {goal}"
 
 
+def _logging(log: BridgeLog | None) -> str:
+    """What a heater step logs meanwhile, in words."""
+    return log.describe() if log is not None else "no bridge readings"
+
+
 @dataclass(frozen=True)
 class WaitSteady(HeaterStep):
     """Control the heater until its thermocouple is steady at the setpoint, logging the bridge meanwhile."""
@@ -159,8 +164,8 @@ class WaitSteady(HeaterStep):
     log: BridgeLog | None = None
 
     def describe(self) -> str:
-        logging = self.log.describe() if self.log is not None else "no bridge readings"
-        return f"wait until {self.heater} is steady at {self.setpoint_c:g} C ({self.steady.describe()}); {logging}"
+        return (f"wait until {self.heater} is steady at {self.setpoint_c:g} C ({self.steady.describe()}); "
+                f"{_logging(self.log)}")
 
 
 @dataclass(frozen=True)
@@ -176,5 +181,4 @@ class CoolDown(HeaterStep):
     log: BridgeLog | None = None
 
     def describe(self) -> str:
-        logging = self.log.describe() if self.log is not None else "no bridge readings"
-        return f"cool down: {self.heater} heater off, wait until below {self.below_c:g} C; {logging}"
+        return f"cool down: {self.heater} heater off, wait until below {self.below_c:g} C; {_logging(self.log)}"
