@@ -119,6 +119,8 @@ class SimulatedLab:
         self.slide = Slide()
         self.supply = {n: SupplyOutput() for n in (1, 2, 3, 4)}
         self._updated_at = self.clock.now()
+        self._carriage_key: tuple[float, int, float] = (math.nan, 0, math.nan)
+        self._carriage_error = 0.0
 
     # -- time ---------------------------------------------------------------------------------
     def update(self) -> None:
@@ -226,14 +228,23 @@ class SimulatedLab:
             return math.inf
         motor = self.slide.position(self.clock.now())
         if self.field:
-            error_m = carriage_error_m(self.config.slide, motor, self.slide.last_direction,
-                                       self.slide.carriage_error_mm * 1e-3)
-            return (self.config.slide_origin_mm + motor) * 1e-3 + error_m
+            return (self.config.slide_origin_mm + motor) * 1e-3 + self._carriage_error_m(motor)
         carriage = motor + self.slide.carriage_error_mm
         backlash = self.config.effects.slide_backlash
         if backlash.enabled:
             carriage -= self.slide.last_direction * backlash.backlash_um * 1e-3 / 2
         return (self.config.slide_origin_mm + carriage) * 1e-3
+
+    def _carriage_error_m(self, motor_mm: float) -> float:
+        """The carriage's error at this motor position (field physics), remembered for the last position, direction
+        and scatter: between moves every reading asks the same (the slide mechanics settings are fixed per lab)."""
+        slide = self.slide
+        key = (motor_mm, slide.last_direction, slide.carriage_error_mm)
+        if key != self._carriage_key:
+            self._carriage_error = carriage_error_m(self.config.slide, motor_mm, slide.last_direction,
+                                                    slide.carriage_error_mm * 1e-3)
+            self._carriage_key = key
+        return self._carriage_error
 
     # -- the coil as the bridge sees it -------------------------------------------------------
     def coil_impedance(self, frequency_hz: float) -> complex:
