@@ -31,6 +31,9 @@ from ecds_lab.simulators.physics.slide_mechanics import carriage_error_m, draw_s
 #: Longest step of the thermal/moisture integration (s); inputs are constant within a step.
 _MAX_STEP_S = 5.0
 
+#: Field-physics impedances remembered (per frequency and state); the memo is emptied when it grows beyond this.
+_FIELD_MEMO_SIZE = 64
+
 #: Which supply output drives which heater (station wiring of the simulated lab).
 TARGET_HEATER_OUTPUT = 1
 BOX_HEATER_OUTPUT = 2
@@ -145,6 +148,7 @@ class SimulatedLab:
         self._drift = cfg.effects.bridge_drift
         self._carriage_key: tuple[float, int, float] = (math.nan, 0, math.nan)
         self._carriage_error = 0.0
+        self._field_memo: dict[tuple[float, ...], complex] = {}
 
     # -- time ---------------------------------------------------------------------------------
     def update(self) -> None:
@@ -288,10 +292,26 @@ class SimulatedLab:
         return z
 
     def _field_impedance(self, omega: float) -> complex:
-        """Dodd & Deeds coil over the plate, the former's strain, C and loss (docs/simulated_lab.md)."""
+        """Dodd & Deeds coil over the plate, the former's strain, C and loss (docs/simulated_lab.md).
+
+        Memoised on the state it depends on (the settings are fixed once the lab is built), so a remembered value
+        is exactly what computing it again would give; a sweep reads one state many times in a row.
+        """
+        x_m = self.distance_m()
+        former = self.former
+        key = (omega, x_m, self.t_winding_c, self.t_plate_surface_c, former.groove, former.bulk)
+        z = self._field_memo.get(key)
+        if z is None:
+            z = self._field_impedance_at(omega, x_m)
+            if len(self._field_memo) >= _FIELD_MEMO_SIZE:
+                self._field_memo.clear()
+            self._field_memo[key] = z
+        return z
+
+    def _field_impedance_at(self, omega: float, x_m: float) -> complex:
         ambient = self.thermal.ambient_c
         t_plate = self.plate.field_temperature_c(self.t_plate_surface_c, ambient)
-        branch = self.sensor.series_branch(omega, self.distance_m(), self.t_winding_c, t_plate, ambient,
+        branch = self.sensor.series_branch(omega, x_m, self.t_winding_c, t_plate, ambient,
                                            self.former.strain(self.t_winding_c))
         capacitance, conductance = self.former.parallel_elements(omega / (2 * math.pi))
         return ecm.with_parallel(branch, omega, capacitance, conductance)
