@@ -33,6 +33,8 @@ _MAX_STEP_S = 5.0
 
 #: Field-physics impedances remembered (per frequency and state); the memo is emptied when it grows beyond this.
 _FIELD_MEMO_SIZE = 64
+#: Thermal decay factors remembered (per step length); emptied when it grows beyond this.
+_DECAY_MEMO_SIZE = 64
 
 #: Which supply output drives which heater (station wiring of the simulated lab).
 TARGET_HEATER_OUTPUT = 1
@@ -149,6 +151,7 @@ class SimulatedLab:
         self._carriage_key: tuple[float, int, float] = (math.nan, 0, math.nan)
         self._carriage_error = 0.0
         self._field_memo: dict[tuple[float, ...], complex] = {}
+        self._decays: dict[float, tuple[float, float, float, float, float]] = {}
 
     # -- time ---------------------------------------------------------------------------------
     def update(self) -> None:
@@ -157,7 +160,7 @@ class SimulatedLab:
         remaining = now - self._updated_at
         if remaining <= 0:
             return
-        steps = max(1, math.ceil(remaining / _MAX_STEP_S))
+        steps = 1 if remaining <= _MAX_STEP_S else math.ceil(remaining / _MAX_STEP_S)
         dt = remaining / steps
         th = self.thermal
         ambient = th.ambient_c
@@ -165,21 +168,17 @@ class SimulatedLab:
         p_box = self.heater_power_w(BOX_HEATER_OUTPUT)
         target_goal = ambient + p_target * th.target_k_per_w
         box_goal = ambient + p_box * th.box_k_per_w
-        decay_target = math.exp(-dt / th.target_tau_s)
-        decay_box = math.exp(-dt / th.box_tau_s)
-        decay_former = math.exp(-dt / th.former_tau_s)
+        # The nodes' decays over dt are fixed per dt; a run's readings come at a few intervals, so they are remembered.
+        decays = self._decays.get(dt)
+        if decays is None:
+            decays = self._node_decays(dt)
+            if len(self._decays) >= _DECAY_MEMO_SIZE:
+                self._decays.clear()
+            self._decays[dt] = decays
+        decay_target, decay_box, decay_former, decay_winding, decay_surface = decays
         wet = None  # the ECM physics' moisture, when that effect is on
-        if self.field:
-            winding_tau_s = th.winding_tau_s
-            decay_winding = math.exp(-dt / winding_tau_s) if winding_tau_s else 0.0
-            decay_surface = math.exp(-dt / self.plate.surface_lag_s)
-        else:
-            effects = self.config.effects
-            lag = effects.thermal_lag
-            decay_winding = math.exp(-dt / lag.tau_s) if lag.enabled else 0.0
-            decay_surface = 0.0
-            if effects.parasitic_capacitance.enabled:
-                wet = effects.parasitic_capacitance
+        if not self.field and self.config.effects.parasitic_capacitance.enabled:
+            wet = self.config.effects.parasitic_capacitance
         # The nodes as locals while stepping (stored back below): the same arithmetic, less attribute traffic.
         t_target, t_surface, t_box = self.t_target_c, self.t_plate_surface_c, self.t_box_c
         t_former, t_winding = self.t_former_c, self.t_winding_c
@@ -199,6 +198,22 @@ class SimulatedLab:
         self.t_target_c, self.t_plate_surface_c, self.t_box_c = t_target, t_surface, t_box
         self.t_former_c, self.t_winding_c = t_former, t_winding
         self._updated_at = now
+
+    def _node_decays(self, dt: float) -> tuple[float, float, float, float, float]:
+        """Factors by which each node's distance to its goal shrinks over dt: target, box, former, winding, surface."""
+        th = self.thermal
+        decay_target = math.exp(-dt / th.target_tau_s)
+        decay_box = math.exp(-dt / th.box_tau_s)
+        decay_former = math.exp(-dt / th.former_tau_s)
+        if self.field:
+            winding_tau_s = th.winding_tau_s
+            decay_winding = math.exp(-dt / winding_tau_s) if winding_tau_s else 0.0
+            decay_surface = math.exp(-dt / self.plate.surface_lag_s)
+        else:
+            lag = self.config.effects.thermal_lag
+            decay_winding = math.exp(-dt / lag.tau_s) if lag.enabled else 0.0
+            decay_surface = 0.0
+        return decay_target, decay_box, decay_former, decay_winding, decay_surface
 
     # -- heater supply ------------------------------------------------------------------------
     def heater_load_ohm(self, output: int) -> float:
