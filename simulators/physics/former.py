@@ -96,17 +96,28 @@ class FormerState:
         self.loss_reference_hz = wet.loss_reference_hz
         start = wet.initial if wet.enabled else 0.0
         self.groove, self.bulk = start, start
+        self._equilibria_key = (math.nan, math.nan)
+        self._equilibria = (1.0, 1.0)
 
     def step(self, t_former_c: float, dt_s: float) -> None:
         if not self.moist:
             return
-        self.groove = self._relax(self.groove, t_former_c, dt_s, self.groove_scale_k, self.groove_drying_tau_s)
-        self.bulk = self._relax(self.bulk, t_former_c, dt_s, self.bulk_scale_k, self.bulk_drying_tau_s)
+        key = (t_former_c, self.ambient_c)
+        if key != self._equilibria_key:  # the equilibria change only with the temperature
+            self._equilibria = (self._equilibrium(t_former_c, self.groove_scale_k),
+                                self._equilibrium(t_former_c, self.bulk_scale_k))
+            self._equilibria_key = key
+        groove_equilibrium, bulk_equilibrium = self._equilibria
+        # A pool at its equilibrium stays there (relaxing would give exactly the same value).
+        if self.groove != groove_equilibrium:
+            self.groove = self._relax(self.groove, groove_equilibrium, t_former_c, dt_s, self.groove_drying_tau_s)
+        if self.bulk != bulk_equilibrium:
+            self.bulk = self._relax(self.bulk, bulk_equilibrium, t_former_c, dt_s, self.bulk_drying_tau_s)
 
-    def _relax(self, m: float, t_c: float, dt_s: float, scale_k: float, tau100_s: float) -> float:
-        equilibrium = min(1.0, math.exp(-(t_c - self.ambient_c) / scale_k))
-        if m == equilibrium:  # a pool at its equilibrium stays there (the step below would give exactly m)
-            return m
+    def _equilibrium(self, t_c: float, scale_k: float) -> float:
+        return min(1.0, math.exp(-(t_c - self.ambient_c) / scale_k))
+
+    def _relax(self, m: float, equilibrium: float, t_c: float, dt_s: float, tau100_s: float) -> float:
         if m > equilibrium:
             tau = tau100_s * 2.0 ** ((100.0 - t_c) / self.drying_doubling_k)
         else:
