@@ -96,6 +96,8 @@ def unpack_events(records: bytes | bytearray | memoryview,
 class Transcript:
     """Append-only log of one instrument's traffic, kept packed (RECORD_FORMAT); cheap enough to be always on."""
 
+    __slots__ = ("instrument", "records", "_role", "_decoded", "_decoded_bytes")
+
     def __init__(self, instrument: str) -> None:
         self.instrument = instrument
         #: Every event recorded, packed: what a run file appends (the bytes past what it wrote before).
@@ -120,8 +122,9 @@ class Transcript:
 
     def record(self, clock_s: float, kind: str, text: str) -> None:
         data = text.encode("utf-8", "replace")
-        if len(data) <= TEXT_BYTES:  # pack_event's one-record case, inline: this runs for every command and reply
-            self.records += _pack(clock_s, time.time(), self._role, 0, len(data), data, KIND_CODES[kind])
+        size = len(data)
+        if size <= TEXT_BYTES:  # pack_event's one-record case, inline: this runs for every command and reply
+            self.records += _pack(clock_s, time.time(), self._role, 0, size, data, KIND_CODES[kind])
         else:
             self.records += pack_event(self._role, clock_s, time.time(), kind, text)
 
