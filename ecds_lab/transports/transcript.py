@@ -96,7 +96,7 @@ def unpack_events(records: bytes | bytearray | memoryview,
 class Transcript:
     """Append-only log of one instrument's traffic, kept packed (RECORD_FORMAT); cheap enough to be always on."""
 
-    __slots__ = ("instrument", "records", "_role", "_decoded", "_decoded_bytes")
+    __slots__ = ("_decoded", "_decoded_bytes", "_role", "instrument", "records")
 
     def __init__(self, instrument: str) -> None:
         self.instrument = instrument
