@@ -187,10 +187,13 @@ class RunWriter:
         try:
             if self.path.exists() and not overwrite:
                 raise RunFileError(f"{self.path} exists; choose another -o or pass --overwrite")
-            self._file = h5py.File(self.path, "w", libver="latest")
             self._transcripts = dict(transcripts)
             #: per role, in the order of its code in the log: its transcript, and how many of its bytes are written
             self._sources = list(self._transcripts.values())
+            if len({id(transcript) for transcript in self._sources}) < len(self._sources):
+                raise RunFileError(f"{self.path}: one transcript is given for two roles (of "
+                                   f"{', '.join(self._transcripts)}); each role's transcript carries its own code")
+            self._file = h5py.File(self.path, "w", libver="latest")
             self._written = [0] * len(self._sources)
             self._create_layout(metadata, identities or {})
             for code, transcript in enumerate(self._sources):

@@ -228,6 +228,13 @@ def test_traffic_recorded_before_the_run_file_goes_to_its_role(tmp_path, transcr
     assert read["heater"][-1].text == "OUTP:GEN OFF"
 
 
+def test_one_transcript_for_two_roles_is_refused(tmp_path, transcripts):
+    with pytest.raises(RunFileError, match="one transcript is given for two roles"):
+        _writer(tmp_path / "shared.h5", {"bridge": transcripts["bridge"], "scanner": transcripts["bridge"]})
+    assert not (tmp_path / "shared.h5").exists()  # refused before the file was created, and its lock released:
+    _writer(tmp_path / "shared.h5", transcripts).close("completed")
+
+
 def test_resumed_events_go_to_their_role_and_an_unknown_role_is_refused(tmp_path, transcripts):
     path = tmp_path / "resumed.h5"
     writer = _writer(path, transcripts)
