@@ -166,6 +166,10 @@ class HM8118Emulator(LineEmulator):
             self.lost_lines.append(line)
             return
         self._last_line_at = now
+        handler = self._commands.get(line)
+        if handler is not None and not self.lab.faults.bridge_error_commands:
+            handler()  # the usual line: one listed command exactly as the table writes it, no refusal injected
+            return
         for command in line.split(";") if ";" in line else (line,):
             command = command.strip(" ")
             if command:
