@@ -176,8 +176,9 @@ class HM8118Emulator(LineEmulator):
                 self._handle(command)
 
     def _answer(self, text: str) -> None:
-        """Replies wait until the measurement in progress is done (one command at a time)."""
-        self.reply(text, max(0.0, self.busy_until - self.lab.clock.now()))
+        """Replies wait until the measurement in progress is done (one command at a time; reply() takes a
+        finished measurement's negative delay as none)."""
+        self.reply(text, self.busy_until - self.lab.clock.now())
 
     def _handle(self, command: str) -> None:
         if "\n" in command:  # a lone LF is no terminator: the line is garbled [M32]
