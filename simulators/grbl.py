@@ -848,8 +848,15 @@ class GrblEmulator(LineEmulator):
             self.lab.halt_slide()
 
 
+#: What a line loses outside comments: spaces, control characters and "/" (block delete) [G-PROT].
+_DROPPED = str.maketrans("", "", "".join(map(chr, range(ord(" ") + 1))) + "/")
+
+
 def _clean(line: str) -> str | None:
     """Spaces, control characters and comments dropped, upper case; None on overflow [G-PROT]."""
+    if "(" not in line and ";" not in line:  # no comment (the usual line): one translate does the loop's work
+        kept = line.translate(_DROPPED)
+        return kept.upper() if len(kept) <= _LINE_LIMIT else None
     out: list[str] = []
     comment = ""
     for char in line:
