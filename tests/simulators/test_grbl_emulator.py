@@ -157,6 +157,13 @@ def test_long_line_overflows(link):
     assert ask(link, "G1X-1F100" + "0" * 80) == ["error:11"]
 
 
+@pytest.mark.parametrize(("padding", "reply"), [(70, "ok"), (71, "error:11")])
+def test_the_limit_counts_what_is_left_after_spaces_tabs_and_slashes(link, padding, reply):
+    """protocol.c keeps at most 79 characters, counted after dropping whitespace, control characters and '/'."""
+    line = "g1\tx-1 / f100" + "0" * padding  # 9 characters kept before the padding
+    assert ask(link, line) == [reply]
+
+
 def test_settings_need_idle_and_the_dollar_dollar_report_too(link, lab):
     assert ask(link, "G1 X-30 F600") == ["ok"]
     assert ask(link, "$$") == ["error:8"]  # "Takes too long to print" during a cycle
