@@ -406,8 +406,8 @@ class GrblEmulator(LineEmulator):
         fw = self.fw
         state = self._state_name()
         busy = state not in ("Idle", "Alarm")
-        position = self._position(now)
-        mpos = ",".join(_mm(p - o) for p, o in zip(position, self.offset, strict=True))
+        (x, y, z), (x0, y0, z0) = self._position(now), self.offset
+        mpos = f"{_mm(x - x0)},{_mm(y - y0)},{_mm(z - z0)}"
         mask = int(self.settings[10])
         report = f"<{state}|{'MPos' if mask & 1 else 'WPos'}:{mpos}"
         if mask & 2:
@@ -876,5 +876,10 @@ def _clean(line: str) -> str | None:
 
 
 def _mm(value: float) -> str:
-    """Three decimals as GRBL prints positions, without a negative zero [G-REP]."""
-    return f"{round(value, 3) + 0.0:.3f}"
+    """Three decimals as GRBL prints positions, without a negative zero [G-REP].
+
+    Formatting rounds the exact value half-even to three decimals, as round(value, 3) would first
+    (at a third of round's cost); only a value that rounds to zero from below needs its sign dropped.
+    """
+    text = f"{value:.3f}"
+    return "0.000" if text == "-0.000" else text

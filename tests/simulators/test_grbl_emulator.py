@@ -186,6 +186,16 @@ def test_moves_queue_and_ok_means_planned(link, lab):
     assert status(link).startswith("<Idle|MPos:-20.000,")
 
 
+@pytest.mark.parametrize(("target", "printed"), [
+    ("-0.0004", "0.000"), ("-0.0006", "-0.001"), ("-12.3456", "-12.346"), ("-12.3444", "-12.344"),
+])
+def test_positions_print_rounded_to_three_decimals_without_a_negative_zero(link, lab, target, printed):
+    """report.c prints MPos with 3 decimals; a position just below zero prints as 0.000, not -0.000."""
+    assert ask(link, f"G1 X{target} F600") == ["ok"]
+    lab.clock.sleep(5.0)
+    assert status(link).startswith(f"<Idle|MPos:{printed},0.000,0.000|")
+
+
 def test_a_full_planner_holds_the_next_line_back(link, lab):
     for n in range(1, 16):
         assert ask(link, f"G1 X-{n} F600", 0.01) == ["ok"]
