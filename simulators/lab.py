@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ecds_lab.clock import SimulatedClock
-from ecds_lab.simulators.config import LabConfig
+from ecds_lab.simulators.config import LabConfig, Thermal
 from ecds_lab.simulators.physics import ecm
 from ecds_lab.simulators.physics.bridge_model import BridgeModel
 from ecds_lab.simulators.physics.field_sensor import FieldSensor
@@ -66,6 +66,26 @@ class Slide:
 
     def moving(self, now: float) -> bool:
         return self.move_duration_s > 0 and now < self.move_start_s + self.move_duration_s
+
+
+@dataclass(frozen=True, slots=True)
+class ThermalConstants:
+    """The thermal model's constants as plain floats, taken from ``LabConfig.thermal`` when the lab is built: every
+    reading steps the nodes with them, and a pydantic model's field costs several times a plain attribute."""
+
+    ambient_c: float
+    target_heater_ohm: float
+    target_k_per_w: float
+    target_tau_s: float
+    box_heater_ohm: float
+    box_k_per_w: float
+    box_tau_s: float
+    former_tau_s: float
+    winding_tau_s: float | None
+
+    @classmethod
+    def of(cls, thermal: Thermal) -> ThermalConstants:
+        return cls(**thermal.model_dump())
 
 
 @dataclass
@@ -119,6 +139,12 @@ class SimulatedLab:
         self.slide = Slide()
         self.supply = {n: SupplyOutput() for n in (1, 2, 3, 4)}
         self._updated_at = self.clock.now()
+        #: The thermal constants the nodes are stepped with (fixed once the lab is built).
+        self.thermal = ThermalConstants.of(cfg.thermal)
+        # Read on every reading, held directly (the same object: changes to its fields still count).
+        self._drift = cfg.effects.bridge_drift
+        self._carriage_key: tuple[float, int, float] = (math.nan, 0, math.nan)
+        self._carriage_error = 0.0
 
     # -- time ---------------------------------------------------------------------------------
     def update(self) -> None:
@@ -129,23 +155,27 @@ class SimulatedLab:
             return
         steps = max(1, math.ceil(remaining / _MAX_STEP_S))
         dt = remaining / steps
-        th = self.config.thermal
-        effects = self.config.effects
+        th = self.thermal
+        ambient = th.ambient_c
         p_target = self.heater_power_w(TARGET_HEATER_OUTPUT)
         p_box = self.heater_power_w(BOX_HEATER_OUTPUT)
-        target_goal = th.ambient_c + p_target * th.target_k_per_w
-        box_goal = th.ambient_c + p_box * th.box_k_per_w
+        target_goal = ambient + p_target * th.target_k_per_w
+        box_goal = ambient + p_box * th.box_k_per_w
         decay_target = math.exp(-dt / th.target_tau_s)
         decay_box = math.exp(-dt / th.box_tau_s)
         decay_former = math.exp(-dt / th.former_tau_s)
+        wet = None  # the ECM physics' moisture, when that effect is on
         if self.field:
-            decay_winding = math.exp(-dt / th.winding_tau_s) if th.winding_tau_s else 0.0
+            winding_tau_s = th.winding_tau_s
+            decay_winding = math.exp(-dt / winding_tau_s) if winding_tau_s else 0.0
             decay_surface = math.exp(-dt / self.plate.surface_lag_s)
         else:
+            effects = self.config.effects
             lag = effects.thermal_lag
             decay_winding = math.exp(-dt / lag.tau_s) if lag.enabled else 0.0
             decay_surface = 0.0
-        wet = effects.parasitic_capacitance
+            if effects.parasitic_capacitance.enabled:
+                wet = effects.parasitic_capacitance
         # The nodes as locals while stepping (stored back below): the same arithmetic, less attribute traffic.
         t_target, t_surface, t_box = self.t_target_c, self.t_plate_surface_c, self.t_box_c
         t_former, t_winding = self.t_former_c, self.t_winding_c
@@ -157,7 +187,7 @@ class SimulatedLab:
             t_winding = t_former + (t_winding - t_former) * decay_winding
             if self.field:
                 self.former.step(t_former, dt)
-            elif wet.enabled:
+            elif wet is not None:
                 dry = wet.drying_rate_at_100c_per_s * 2.0 ** ((t_former - 100.0) / wet.drying_doubling_k)
                 total = dry + wet.absorption_rate_per_s
                 equilibrium = wet.absorption_rate_per_s / total
@@ -168,8 +198,9 @@ class SimulatedLab:
 
     # -- heater supply ------------------------------------------------------------------------
     def heater_load_ohm(self, output: int) -> float:
-        th = self.config.thermal
-        return {TARGET_HEATER_OUTPUT: th.target_heater_ohm, BOX_HEATER_OUTPUT: th.box_heater_ohm}.get(output, math.inf)
+        if output == TARGET_HEATER_OUTPUT:
+            return self.thermal.target_heater_ohm
+        return self.thermal.box_heater_ohm if output == BOX_HEATER_OUTPUT else math.inf
 
     def supply_readback(self, output: int) -> tuple[float, float]:
         """Voltage and current at an output: constant voltage, or constant current when limited."""
@@ -226,14 +257,23 @@ class SimulatedLab:
             return math.inf
         motor = self.slide.position(self.clock.now())
         if self.field:
-            error_m = carriage_error_m(self.config.slide, motor, self.slide.last_direction,
-                                       self.slide.carriage_error_mm * 1e-3)
-            return (self.config.slide_origin_mm + motor) * 1e-3 + error_m
+            return (self.config.slide_origin_mm + motor) * 1e-3 + self._carriage_error_m(motor)
         carriage = motor + self.slide.carriage_error_mm
         backlash = self.config.effects.slide_backlash
         if backlash.enabled:
             carriage -= self.slide.last_direction * backlash.backlash_um * 1e-3 / 2
         return (self.config.slide_origin_mm + carriage) * 1e-3
+
+    def _carriage_error_m(self, motor_mm: float) -> float:
+        """The carriage's error at this motor position (field physics), remembered for the last position, direction
+        and scatter: between moves every reading asks the same (the slide mechanics settings are fixed per lab)."""
+        slide = self.slide
+        key = (motor_mm, slide.last_direction, slide.carriage_error_mm)
+        if key != self._carriage_key:
+            self._carriage_error = carriage_error_m(self.config.slide, motor_mm, slide.last_direction,
+                                                    slide.carriage_error_mm * 1e-3)
+            self._carriage_key = key
+        return self._carriage_error
 
     # -- the coil as the bridge sees it -------------------------------------------------------
     def coil_impedance(self, frequency_hz: float) -> complex:
@@ -241,7 +281,7 @@ class SimulatedLab:
         self.update()
         omega = 2 * math.pi * frequency_hz
         z = self._field_impedance(omega) if self.field else self._ecm_impedance(omega)
-        drift = self.config.effects.bridge_drift
+        drift = self._drift
         if drift.enabled:
             gain = 1 + drift.ppm_per_hour * 1e-6 * self.clock.now() / 3600.0
             z = complex(z.real, z.imag * gain)
@@ -249,7 +289,7 @@ class SimulatedLab:
 
     def _field_impedance(self, omega: float) -> complex:
         """Dodd & Deeds coil over the plate, the former's strain, C and loss (docs/simulated_lab.md)."""
-        ambient = self.config.thermal.ambient_c
+        ambient = self.thermal.ambient_c
         t_plate = self.plate.field_temperature_c(self.t_plate_surface_c, ambient)
         branch = self.sensor.series_branch(omega, self.distance_m(), self.t_winding_c, t_plate, ambient,
                                            self.former.strain(self.t_winding_c))
@@ -309,7 +349,7 @@ class SimulatedLab:
         if quantity == "target":
             return self.t_plate_surface_c if self.field else self.t_target_c
         if quantity == "ambient":
-            return self.config.thermal.ambient_c
+            return self.thermal.ambient_c
         raise KeyError(quantity)
 
     def noisy(self, value: float, sigma: float) -> float:

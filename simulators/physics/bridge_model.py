@@ -58,6 +58,11 @@ class BridgeModel:
     def __init__(self, settings: BridgeModelSettings, seed: int | None) -> None:
         self.settings = settings
         self._seed = seed
+        # Read on every reading: resolved once into plain attributes (a pydantic field costs several times as much).
+        g = settings.glitches
+        self._accurate = settings.accuracy.enabled
+        self._glitch_rate = g.rate_per_reading if g.enabled else 0.0
+        self._glitch_size = g.size_relative
         self._errors: dict[tuple[float, int], complex] = {}
         self._noise: dict[tuple[float, str, float, int], float] = {}
 
@@ -96,13 +101,13 @@ class BridgeModel:
 
     def read(self, z: complex, frequency_hz: float, speed: str, voltage_v: float, averages: int,
              rng: np.random.Generator) -> complex:
-        if self.settings.accuracy.enabled:
+        if self._accurate:
             z = z * self._systematic(frequency_hz, z)
         sigma = self.noise_relative(frequency_hz, speed, voltage_v, averages)
         if sigma > 0:
             real, imag = rng.standard_normal(2).tolist()
             z = z + abs(z) * sigma * complex(real, imag)
-        g = self.settings.glitches
-        if g.enabled and g.rate_per_reading > 0 and rng.random() < g.rate_per_reading:
-            z = z * (1.0 + g.size_relative * float(rng.choice((-1.0, 1.0))) * (0.5 + rng.random()))
+        rate = self._glitch_rate
+        if rate > 0 and rng.random() < rate:
+            z = z * (1.0 + self._glitch_size * float(rng.choice((-1.0, 1.0))) * (0.5 + rng.random()))
         return z

@@ -75,47 +75,54 @@ class FormerSettings(Strict):
 
 
 class FormerState:
-    """Moisture of the groove and bulk pools, integrated exactly over constant-temperature steps."""
+    """Moisture of the groove and bulk pools, integrated exactly over constant-temperature steps.
+
+    The settings are resolved into plain attributes once, as ``Plate`` does: every reading reads about twenty
+    of them, and a pydantic model's field costs several times a plain attribute.
+    """
 
     def __init__(self, settings: FormerSettings, material: str, ambient_c: float) -> None:
         self.settings, self.material, self.ambient_c = settings, material, ambient_c
-        wet = settings.moisture
+        e, wet = settings.expansion, settings.moisture
+        self.expansion_per_k = (e.per_k if e.per_k is not None else EXPANSION_PER_K[material]) if e.enabled else 0.0
+        self.moist = wet.enabled
+        self.groove_scale_k, self.groove_drying_tau_s = wet.groove_scale_k, wet.groove_drying_tau_at_100c_s
+        self.bulk_scale_k, self.bulk_drying_tau_s = wet.bulk_scale_k, wet.bulk_drying_tau_at_100c_s
+        self.drying_doubling_k, self.reabsorption_tau_s = wet.drying_doubling_k, wet.reabsorption_tau_s
+        self.swelling_strain = wet.swelling_strain
+        self.dry_capacitance_f, self.moist_extra_capacitance_f = wet.dry_capacitance_f, wet.moist_extra_capacitance_f
+        self.dry_conductance_s = 1.0 / wet.dry_parallel_resistance_ohm
+        self.groove_conductance_s, self.bulk_conductance_s = wet.groove_conductance_s, wet.bulk_conductance_s
+        self.loss_reference_hz = wet.loss_reference_hz
         start = wet.initial if wet.enabled else 0.0
         self.groove, self.bulk = start, start
 
-    def expansion_per_k(self) -> float:
-        e = self.settings.expansion
-        if not e.enabled:
-            return 0.0
-        return e.per_k if e.per_k is not None else EXPANSION_PER_K[self.material]
-
     def step(self, t_former_c: float, dt_s: float) -> None:
-        wet = self.settings.moisture
-        if not wet.enabled:
+        if not self.moist:
             return
-        self.groove = self._relax(wet, self.groove, t_former_c, dt_s, wet.groove_scale_k,
-                                  wet.groove_drying_tau_at_100c_s)
-        self.bulk = self._relax(wet, self.bulk, t_former_c, dt_s, wet.bulk_scale_k, wet.bulk_drying_tau_at_100c_s)
+        self.groove = self._relax(self.groove, t_former_c, dt_s, self.groove_scale_k, self.groove_drying_tau_s)
+        self.bulk = self._relax(self.bulk, t_former_c, dt_s, self.bulk_scale_k, self.bulk_drying_tau_s)
 
-    def _relax(self, wet: Moisture, m: float, t_c: float, dt_s: float, scale_k: float, tau100_s: float) -> float:
+    def _relax(self, m: float, t_c: float, dt_s: float, scale_k: float, tau100_s: float) -> float:
         equilibrium = min(1.0, math.exp(-(t_c - self.ambient_c) / scale_k))
+        if m == equilibrium:  # a pool at its equilibrium stays there (the step below would give exactly m)
+            return m
         if m > equilibrium:
-            tau = tau100_s * 2.0 ** ((100.0 - t_c) / wet.drying_doubling_k)
+            tau = tau100_s * 2.0 ** ((100.0 - t_c) / self.drying_doubling_k)
         else:
-            tau = wet.reabsorption_tau_s
+            tau = self.reabsorption_tau_s
         return equilibrium + (m - equilibrium) * math.exp(-dt_s / tau)
 
     def strain(self, t_winding_c: float) -> float:
         """Linear strain of the former at the winding relative to a dry former at 20 C."""
-        swelling = self.settings.moisture.swelling_strain * self.groove if self.settings.moisture.enabled else 0.0
-        return self.expansion_per_k() * (t_winding_c - 20.0) + swelling
+        swelling = self.swelling_strain * self.groove if self.moist else 0.0
+        return self.expansion_per_k * (t_winding_c - 20.0) + swelling
 
     def parallel_elements(self, frequency_hz: float) -> tuple[float, float]:
         """(C_p in F, G_p in S) of the former across the winding now, at the bridge's frequency."""
-        wet = self.settings.moisture
-        c = wet.dry_capacitance_f
-        g = 1.0 / wet.dry_parallel_resistance_ohm
-        if wet.enabled:
-            c += wet.moist_extra_capacitance_f * self.groove
-            g += wet.groove_conductance_s * self.groove + wet.bulk_conductance_s * self.bulk
-        return c, g * frequency_hz / wet.loss_reference_hz
+        c = self.dry_capacitance_f
+        g = self.dry_conductance_s
+        if self.moist:
+            c += self.moist_extra_capacitance_f * self.groove
+            g += self.groove_conductance_s * self.groove + self.bulk_conductance_s * self.bulk
+        return c, g * frequency_hz / self.loss_reference_hz

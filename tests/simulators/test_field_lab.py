@@ -13,7 +13,7 @@ from ecds_lab.analysis.paper_comparison import sensitivity_rows
 from ecds_lab.analysis.spectroscopy import fit_parallel_rlc
 from ecds_lab.simulators.campaign import move_to, paper_campaign, spectroscopy
 from ecds_lab.simulators.config import LabConfig
-from ecds_lab.simulators.lab import SimulatedLab
+from ecds_lab.simulators.lab import BOX_HEATER_OUTPUT, SimulatedLab
 
 EXPERIMENTS = Path(__file__).resolve().parents[2] / "experiments"
 QUIET = {"noise": {"enabled": False}, "accuracy": {"enabled": False}, "glitches": {"enabled": False}}
@@ -97,14 +97,17 @@ def test_moist_and_dry_former_as_in_table_2():
 
 def test_heating_dries_the_former_and_room_temperature_wets_it_slowly():
     lab = field_lab(target_present=False)
+    th = lab.thermal
     lab.t_box_c = lab.t_former_c = lab.t_winding_c = 120.0
-    lab.config.thermal.ambient_c = 120.0  # hold the box hot: the heater's steady state
+    # The box heater's steady state holds the box at 120 C: (V^2 / R) k = 120 C - ambient.
+    volts = math.sqrt((120.0 - th.ambient_c) / th.box_k_per_w * th.box_heater_ohm)
+    lab.set_supply(BOX_HEATER_OUTPUT, voltage_v=volts, current_limit_a=10.0, on=True)
     lab.clock.advance(3600.0)
     lab.update()
+    assert lab.t_former_c == pytest.approx(120.0)
     assert lab.former.groove < 0.01 and lab.former.bulk < 0.1
-    lab.config.thermal.ambient_c = 22.0
-    lab.t_box_c = lab.t_former_c = lab.t_winding_c = 22.0
-    lab.former.ambient_c = 22.0
+    lab.set_supply(BOX_HEATER_OUTPUT, on=False)
+    lab.t_box_c = lab.t_former_c = lab.t_winding_c = th.ambient_c
     dried = lab.former.bulk
     lab.clock.advance(24 * 3600.0)
     lab.update()
