@@ -28,7 +28,8 @@ DRAIN_S = 0.5
 
 @dataclass(frozen=True)
 class Field:
-    """One comma-separated field: its name, syntax (a regular expression) and plausible range."""
+    """One comma-separated field: its name, syntax (a regular expression without capturing groups)
+    and plausible range."""
 
     name: str
     syntax: str = NUMBER
@@ -39,6 +40,8 @@ class Field:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "pattern", re.compile(self.syntax))
+        if self.pattern.groups:  # ReplyFormat reads the fields as its whole-reply pattern's groups
+            raise ValueError(f"{self.name}: write the syntax's groups as (?:...), not capturing groups")
 
     def parse(self, text: str) -> float:
         text = text.strip()
@@ -59,12 +62,28 @@ class ReplyFormat:
     count: int | None = None
     #: Whether asking again is harmless (returns the same data, or a fresh reading of the same kind).
     requery: bool = True
+    #: The whole reply as one pattern (each field a group, no spaces), per field count; compiled on first use.
+    whole: dict[int | None, re.Pattern[str]] = field(default_factory=dict, init=False, repr=False, compare=False)
 
     def parse(self, reply: str, count: int | None = None) -> list[float]:
         """The reply's values; ValueError saying what is wrong with it."""
-        parts = reply.split(",")
         expected = count if count is not None else self.count
         fields = self.fields if expected is None else (self.fields[0],) * expected
+        # Fast path for the usual reply: every field well formed, no spaces, no extra comma (so the groups are
+        # exactly the comma-separated parts); only the ranges are left to check. Anything else goes the field
+        # by field way below, which accepts the same replies and says what is wrong with the others.
+        whole = self.whole.get(expected)
+        if whole is None:
+            whole = self.whole[expected] = re.compile(",".join(f"({f.syntax})" for f in fields))
+        match = whole.fullmatch(reply)
+        if match is not None and reply.count(",") == len(fields) - 1:
+            values = list(map(float, match.groups()))
+            for f, value in zip(fields, values, strict=True):
+                if not f.low <= value <= f.high:
+                    break  # out of its range: the way below says which
+            else:
+                return values
+        parts = reply.split(",")
         if len(parts) != len(fields):
             raise ValueError(f"{len(parts)} field(s), expected {len(fields)} "
                              f"({', '.join(f.name for f in fields)}): cut short or run together?")

@@ -78,9 +78,11 @@ class LineEmulator(ABC):
 
     def take_ready(self) -> bytes:
         """All reply bytes whose time has come."""
-        now = self.lab.clock.now()
         scheduled = self._scheduled
-        if not scheduled or scheduled[0][0] > now:
+        if not scheduled:  # nothing queued: no need to ask the clock
+            return b""
+        now = self.lab.clock.now()
+        if scheduled[0][0] > now:
             return b""
         first = heapq.heappop(scheduled)[2]
         if not scheduled or scheduled[0][0] > now:  # the usual case: one reply line

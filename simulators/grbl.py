@@ -86,7 +86,11 @@ _VALUE_WORDS = "FNPST"
 
 @dataclass
 class _Segment:
-    """One trapezoidal move along a straight line: from rest (or ``v0``, a hold) to rest."""
+    """One trapezoidal move along a straight line: from rest (or ``v0``, a hold) to rest.
+
+    A segment is never changed once made, so its phases are worked out once, when it is made
+    (the status report and the event loop ask for them on every touch).
+    """
 
     start: tuple[float, float, float]
     unit: tuple[float, float, float]
@@ -95,6 +99,17 @@ class _Segment:
     vmax: float
     accel: float
     t0: float
+    #: Peak speed and the durations of acceleration, cruise and deceleration (``phases``).
+    v_peak: float = field(init=False)
+    up: float = field(init=False)
+    cruise: float = field(init=False)
+    down: float = field(init=False)
+    #: When the move ends (rest at the end point).
+    end: float = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.v_peak, self.up, self.cruise, self.down = self.phases()
+        self.end = self.t0 + self.up + self.cruise + self.down
 
     def phases(self) -> tuple[float, float, float, float]:
         """Peak speed and the durations of acceleration, cruise and deceleration."""
@@ -107,13 +122,9 @@ class _Segment:
         cruise = max(0.0, length - d_up - d_down) / v_peak if v_peak > 0 else 0.0
         return v_peak, (v_peak - v0) / a, cruise, v_peak / a
 
-    def end_time(self) -> float:
-        _, up, cruise, down = self.phases()
-        return self.t0 + up + cruise + down
-
     def at(self, t: float) -> tuple[float, float]:
         """Distance travelled and speed (mm, mm/s) at time ``t``."""
-        v_peak, up, cruise, down = self.phases()
+        v_peak, up, cruise, down = self.v_peak, self.up, self.cruise, self.down
         a, tau = self.accel, min(max(t - self.t0, 0.0), up + cruise + down)
         if tau <= up:
             return self.v0 * tau + a * tau ** 2 / 2, self.v0 + a * tau
@@ -236,8 +247,10 @@ class GrblEmulator(LineEmulator):
     def _step(self, limit: float) -> bool:
         """Run the next firmware event due by ``limit``; False when there is none."""
         fw = self.fw
+        if fw.seg is None and fw.homing is None and fw.busy_until is None:
+            return False  # nothing in progress (the usual case between moves)
         times = [
-            fw.seg.end_time() if fw.seg is not None else math.inf,
+            fw.seg.end if fw.seg is not None else math.inf,
             fw.homing.end if fw.homing is not None else math.inf,
             fw.busy_until if fw.busy_until is not None else math.inf,
         ]
@@ -358,8 +371,8 @@ class GrblEmulator(LineEmulator):
         stop = speed ** 2 / (2 * fw.seg.accel)
         fw.seg = _Segment(here, fw.seg.unit, stop, speed, speed, fw.seg.accel, now)
         fw.pos = here
-        end = fw.seg.point(fw.seg.end_time())
-        self._drive_slide(now, end[0], fw.seg.end_time() - now)
+        end = fw.seg.point(fw.seg.end)
+        self._drive_slide(now, end[0], fw.seg.end - now)
 
     def _cycle_start(self, now: float) -> None:
         """``~`` resumes only a complete hold (Hold:0); during Hold:1 it is ignored [G-PROT]."""
@@ -393,8 +406,8 @@ class GrblEmulator(LineEmulator):
         fw = self.fw
         state = self._state_name()
         busy = state not in ("Idle", "Alarm")
-        position = self._position(now)
-        mpos = ",".join(_mm(p - o) for p, o in zip(position, self.offset, strict=True))
+        (x, y, z), (x0, y0, z0) = self._position(now), self.offset
+        mpos = f"{_mm(x - x0)},{_mm(y - y0)},{_mm(z - z0)}"
         mask = int(self.settings[10])
         report = f"<{state}|{'MPos' if mask & 1 else 'WPos'}:{mpos}"
         if mask & 2:
@@ -788,7 +801,7 @@ class GrblEmulator(LineEmulator):
             unit = (delta[0] / length, delta[1] / length, delta[2] / length)
             accel = min(self.settings[120 + i] / abs(u) for i, u in enumerate(unit) if u)
             fw.seg = _Segment(fw.pos, unit, length, 0.0, block.rate / 60.0, accel, t)
-            self._drive_slide(t, block.target[0], fw.seg.end_time() - t)
+            self._drive_slide(t, block.target[0], fw.seg.end - t)
             return
         fw.seg = None
         fw.state = "Idle"
@@ -796,7 +809,7 @@ class GrblEmulator(LineEmulator):
     def _segment_done(self, t: float) -> None:
         fw = self.fw
         assert fw.seg is not None
-        fw.pos = fw.seg.point(fw.seg.end_time())
+        fw.pos = fw.seg.point(fw.seg.end)
         fw.seg = None
         if fw.state == "Hold":
             fw.hold_complete = True
@@ -835,8 +848,15 @@ class GrblEmulator(LineEmulator):
             self.lab.halt_slide()
 
 
+#: What a line loses outside comments: spaces, control characters and "/" (block delete) [G-PROT].
+_DROPPED = str.maketrans("", "", "".join(map(chr, range(ord(" ") + 1))) + "/")
+
+
 def _clean(line: str) -> str | None:
     """Spaces, control characters and comments dropped, upper case; None on overflow [G-PROT]."""
+    if "(" not in line and ";" not in line:  # no comment (the usual line): one translate does the loop's work
+        kept = line.translate(_DROPPED)
+        return kept.upper() if len(kept) <= _LINE_LIMIT else None
     out: list[str] = []
     comment = ""
     for char in line:
@@ -856,5 +876,10 @@ def _clean(line: str) -> str | None:
 
 
 def _mm(value: float) -> str:
-    """Three decimals as GRBL prints positions, without a negative zero [G-REP]."""
-    return f"{round(value, 3) + 0.0:.3f}"
+    """Three decimals as GRBL prints positions, without a negative zero [G-REP].
+
+    Formatting rounds the exact value half-even to three decimals, as round(value, 3) would first
+    (at a third of round's cost); only a value that rounds to zero from below needs its sign dropped.
+    """
+    text = f"{value:.3f}"
+    return "0.000" if text == "-0.000" else text

@@ -166,14 +166,19 @@ class HM8118Emulator(LineEmulator):
             self.lost_lines.append(line)
             return
         self._last_line_at = now
+        handler = self._commands.get(line)
+        if handler is not None and not self.lab.faults.bridge_error_commands:
+            handler()  # the usual line: one listed command exactly as the table writes it, no refusal injected
+            return
         for command in line.split(";") if ";" in line else (line,):
             command = command.strip(" ")
             if command:
                 self._handle(command)
 
     def _answer(self, text: str) -> None:
-        """Replies wait until the measurement in progress is done (one command at a time)."""
-        self.reply(text, max(0.0, self.busy_until - self.lab.clock.now()))
+        """Replies wait until the measurement in progress is done (one command at a time; reply() takes a
+        finished measurement's negative delay as none)."""
+        self.reply(text, self.busy_until - self.lab.clock.now())
 
     def _handle(self, command: str) -> None:
         if "\n" in command:  # a lone LF is no terminator: the line is garbled [M32]
@@ -226,14 +231,16 @@ class HM8118Emulator(LineEmulator):
         averaging = self._code("AVGM")
         return 1 if averaging == 0 else self._code("NAVG") if averaging == 1 else MEDIAN_READINGS
 
-    def _duration(self) -> float:
-        return MEASUREMENT_TIME_S[self._code("RATE")] * self._readings() + self._code("$STL") / 1000
+    def _duration(self, readings: int) -> float:
+        """Measuring time of a value made of ``readings`` readings, plus the trigger delay ($STL)."""
+        return MEASUREMENT_TIME_S[self._code("RATE")] * readings + self._code("$STL") / 1000
 
     def _trigger(self) -> None:
         """*TRG starts a measurement; the lab is sampled now, the result is ready after the measuring time."""
         start = max(self.lab.clock.now(), self.busy_until)
-        self.last_values = self._measure()
-        self.busy_until = start + self._duration()
+        readings = self._readings()  # found once: the measurement and its duration both depend on it
+        self.last_values = self._measure(readings)
+        self.busy_until = start + self._duration(readings)
 
     def _fresh_values(self) -> tuple[float, float] | None:
         if self.settings["MMOD"] == 0:  # continuous: always a current reading
@@ -283,8 +290,8 @@ class HM8118Emulator(LineEmulator):
                 return code
         raise ValueError(f"|Z| = {impedance_ohm!r} Ohm is in no range")  # NaN: the last limit is infinite
 
-    def _measure(self) -> tuple[float, float] | None:
-        """Main and secondary value of the active function from the lab's coil impedance."""
+    def _measure(self, readings: int) -> tuple[float, float] | None:
+        """Main and secondary value of the active function from the lab's coil impedance (``readings`` averaged)."""
         settings = self.settings
         function = self._code("PMOD")
         if function in (0, 10, 11):  # AUTO display and transformer modes: nothing to read
@@ -297,7 +304,7 @@ class HM8118Emulator(LineEmulator):
                              key=abs)
             z = samples[MEDIAN_READINGS // 2]
         else:
-            z = self.lab.measured_impedance(frequency, speed, level, self._readings())
+            z = self.lab.measured_impedance(frequency, speed, level, readings)
         magnitude = abs(z)
         if not settings["RNGH"]:
             settings["RNGE"] = self.auto_range(magnitude)

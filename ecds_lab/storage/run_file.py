@@ -45,8 +45,8 @@ from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.errors import RunFileError
 from ecds_lab.storage.lock import WriterLock
 from ecds_lab.storage.nexus import NexusLayout, finish, sweep_shape
-from ecds_lab.storage.transcript_log import create_log, encode
-from ecds_lab.transports.transcript import KINDS, Transcript
+from ecds_lab.storage.transcript_log import create_log
+from ecds_lab.transports.transcript import KINDS, Transcript, pack_event
 
 #: The points table is flushed every row, and each row rewrites its whole chunk: small chunks
 #: (32 rows, 5 KB) keep that cheap. Columns written once at close use large chunks.
@@ -75,8 +75,9 @@ class _Appender:
 
     The last chunk is kept in memory and written whole with H5Dwrite_chunk: per point this costs
     a memory copy, not h5py's selection machinery. The points table and the transcript log use it.
-    ``values`` may also be ``bytes``: whole rows packed in the dataset's own layout (the transcript log's
-    records, packed by :func:`~ecds_lab.storage.transcript_log.encode`), copied into the tail as they are.
+    ``values`` may also be ``bytes`` or a ``bytearray``: whole rows packed in the dataset's own layout (the
+    transcript log's records, as :class:`~ecds_lab.transports.transcript.Transcript` packs them), copied into
+    the tail as they are.
     With ``ahead`` the extent grows a whole chunk at a time, not per call (about a quarter of an append's
     cost): rows past ``length`` then hold the dataset's fill value until written, which must mark
     them as not written for a reader of a killed file, and :meth:`trim` sets the exact length.
@@ -100,10 +101,10 @@ class _Appender:
         self._tail_bytes = self.tail.reshape(-1).view(np.uint8).data  # the same memory, as bytes
         self._row_bytes = self.tail[0].nbytes
 
-    def append(self, values: Sequence[Any] | np.ndarray | bytes) -> None:
+    def append(self, values: Sequence[Any] | np.ndarray | bytes | bytearray) -> None:
         """Grow, write the chunks the values fall in, and flush; ``values`` is an array, a list of rows
         or packed rows (bytes)."""
-        packed = values if isinstance(values, bytes) else None
+        packed = values if isinstance(values, (bytes, bytearray)) else None
         size = self._row_bytes
         count = len(values) // size if packed is not None else len(values)
         if not count:
@@ -186,12 +187,17 @@ class RunWriter:
         try:
             if self.path.exists() and not overwrite:
                 raise RunFileError(f"{self.path} exists; choose another -o or pass --overwrite")
-            self._file = h5py.File(self.path, "w", libver="latest")
             self._transcripts = dict(transcripts)
-            #: per role: its code in the log, its transcript's event list, and how many of them are written
-            self._sources = [(code, transcript.events) for code, transcript in enumerate(self._transcripts.values())]
+            #: per role, in the order of its code in the log: its transcript, and how many of its bytes are written
+            self._sources = list(self._transcripts.values())
+            if len({id(transcript) for transcript in self._sources}) < len(self._sources):
+                raise RunFileError(f"{self.path}: one transcript is given for two roles (of "
+                                   f"{', '.join(self._transcripts)}); each role's transcript carries its own code")
+            self._file = h5py.File(self.path, "w", libver="latest")
             self._written = [0] * len(self._sources)
             self._create_layout(metadata, identities or {})
+            for code, transcript in enumerate(self._sources):
+                transcript.role = code  # its records so far and from now on carry the code this file gives it
             self._file.swmr_mode = True
         except BaseException as exc:
             self._abandon()
@@ -299,29 +305,31 @@ class RunWriter:
         if role not in self._transcripts:
             raise RunFileError(f"{self.path}: no transcript for {role!r}; this run records "
                                f"{', '.join(self._transcripts) or 'none'}")
-        records: list[bytes] = []
-        encode(list(self._transcripts).index(role), events, records)
-        self._append_log(records)
+        code = list(self._transcripts).index(role)
+        self._append_log(b"".join(pack_event(code, clock_s, wall_s, kind, text)
+                                  for clock_s, wall_s, kind, text in events))
 
     def write_transcripts(self) -> None:
-        """Write (and flush) the transcript events of every role recorded since the last call: one append."""
-        records: list[bytes] = []
+        """Write (and flush) the transcript events of every role recorded since the last call: one append of
+        the records each transcript packed as it recorded them."""
+        added: list[bytearray] = []
         written = self._written
-        for index, (code, events) in enumerate(self._sources):
+        for index, transcript in enumerate(self._sources):
             start = written[index]
-            if len(events) > start:
-                encode(code, events[start:], records)
-                written[index] = len(events)
-        self._append_log(records)
+            if len(transcript.records) > start:
+                records = transcript.records[start:]
+                written[index] = start + len(records)
+                added.append(records)
+        self._append_log(added[0] if len(added) == 1 else b"".join(added))
 
-    def _append_log(self, records: list[bytes]) -> None:
+    def _append_log(self, records: bytes | bytearray) -> None:
         """One append of log records to disk, flushed (or RunFileError, the file kept as last flushed)."""
         if self.broken:
             raise RunFileError(f"{self.path}: no longer writable after a failed write")
         if not records:
             return
         try:
-            self._log.append(b"".join(records))
+            self._log.append(records)
         except (OSError, RuntimeError) as exc:
             raise self._write_failed(exc) from exc
 

@@ -11,6 +11,7 @@ from ecds_lab.drivers.hm8118 import HM8118, XALL_REPLY
 from ecds_lab.drivers.hm8118 import SERIAL_SETTINGS as BRIDGE_SETTINGS
 from ecds_lab.drivers.hmp import HMP4040
 from ecds_lab.drivers.hmp import SERIAL_SETTINGS as HMP_SETTINGS
+from ecds_lab.drivers.replies import NR3, Field, ReplyFormat
 from ecds_lab.errors import InstrumentError, ReplyFormatError
 from ecds_lab.instruments import BridgeSettings
 
@@ -46,6 +47,27 @@ def test_a_bad_xall_reply_is_refused_with_the_reason(reply):
 
 def test_a_good_xall_reply_is_read():
     assert XALL_REPLY.parse("1.23456E-04,-5.83000E+01,0") == [1.23456e-4, -58.3, 0]
+
+
+def test_spaces_around_the_fields_are_read_as_without():
+    assert XALL_REPLY.parse(" 1.23456E-04, -5.83000E+01 ,0 ") == [1.23456e-4, -58.3, 0]
+
+
+def test_a_well_formed_value_out_of_its_range_is_named():
+    with pytest.raises(ValueError, match=r"bin 100 is outside the plausible 0\.\.99"):
+        XALL_REPLY.parse("1.23456E-04,-5.83000E+01,100")
+
+
+def test_a_counted_reply_takes_exactly_that_many_fields():
+    scan = ReplyFormat((Field("reading", NR3),), count=1)
+    assert scan.parse("+2.1E+01,+2.2E+01", count=2) == [21.0, 22.0]
+    with pytest.raises(ValueError, match="2 field"):
+        scan.parse("+2.1E+01,+2.2E+01", count=3)
+
+
+def test_a_field_syntax_with_a_capturing_group_is_refused():
+    with pytest.raises(ValueError, match=r"\(\?:\.\.\.\)"):
+        Field("main", r"(\d+)")
 
 
 def test_a_reply_cut_short_once_is_re_queried(sim, bridge):

@@ -157,6 +157,13 @@ def test_long_line_overflows(link):
     assert ask(link, "G1X-1F100" + "0" * 80) == ["error:11"]
 
 
+@pytest.mark.parametrize(("padding", "reply"), [(70, "ok"), (71, "error:11")])
+def test_the_limit_counts_what_is_left_after_spaces_tabs_and_slashes(link, padding, reply):
+    """protocol.c keeps at most 79 characters, counted after dropping whitespace, control characters and '/'."""
+    line = "g1\tx-1 / f100" + "0" * padding  # 9 characters kept before the padding
+    assert ask(link, line) == [reply]
+
+
 def test_settings_need_idle_and_the_dollar_dollar_report_too(link, lab):
     assert ask(link, "G1 X-30 F600") == ["ok"]
     assert ask(link, "$$") == ["error:8"]  # "Takes too long to print" during a cycle
@@ -177,6 +184,16 @@ def test_moves_queue_and_ok_means_planned(link, lab):
     assert report.startswith("<Run|") and -10.0 < mpos_x(report) < -8.0  # still on the first block
     lab.clock.sleep(3.0)
     assert status(link).startswith("<Idle|MPos:-20.000,")
+
+
+@pytest.mark.parametrize(("target", "printed"), [
+    ("-0.0004", "0.000"), ("-0.0006", "-0.001"), ("-12.3456", "-12.346"), ("-12.3444", "-12.344"),
+])
+def test_positions_print_rounded_to_three_decimals_without_a_negative_zero(link, lab, target, printed):
+    """report.c prints MPos with 3 decimals; a position just below zero prints as 0.000, not -0.000."""
+    assert ask(link, f"G1 X{target} F600") == ["ok"]
+    lab.clock.sleep(5.0)
+    assert status(link).startswith(f"<Idle|MPos:{printed},0.000,0.000|")
 
 
 def test_a_full_planner_holds_the_next_line_back(link, lab):

@@ -142,3 +142,15 @@ def test_trigger_and_opc_in_one_line_answer_when_the_reading_is_done(sim, bridge
     assert sim.clock.now() - start == pytest.approx(0.6, abs=0.01)
     real, imaginary, bin_number = bridge.ask(b"XALL?\r").rstrip(b"\r").split(b",")
     assert float(real) > 0 and float(imaginary) > 0 and bin_number == b"0"
+
+
+def test_a_listed_command_in_any_case_gets_the_same_answer(bridge):
+    assert bridge.ask(b"*idn?\r") == bridge.ask(b"*IDN?\r") == b"HAMEG Instruments, HM8118,013206727,1.57\r"
+
+
+def test_an_injected_refusal_reaches_a_listed_command_too(sim, bridge):
+    bridge.send(b"PMOD 8\r")  # R-X: a function with something to read
+    sim.lab.faults.bridge_error_commands.add("XALL")
+    assert bridge.ask(b"XALL?\r") == b"ERROR\r"
+    sim.lab.faults.bridge_error_commands.clear()
+    assert bridge.ask(b"XALL?\r") != b"ERROR\r"

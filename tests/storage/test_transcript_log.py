@@ -17,8 +17,8 @@ from ecds_lab.data.columns import COLUMN_NAMES
 from ecds_lab.errors import RunFileError
 from ecds_lab.storage.reader import read_run
 from ecds_lab.storage.run_file import RunWriter, metadata_for
-from ecds_lab.storage.transcript_log import CHUNK_RECORDS, RECORD, TEXT_BYTES, UNWRITTEN, encode
-from ecds_lab.transports.transcript import ERROR, KINDS, RECEIVED, SENT, Transcript, TranscriptEvent
+from ecds_lab.storage.transcript_log import CHUNK_RECORDS, RECORD, TEXT_BYTES, UNWRITTEN
+from ecds_lab.transports.transcript import ERROR, KINDS, RECEIVED, SENT, Transcript, TranscriptEvent, pack_event
 
 ROLES = ("bridge", "slide", "scanner", "heater")
 #: Texts at and around the record size, empty, multi-byte UTF-8 across a record boundary, control bytes
@@ -107,9 +107,9 @@ def test_a_record_whose_continuation_is_cut_off_is_dropped(tmp_path, transcripts
     writer = _writer(path, transcripts)
     transcripts["bridge"].record(1.0, SENT, "XALL?")
     writer.append(_row(0))
-    records: list[bytes] = []
-    encode(1, [(2.0, 3.0, RECEIVED, "<" + "s" * 3 * TEXT_BYTES + ">")], records)
-    writer._log.append(b"".join(records[:-1]))  # the event's last record never reached the file
+    records = pack_event(1, 2.0, 3.0, RECEIVED, "<" + "s" * 3 * TEXT_BYTES + ">")
+    assert len(records) == 4 * RECORD.itemsize
+    writer._log.append(records[:-RECORD.itemsize])  # the event's last record never reached the file
     run = read_run(path)
     assert [e.text for e in run.transcripts["bridge"]] == ["XALL?"] and run.transcripts["slide"] == []
 
@@ -210,6 +210,29 @@ def test_a_chunk_write_cut_short_at_any_byte_reads_back_complete_events(tmp_path
         assert read["bridge"] == transcripts["bridge"].events, cut
         assert read["scanner"] == (transcripts["scanner"].events if cut == new.stop - 1 else []), cut
     writer.close("completed")
+
+
+def test_traffic_recorded_before_the_run_file_goes_to_its_role(tmp_path, transcripts):
+    """The station's identification comes before the run file that gives each role its code in the log."""
+    for role in ROLES:
+        transcripts[role].record(0.0, SENT, "*IDN?")
+        transcripts[role].record(0.0, RECEIVED, f"{role} " + "i" * TEXT_BYTES)
+    path = tmp_path / "identified.h5"
+    writer = _writer(path, transcripts)
+    transcripts["heater"].record(1.0, SENT, "OUTP:GEN OFF")
+    writer.append(_row(0))
+    writer.close("completed")
+    read = read_run(path).transcripts
+    assert read == {role: transcripts[role].events for role in ROLES}
+    assert [e.text[:7] for e in read["scanner"]] == ["*IDN?", "scanner"]
+    assert read["heater"][-1].text == "OUTP:GEN OFF"
+
+
+def test_one_transcript_for_two_roles_is_refused(tmp_path, transcripts):
+    with pytest.raises(RunFileError, match="one transcript is given for two roles"):
+        _writer(tmp_path / "shared.h5", {"bridge": transcripts["bridge"], "scanner": transcripts["bridge"]})
+    assert not (tmp_path / "shared.h5").exists()  # refused before the file was created, and its lock released:
+    _writer(tmp_path / "shared.h5", transcripts).close("completed")
 
 
 def test_resumed_events_go_to_their_role_and_an_unknown_role_is_refused(tmp_path, transcripts):
