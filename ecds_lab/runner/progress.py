@@ -168,7 +168,9 @@ class Progress:
     """A bar of rows written against rows expected, with the plan-based ETA; silent when not ``enabled``.
 
     The runner calls :meth:`step_started`; a background thread refreshes the bar twice a second
-    from the run file's row count and the station's clock (waits write rows rarely).
+    from the run file's row count and the station's clock (waits write rows rarely). Without a bar
+    (not enabled, or not a terminal) nothing reads the estimate, so the per-step calls do nothing:
+    a sweep makes them for every reading.
     """
 
     def __init__(self, plan: Plan, clock: Clock, rows: Callable[[], int], *, enabled: bool,
@@ -185,13 +187,17 @@ class Progress:
                           disable=None, dynamic_ncols=True, file=stream, mininterval=0.2,
                           bar_format="{l_bar}{bar}| {n_fmt}/{total_fmt} rows [{elapsed}{postfix}]")
                      if enabled else None)
+        #: A bar is drawn (enabled, on a terminal): only then is there an estimate to keep.
+        self.shown = self._bar is not None and not self._bar.disable
         self._thread: threading.Thread | None = None
-        if self._bar is not None and not self._bar.disable:
+        if self.shown:
             self._thread = threading.Thread(target=self._refresh_loop, name="progress", daemon=True)
             self._thread.start()
 
     def step_started(self, index: int) -> None:
         """Step ``index`` begins: the previous one is finished and calibrates the estimate."""
+        if not self.shown:
+            return
         now = self._clock.now()
         with self._lock:
             if index > self._index:
@@ -200,15 +206,18 @@ class Progress:
         self._refresh()
 
     def point_measured(self) -> None:
-        self._refresh()
+        if self.shown:
+            self._refresh()
 
     def note(self, text: str) -> None:
         """A short status beside the bar, e.g. a heater's temperature while the run waits on it."""
         self._note = text
-        self._refresh()
+        if self.shown:
+            self._refresh()
 
     def eta_s(self) -> float:
-        """Wall seconds left: the plan's remaining time at the pace this run keeps (lab time per wall second)."""
+        """Wall seconds left: the plan's remaining time at the pace this run keeps (lab time per wall second);
+        tracked while a bar is shown."""
         now = self._clock.now()
         with self._lock:
             remaining = self._estimate.remaining_s(self._index, now - self._step_start)
@@ -217,15 +226,15 @@ class Progress:
 
     def _refresh(self) -> None:
         bar = self._bar
-        if bar is None or bar.disable:
+        if bar is None or not self.shown:
             return
         rows = self._rows()
         with self._lock:
             total = self._estimate.total_rows(self._index, rows, rows - self._rows_at_step)
         bar.total = max(total, rows)
         bar.n = rows
-        eta = time.strftime("%M:%S", time.gmtime(self.eta_s())) if self.eta_s() < 3600 else \
-            format_duration(self.eta_s())
+        left_s = self.eta_s()
+        eta = time.strftime("%M:%S", time.gmtime(left_s)) if left_s < 3600 else format_duration(left_s)
         bar.set_postfix_str(f"ETA {eta}" + (f", {self._note}" if self._note else ""), refresh=False)
         bar.refresh()
 
