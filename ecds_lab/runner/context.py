@@ -45,7 +45,7 @@ class RunContext:
         reading = bridge.measure()
         temperatures = self.thermocouples.read()
         powers = self.heaters.powers()
-        self.writer.append(reading_row(
+        self.writer.append_row(reading_row(
             time_s=self.clock.now() - self.t0, wall_time_s=time.time(), step_index=self.step_index, kind=kind,
             point=point, position=self.position, in_air=point.in_air if point is not None else self.coil_in_air,
             freq_hz=freq_hz, temperatures=temperatures, powers_w=powers, reading=reading))

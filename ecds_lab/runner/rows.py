@@ -12,22 +12,33 @@ from ecds_lab.runner.steps import MeasurePoint
 
 def reading_row(*, time_s: float, wall_time_s: float, step_index: int, kind: int, point: MeasurePoint | None,
                 position: SlidePosition, in_air: bool, freq_hz: float, temperatures: dict[str, float],
-                powers_w: dict[str, float], reading: BridgeReading) -> dict[str, float]:
-    """The row for ecds_lab/data/columns.py; ``point`` is the planned point measured (None for a logged reading).
+                powers_w: dict[str, float], reading: BridgeReading) -> tuple[float, ...]:
+    """The row in the column order of ecds_lab/data/columns.py (``COLUMN_NAMES``, named beside each value
+    below); ``point`` is the planned point measured (None for a logged reading).
 
+    A tuple in column order is what ``RunWriter.append_row`` takes as it is: no names looked up per reading.
     A coil in air has no target distance: its commanded position is +inf.
     """
     planned = point is not None and kind == PLANNED_POINT
     commanded = math.inf if in_air else (position.x_mm if position.x_mm is not None else math.nan)
-    return {
-        "time_s": time_s, "wall_time_s": wall_time_s, "step": step_index,
-        "point": point.point if planned and point is not None else -1, "kind": kind,
-        "sweep": point.sweep if point is not None else -1, "repeat": point.repeat if point is not None else 0,
-        "reading": point.reading if point is not None else 0,
-        "x_commanded_mm": commanded, "x_readback_mm": position.readback_mm, "direction": position.direction,
-        "freq_hz": freq_hz,
-        "t_coil_c": temperatures.get("coil", math.nan), "t_target_c": temperatures.get("target", math.nan),
-        "t_ambient_c": temperatures.get("ambient", math.nan),
-        "target_heater_w": powers_w["target"], "coil_heater_w": powers_w["coil"],
-        "ls_h": reading.main, "rs_ohm": reading.secondary,
-    }
+    return (
+        time_s,  # time_s
+        wall_time_s,  # wall_time_s
+        step_index,  # step
+        point.point if planned and point is not None else -1,  # point
+        kind,  # kind
+        point.sweep if point is not None else -1,  # sweep
+        point.repeat if point is not None else 0,  # repeat
+        point.reading if point is not None else 0,  # reading
+        commanded,  # x_commanded_mm
+        position.readback_mm,  # x_readback_mm
+        position.direction,  # direction
+        freq_hz,  # freq_hz
+        temperatures.get("coil", math.nan),  # t_coil_c
+        temperatures.get("target", math.nan),  # t_target_c
+        temperatures.get("ambient", math.nan),  # t_ambient_c
+        powers_w["target"],  # target_heater_w
+        powers_w["coil"],  # coil_heater_w
+        reading.main,  # ls_h
+        reading.secondary,  # rs_ohm
+    )
