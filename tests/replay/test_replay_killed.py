@@ -16,12 +16,12 @@ def test_replay_of_a_killed_run_reproduces_the_measured_part(tmp_path, experimen
         import os
         from ecds_lab.cli import main
         from ecds_lab.storage.run_file import RunWriter
-        real = RunWriter.append
-        def append(self, values):
-            real(self, values)
+        real = RunWriter.append_row
+        def append_row(self, row):
+            real(self, row)
             if self.rows == 57:
                 os._exit(9)
-        RunWriter.append = append
+        RunWriter.append_row = append_row
         main(["run", {str(experiments_dir / "displacement_sweep.yaml")!r}, "-o", {str(path)!r}, "-q"])
     """)
     assert subprocess.run([sys.executable, "-c", code], timeout=120, check=False).returncode == 9

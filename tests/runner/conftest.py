@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -10,6 +10,7 @@ import pytest
 
 import ecds_lab.runner.session
 from ecds_lab.clock import SimulatedClock
+from ecds_lab.data.columns import COLUMN_NAMES
 from ecds_lab.station import Station
 from ecds_lab.storage.reader import read_run
 from ecds_lab.transports.transcript import SENT
@@ -82,13 +83,14 @@ def assert_heater_off() -> Callable[..., None]:
 
 
 class RowsInMemory:
-    """Takes the rows a Runner appends (what RunWriter.append receives), for runs that need no file."""
+    """Takes the rows a Runner appends (what RunWriter.append_row receives), by column name, for runs that need
+    no file."""
 
     def __init__(self) -> None:
         self.rows: list[dict[str, float]] = []
 
-    def append(self, values: Any) -> None:
-        self.rows.append(dict(values))
+    def append_row(self, row: Sequence[float]) -> None:
+        self.rows.append(dict(zip(COLUMN_NAMES, row, strict=True)))
 
 
 @pytest.fixture

@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import os
 import signal
+from collections.abc import Sequence
 
 import numpy as np
 import pytest
 
-from ecds_lab.data.columns import PLANNED_POINT
+from ecds_lab.data.columns import INDEX, PLANNED_POINT
 from ecds_lab.drivers.hmp import HMP4040
 from ecds_lab.runner.plan import build_plan
 from ecds_lab.runner.session import load_experiment, run_experiment
@@ -33,13 +34,13 @@ def run_heating(*args, **kwargs):
 def appended(monkeypatch: pytest.MonkeyPatch) -> list[tuple[int, int]]:
     """(kind, point) of every row the runner handed to the run file, in order."""
     rows: list[tuple[int, int]] = []
-    real_append = RunWriter.append
+    real_append = RunWriter.append_row
 
-    def append(self: RunWriter, values: dict) -> None:
-        real_append(self, values)
-        rows.append((int(values["kind"]), int(values["point"])))
+    def append_row(self: RunWriter, row: Sequence[float]) -> None:
+        real_append(self, row)
+        rows.append((int(row[INDEX["kind"]]), int(row[INDEX["point"]])))
 
-    monkeypatch.setattr(RunWriter, "append", append)
+    monkeypatch.setattr(RunWriter, "append_row", append_row)
     return rows
 
 

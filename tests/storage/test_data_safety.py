@@ -45,12 +45,12 @@ def killed_run(experiment, output, *, after_rows: int) -> None:
         import os
         from ecds_lab.cli import main
         from ecds_lab.storage.run_file import RunWriter
-        real = RunWriter.append
-        def append(self, values):
-            real(self, values)
+        real = RunWriter.append_row
+        def append_row(self, row):
+            real(self, row)
             if self.rows == {after_rows}:
                 os._exit(9)
-        RunWriter.append = append
+        RunWriter.append_row = append_row
         main(["run", {str(experiment)!r}, "-o", {str(output)!r}, "-q"])
     """)
     assert done.returncode == 9, done.stderr
