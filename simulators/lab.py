@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import lru_cache
 
 import numpy as np
 
@@ -33,7 +34,7 @@ _MAX_STEP_S = 5.0
 
 #: Field-physics impedances remembered (per frequency and state); the memo is emptied when it grows beyond this.
 _FIELD_MEMO_SIZE = 64
-#: Thermal decay factors remembered (per step length); emptied when it grows beyond this.
+#: Thermal decay factors remembered (per step length, the least recently used forgotten first).
 _DECAY_MEMO_SIZE = 64
 
 #: Which supply output drives which heater (station wiring of the simulated lab).
@@ -151,7 +152,9 @@ class SimulatedLab:
         self._carriage_key: tuple[float, int, float] = (math.nan, 0, math.nan)
         self._carriage_error = 0.0
         self._field_memo: dict[tuple[float, ...], complex] = {}
-        self._decays: dict[float, tuple[float, float, float, float, float]] = {}
+        #: The nodes' decay factors over a step: fixed per step length (the thermal constants are fixed once the
+        #: lab is built), and a run's readings come at a few intervals.
+        self._node_decays = lru_cache(maxsize=_DECAY_MEMO_SIZE)(self._node_decays_over)
 
     # -- time ---------------------------------------------------------------------------------
     def update(self) -> None:
@@ -168,14 +171,7 @@ class SimulatedLab:
         p_box = self.heater_power_w(BOX_HEATER_OUTPUT)
         target_goal = ambient + p_target * th.target_k_per_w
         box_goal = ambient + p_box * th.box_k_per_w
-        # The nodes' decays over dt are fixed per dt; a run's readings come at a few intervals, so they are remembered.
-        decays = self._decays.get(dt)
-        if decays is None:
-            decays = self._node_decays(dt)
-            if len(self._decays) >= _DECAY_MEMO_SIZE:
-                self._decays.clear()
-            self._decays[dt] = decays
-        decay_target, decay_box, decay_former, decay_winding, decay_surface = decays
+        decay_target, decay_box, decay_former, decay_winding, decay_surface = self._node_decays(dt)
         wet = None  # the ECM physics' moisture, when that effect is on
         if not self.field and self.config.effects.parasitic_capacitance.enabled:
             wet = self.config.effects.parasitic_capacitance
@@ -199,7 +195,7 @@ class SimulatedLab:
         self.t_former_c, self.t_winding_c = t_former, t_winding
         self._updated_at = now
 
-    def _node_decays(self, dt: float) -> tuple[float, float, float, float, float]:
+    def _node_decays_over(self, dt: float) -> tuple[float, float, float, float, float]:
         """Factors by which each node's distance to its goal shrinks over dt: target, box, former, winding, surface."""
         th = self.thermal
         decay_target = math.exp(-dt / th.target_tau_s)

@@ -10,6 +10,7 @@ branch itself is memoised on its arguments (a sweep reads the same state many ti
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 
 import numpy as np
 
@@ -19,7 +20,7 @@ from ecds_lab.simulators.physics.plate import Plate
 
 #: Grid cut-off: nodes with a x beyond this (e^{-2 a x} < 1e-13) are left out of the plate integral.
 CUTOFF = 15.0
-#: Series branches remembered (per frequency and state); the memo is emptied when it grows beyond this.
+#: Series branches remembered (per frequency and state, the least recently used forgotten first).
 MEMO_SIZE = 64
 
 
@@ -34,7 +35,7 @@ class FieldSensor:
         self._reflections: dict[tuple[float, float, float, float], np.ndarray] = {}
         self._decay_key: tuple[float, float] = (math.nan, math.nan)
         self._decay = np.zeros(0)
-        self._branches: dict[tuple[float, ...], complex] = {}
+        self._branches = lru_cache(maxsize=MEMO_SIZE)(self._series_branch)
 
     def _reflection(self, omega: float, sigma: float, mu_r: float, scale: float, nodes: int) -> np.ndarray:
         """phi at the first ``nodes`` spatial frequencies (remembered per plate state and frequency)."""
@@ -74,14 +75,7 @@ class FieldSensor:
         Memoised: for this sensor's coil and plate the branch is a pure function of the arguments, so a
         remembered value is exactly what computing it again would give, whatever was asked in between.
         """
-        key = (omega, x_m, t_winding_c, t_plate_c, ambient_c, strain)
-        found = self._branches.get(key)
-        if found is None:
-            found = self._series_branch(omega, x_m, t_winding_c, t_plate_c, ambient_c, strain)
-            if len(self._branches) >= MEMO_SIZE:
-                self._branches.clear()
-            self._branches[key] = found
-        return found
+        return self._branches(omega, x_m, t_winding_c, t_plate_c, ambient_c, strain)
 
     def _series_branch(self, omega: float, x_m: float, t_winding_c: float, t_plate_c: float, ambient_c: float,
                        strain: float) -> complex:

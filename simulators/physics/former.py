@@ -96,17 +96,16 @@ class FormerState:
         self.loss_reference_hz = wet.loss_reference_hz
         start = wet.initial if wet.enabled else 0.0
         self.groove, self.bulk = start, start
-        self._equilibria_key = (math.nan, math.nan)
+        self._equilibria_at_c = math.nan  # the temperature the pools' equilibria below were worked out for
         self._equilibria = (1.0, 1.0)
 
     def step(self, t_former_c: float, dt_s: float) -> None:
         if not self.moist:
             return
-        key = (t_former_c, self.ambient_c)
-        if key != self._equilibria_key:  # the equilibria change only with the temperature
+        if t_former_c != self._equilibria_at_c:  # the equilibria change only with the temperature (ambient is fixed)
             self._equilibria = (self._equilibrium(t_former_c, self.groove_scale_k),
                                 self._equilibrium(t_former_c, self.bulk_scale_k))
-            self._equilibria_key = key
+            self._equilibria_at_c = t_former_c
         groove_equilibrium, bulk_equilibrium = self._equilibria
         # A pool at its equilibrium stays there (relaxing would give exactly the same value).
         if self.groove != groove_equilibrium:
