@@ -59,6 +59,14 @@ class NoiseEstimate:
     method: str
     pairs: int
     positioning_ppm: float = 0.0
+    #: How many correlated readings count as one independent one (>= 1): readings of one visit share its
+    #: position error, readings of one thermal state share it too. Chi-square and BIC gains are divided by it.
+    design_effect: float = 1.0
+
+    def sigma_ppm(self, data: Measurements) -> np.ndarray:
+        """The noise of each reading of ``data`` (ppm of L), in its order; uniform here, the same ``ppm``
+        for every reading. Residuals divided by it (times ``ppm``) weigh every reading by its own noise."""
+        return np.full(len(data), self.ppm)
 
     @property
     def ppm(self) -> float:
