@@ -13,7 +13,7 @@ from collections.abc import Callable, Sequence, Sized
 from pathlib import Path
 
 from ecds_lab import __version__
-from ecds_lab.errors import EcdsLabError
+from ecds_lab.errors import EcdsLabError, InvalidSettingError
 
 log = logging.getLogger("ecds_lab")
 
@@ -147,12 +147,28 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
     from ecds_lab.analysis.diagnosis import diagnose, format_diagnosis
     from ecds_lab.storage.data_file import open_campaign
 
+    if args.each:
+        return _diagnose_each(args)
+    if args.scheduler or args.workers:
+        raise InvalidSettingError("--scheduler and --workers apply to diagnose --each only")
     _load_user_effects(args.effects_from)
     opened = open_campaign(args.data, args.sensor)
     _require_readings(opened.data, args.data, 2, "a diagnosis compares readings")
     result = {"sensor": opened.sensor_summary(), **diagnose(opened.data, _effects(args.effects), opened.sensor)}
     _print(result, opened.sensor_note, args.json, format_diagnosis)
     return 0
+
+
+def _diagnose_each(args: argparse.Namespace) -> int:
+    """``diagnose --each``: every DATA file its own campaign, diagnosed in parallel; a table (or JSON list) out.
+    Exit 1 when any campaign could not be diagnosed (its row says why)."""
+    from ecds_lab.batch import diagnose_each, format_table
+
+    _load_user_effects(args.effects_from)  # unknown names and bad effect files fail here, before any worker starts
+    rows = diagnose_each(args.data, _effects(args.effects), args.sensor, effect_files=args.effects_from or (),
+                         scheduler=args.scheduler, workers=args.workers)
+    print(json.dumps(rows, indent=2) if args.json else format_table(rows))
+    return 1 if any(row.get("error") for row in rows) else 0
 
 
 def _require_readings(data: Sized, paths: Sequence[Path], minimum: int, why: str) -> None:
@@ -271,6 +287,12 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = command("diagnose", _cmd_diagnose, "where the model fails on DATA (one campaign) and which effect is missing")
     p.add_argument("data", type=Path, nargs="+")
+    p.add_argument("--each", action="store_true",
+                   help="every DATA file is its own campaign: one diagnosis each, in parallel (Dask), a table out")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="with --each: a Dask scheduler (tcp://host:8786) instead of a local cluster")
+    p.add_argument("--workers", type=int, metavar="N",
+                   help="with --each: local worker processes (default: one per core)")
     p.add_argument("--effects", help="effects already added to the baseline (diagnose what is still missing)")
     p.add_argument("--effects-from", type=Path, action="append", metavar="FILE.py",
                    help="a Python file of your own effects (Effect subclasses); may be given several times")

@@ -1,0 +1,171 @@
+"""The validation study's cases: a random truth (which imperfections the simulated lab has, how large)
+and a random campaign design (frequencies, directions, length, heating), drawn from one seed.
+
+The truths are the simulated lab's imperfections by their documented names and sizes
+(docs/simulated_lab.md), switched on in its station YAML block; nothing here knows how either the lab
+or the analysis computes them. Each truth says which library effect names it (``expects``; an empty
+tuple: no library effect does, it lies outside the library), which effect it may honestly be tied with
+at one frequency, and which campaign designs can reveal it at all.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+#: Frequencies (Hz) the designs choose from: the paper's pair.
+LOW_HZ, HIGH_HZ = 500.0, 15000.0
+
+
+@dataclass(frozen=True)
+class Design:
+    """What a campaign measures: the experimenter's choices, before any truth."""
+
+    frequencies_hz: tuple[float, ...]
+    directions: tuple[str, ...]
+    positions: int  # coarse positions over 20-100 mm
+    fine_steps: bool  # plus 0.75 mm steps over 30-45 mm (resolves a screw's lead)
+    target_setpoints_c: tuple[float, ...]
+    coil_setpoints_c: tuple[float, ...]
+    repeats: int
+
+    @property
+    def both_directions(self) -> bool:
+        return len(self.directions) == 2
+
+    @property
+    def two_frequencies(self) -> bool:
+        return len(self.frequencies_hz) == 2
+
+    def to_json(self) -> dict[str, Any]:
+        return {"frequencies_hz": list(self.frequencies_hz), "directions": list(self.directions),
+                "positions": self.positions, "fine_steps": self.fine_steps,
+                "target_setpoints_c": list(self.target_setpoints_c),
+                "coil_setpoints_c": list(self.coil_setpoints_c), "repeats": self.repeats}
+
+
+@dataclass(frozen=True)
+class TruthKind:
+    """One imperfection of the simulated lab: its YAML block, how to size it, what should name it."""
+
+    name: str
+    #: the station YAML's ``simulated: lab:`` change that switches it on, given a random generator
+    block: Callable[[np.random.Generator], dict[str, Any]]
+    #: library effects that name it (empty: it lies outside the library)
+    expects: tuple[str, ...]
+    #: whether a campaign of this design can reveal it at all
+    revealed_by: Callable[[Design], bool]
+    #: library effects it may honestly be tied with (named as alternatives) when the design cannot separate them
+    tied_with: tuple[str, ...] = ()
+    #: where the residual of a truth outside the library lives (association variables any of which is right)
+    lives_in: tuple[str, ...] = ()
+    #: noise, not an effect: the right answer is to claim nothing for it
+    nuisance: bool = False
+
+
+def _heated_target(design: Design) -> bool:
+    return bool(design.target_setpoints_c)
+
+
+def _heated_coil(design: Design) -> bool:
+    return bool(design.coil_setpoints_c)
+
+
+LIBRARY_TRUTHS: tuple[TruthKind, ...] = (
+    TruthKind("bending", lambda g: {"plate": {"bending": {"enabled": True,
+                                                         "centre_rise_um_per_k": float(g.uniform(0.4, 1.6))}}},
+              ("target_bending",), _heated_target, tied_with=("target_tau_temperature",)),
+    TruthKind("conductivity", lambda g: {"plate": {"conductivity": {"enabled": True}}},
+              ("target_tau_temperature",), _heated_target, tied_with=("target_bending",)),
+    TruthKind("backlash", lambda g: {"slide": {"backlash": {"enabled": True,
+                                                           "backlash_um": float(g.uniform(15.0, 60.0))}}},
+              ("slide_backlash",), lambda d: d.both_directions),
+    TruthKind("lead_screw", lambda g: {"slide": {"lead_screw": {"enabled": True,
+                                                               "amplitude_um": float(g.uniform(8.0, 20.0)),
+                                                               "pitch_mm": float(g.uniform(2.0, 10.0))}}},
+              ("slide_lead_screw",), lambda d: d.fine_steps),
+    TruthKind("expansion", lambda g: {"former": {"expansion": {"enabled": True}}},
+              ("former_expansion",), _heated_coil),
+    TruthKind("moisture", lambda g: {"former": {"moisture": {"enabled": True, "initial": 1.0}}},
+              ("parasitic_capacitance",), _heated_coil),
+    TruthKind("glitches", lambda g: {"bridge": {"glitches": {"enabled": True,
+                                                            "rate_per_reading": float(g.uniform(5e-4, 3e-3))}}},
+              (), lambda d: True, nuisance=True),
+    TruthKind("repeatability", lambda g: {"slide": {"repeatability": {"enabled": True,
+                                                                     "sigma_um": float(g.uniform(2.0, 8.0))}}},
+              (), lambda d: True, nuisance=True),
+)
+
+#: Imperfections of the wider world (docs/simulated_lab.md), which no library effect describes.
+WIDER_TRUTHS: tuple[TruthKind, ...] = ()
+
+#: Effects that are true of the faithful lab whatever the truth drawn: the field solution's tau_T(x) at
+#: two frequencies, and the winding's lag behind the former's thermocouple while the coil's temperature moves.
+ALWAYS_TRUE: dict[str, Callable[[Design], bool]] = {
+    "tau_displacement": lambda d: d.two_frequencies,
+    "thermal_lag": _heated_coil,
+}
+
+
+@dataclass(frozen=True)
+class Case:
+    """One campaign of the study: its number, seed, design and truth."""
+
+    number: int
+    seed: int
+    design: Design
+    truths: tuple[str, ...]
+    blocks: dict[str, Any] = field(hash=False)
+
+    def to_json(self) -> dict[str, Any]:
+        return {"case": self.number, "seed": self.seed, "design": self.design.to_json(),
+                "truths": list(self.truths), "lab": self.blocks}
+
+
+def truth_kinds() -> dict[str, TruthKind]:
+    """Every truth the study can draw, by name."""
+    return {kind.name: kind for kind in (*LIBRARY_TRUTHS, *WIDER_TRUTHS)}
+
+
+def draw_design(rng: np.random.Generator) -> Design:
+    """A campaign design as an experimenter might choose it."""
+    short = bool(rng.random() < 0.5)
+    heating = rng.choice(["none", "target", "coil", "both"], p=[0.2, 0.35, 0.25, 0.2])
+    return Design(
+        frequencies_hz=(HIGH_HZ,) if rng.random() < 0.4 else (LOW_HZ, HIGH_HZ),
+        directions=("forward",) if rng.random() < 0.35 else ("forward", "backward"),
+        positions=9 if short else 16,
+        fine_steps=bool(rng.random() < 0.3),
+        target_setpoints_c=() if heating in ("none", "coil") else ((75.0,) if short else (75.0, 130.0)),
+        coil_setpoints_c=() if heating in ("none", "target") else ((60.0, 120.0) if short else (40.0, 80.0, 120.0)),
+        repeats=1 if rng.random() < 0.6 else 2,
+    )
+
+
+def merged(base: dict[str, Any], change: dict[str, Any]) -> dict[str, Any]:
+    """``base`` with ``change`` laid over it, nested blocks merged key by key."""
+    out = dict(base)
+    for key, value in change.items():
+        out[key] = merged(out.get(key, {}), value) if isinstance(value, dict) else value
+    return out
+
+
+def draw_case(number: int, seed: int) -> Case:
+    """Case ``number`` of the study with ``seed``: none, one, two or three imperfections, a random design."""
+    rng = np.random.default_rng([seed, number])
+    design = draw_design(rng)
+    kinds = truth_kinds()
+    count = int(rng.choice([0, 1, 2, 3], p=[0.3, 0.35, 0.25, 0.1]))
+    names = sorted(rng.choice(sorted(kinds), size=min(count, len(kinds)), replace=False).tolist())
+    blocks: dict[str, Any] = {}
+    for name in names:
+        blocks = merged(blocks, kinds[name].block(rng))
+    return Case(number, int(rng.integers(2**31)), design, tuple(names), blocks)
+
+
+def draw_cases(count: int, seed: int) -> list[Case]:
+    """The study's ``count`` cases from one seed (case i is the same whatever the count)."""
+    return [draw_case(i, seed) for i in range(count)]

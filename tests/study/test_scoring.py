@@ -1,0 +1,72 @@
+"""The validation study's rules: how a diagnosis is judged against its case's truth, and how cases are drawn."""
+
+from __future__ import annotations
+
+from ecds_lab.study.cases import Design, draw_case, draw_cases, truth_kinds
+from ecds_lab.study.scoring import judge, rates
+
+ONE_FREQUENCY_HEATED = Design((15000.0,), ("forward", "backward"), 16, False, (75.0,), (), 1)
+TWO_FREQUENCIES_COLD = Design((500.0, 15000.0), ("forward",), 16, False, (), (), 1)
+
+
+def case_with(truths, design, number=0):
+    from ecds_lab.study.cases import Case
+
+    return Case(number, 1, design, tuple(truths), {})
+
+
+def report(verdict, claimed=(), alternatives=(), explanation=""):
+    return {"verdict": verdict, "claimed": list(claimed), "alternatives": [list(g) for g in alternatives],
+            "explanation": explanation}
+
+
+def test_a_tie_between_the_truth_and_its_twin_is_right_at_one_frequency():
+    j = judge(case_with(["bending"], ONE_FREQUENCY_HEATED),
+              report("inconclusive", alternatives=[["target_bending", "target_tau_temperature"]]))
+    assert j.right and j.found == ["bending"] and not j.wrong_claims
+
+
+def test_claiming_an_effect_not_in_the_truth_is_a_confident_wrong_claim():
+    j = judge(case_with(["backlash"], ONE_FREQUENCY_HEATED),
+              report("missing_effect", ["slide_backlash", "thermal_lag"]))
+    assert j.wrong_claims == ["thermal_lag"] and not j.right
+
+
+def test_effects_true_of_the_faithful_lab_are_not_wrong_claims():
+    j = judge(case_with([], TWO_FREQUENCIES_COLD), report("missing_effect", ["tau_displacement"]))
+    assert j.null and not j.false_alarm and j.right
+
+
+def test_outside_the_library_on_a_null_truth_is_a_false_alarm():
+    j = judge(case_with(["glitches"], TWO_FREQUENCIES_COLD),
+              report("missing_effect", explanation="the residual lies outside the library"))
+    assert j.null and j.false_alarm and not j.right
+
+
+def test_a_truth_the_design_cannot_reveal_is_not_counted():
+    j = judge(case_with(["backlash"], TWO_FREQUENCIES_COLD), report("adequate"))  # one direction only
+    assert j.revealable == [] and not j.null
+    figures = rates([j])
+    assert figures.judged_cases == 0 and figures.wrong_claim_cases == 0
+
+
+def test_a_missed_revealable_truth_is_not_right():
+    j = judge(case_with(["bending", "backlash"], ONE_FREQUENCY_HEATED), report("missing_effect", ["slide_backlash"]))
+    assert j.found == ["backlash"] and j.missed == ["bending"] and not j.right
+
+
+def test_rates_count_over_their_own_cases():
+    judgements = [judge(case_with([], TWO_FREQUENCIES_COLD, i), report("adequate")) for i in range(3)]
+    judgements.append(judge(case_with(["glitches"], TWO_FREQUENCIES_COLD, 3),
+                            report("missing_effect", ["slide_backlash"])))
+    figures = rates(judgements)
+    assert (figures.null_cases, figures.false_alarms, figures.wrong_claim_cases) == (4, 1, 1)
+    assert figures.false_alarm_rate == 0.25 and figures.right_rate == 0.75
+
+
+def test_cases_are_drawn_reproducibly_and_independently_of_the_count():
+    assert draw_cases(5, 7)[3] == draw_case(3, 7)
+    assert draw_cases(5, 7) != draw_cases(5, 8)
+    kinds = truth_kinds()
+    for case in draw_cases(40, 7):
+        assert len(case.truths) <= 3 and all(name in kinds for name in case.truths)
