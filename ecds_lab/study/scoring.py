@@ -20,6 +20,8 @@ from ecds_lab.study.cases import ALWAYS_TRUE, Case, truth_kinds
 
 #: What the verdict of a case whose effects lie outside the library must say.
 OUTSIDE_WORDS = "outside the library"
+#: A truth outside the library must live in one of the residual's leading associations.
+LEADING_ASSOCIATIONS = 2
 
 
 @dataclass
@@ -61,8 +63,13 @@ def judge(case: Case, report: dict[str, Any] | None, error: str | None = None) -
                           wrong_claims=[name for name in claimed if name not in allowed],
                           revealable=[t.name for t in revealable])
     outside_said = report["verdict"] == "missing_effect" and OUTSIDE_WORDS in report.get("explanation", "")
+    leading = [a["variable"] for a in report.get("associations", [])[:LEADING_ASSOCIATIONS]]
     for truth in revealable:
-        hit = (any(name in named for name in truth.expects) if truth.expects else outside_said)
+        if truth.expects:
+            hit = any(name in named for name in truth.expects)
+        else:  # outside the library, where it lives; or named as an effect it cannot be told from
+            hit = (outside_said and (not truth.lives_in or any(v in truth.lives_in for v in leading))) \
+                or any(name in named for name in truth.tied_with)
         (judgement.found if hit else judgement.missed).append(truth.name)
     judgement.null = not any(not t.nuisance for t in truths)
     alarm = bool(judgement.wrong_claims) or (report["verdict"] == "missing_effect" and not claimed)

@@ -70,3 +70,21 @@ def test_cases_are_drawn_reproducibly_and_independently_of_the_count():
     kinds = truth_kinds()
     for case in draw_cases(40, 7):
         assert len(case.truths) <= 3 and all(name in kinds for name in case.truths)
+
+
+def test_a_truth_outside_the_library_is_found_only_where_it_lives():
+    said = "the residual lies outside the library"
+    inside = report("missing_effect", explanation=said)
+    inside["associations"] = [{"variable": "x_mm"}, {"variable": "time_s"}]
+    assert judge(case_with(["metal_object"], TWO_FREQUENCIES_COLD), inside).right
+    elsewhere = dict(inside, associations=[{"variable": "t_coil_c"}, {"variable": "direction"}])
+    assert judge(case_with(["metal_object"], TWO_FREQUENCIES_COLD), elsewhere).missed == ["metal_object"]
+    claimed = report("missing_effect", ["slide_lead_screw"], explanation="")
+    j = judge(case_with(["metal_object"], TWO_FREQUENCIES_COLD), claimed)
+    assert j.wrong_claims == ["slide_lead_screw"] and not j.right
+
+
+def test_noise_that_grows_with_the_heater_current_is_no_effect():
+    j = judge(case_with(["heater_pickup"], ONE_FREQUENCY_HEATED),
+              report("missing_effect", explanation="the residual lies outside the library"))
+    assert j.null and j.false_alarm
