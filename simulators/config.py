@@ -16,6 +16,7 @@ from typing import Literal
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from ecds_lab.data.sensor import SensorConfig
+from ecds_lab.simulators.physics.bridge_gain import BridgeGainDrift
 from ecds_lab.simulators.physics.bridge_model import BridgeModelSettings
 from ecds_lab.simulators.physics.coil import CoilSettings
 from ecds_lab.simulators.physics.former import FormerSettings
@@ -147,6 +148,16 @@ class InjectedFaults(_Strict):
         {}, description="instrument -> lines it sends unasked, one before each of its next replies")
 
 
+class Imperfections(_Strict):
+    """Imperfections of the wider world (docs/simulated_lab.md), each off by default and acting with either
+    physics: physical effects of the set-up beyond the parts above, each its own named, sized block."""
+
+    bridge_gain_drift: BridgeGainDrift = BridgeGainDrift()
+
+    def enabled(self) -> list[str]:
+        return [name for name in type(self).model_fields if getattr(self, name).enabled]
+
+
 class LabConfig(_Strict):
     """One simulated lab: the physics, the sensor on the slide, the target, the climate, noise and effects."""
 
@@ -169,6 +180,7 @@ class LabConfig(_Strict):
     thermal: Thermal = Thermal()
     noise: Noise = Noise()
     effects: Effects = Effects()
+    imperfections: Imperfections = Field(Imperfections(), description="the wider world: off unless enabled")
     faults: InjectedFaults = InjectedFaults()
     seed: int | None = 1
 

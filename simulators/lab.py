@@ -22,6 +22,7 @@ import numpy as np
 from ecds_lab.clock import SimulatedClock
 from ecds_lab.simulators.config import LabConfig, Thermal
 from ecds_lab.simulators.physics import ecm
+from ecds_lab.simulators.physics.bridge_gain import GainDrift
 from ecds_lab.simulators.physics.bridge_model import BridgeModel
 from ecds_lab.simulators.physics.field_sensor import FieldSensor
 from ecds_lab.simulators.physics.field_solution import Winding
@@ -149,6 +150,10 @@ class SimulatedLab:
         self.thermal = ThermalConstants.of(cfg.thermal)
         # Read on every reading, held directly (the same object: changes to its fields still count).
         self._drift = cfg.effects.bridge_drift
+        # The wider world's imperfections: None when off, so a reading pays one comparison for each.
+        wider = cfg.imperfections
+        self._gain_drift = (GainDrift(wider.bridge_gain_drift, cfg.seed, self.clock.now())
+                            if wider.bridge_gain_drift.enabled else None)
         self._carriage_key: tuple[float, int, float] = (math.nan, 0, math.nan)
         self._carriage_error = 0.0
         self._field_memo: dict[tuple[float, ...], complex] = {}
@@ -360,8 +365,11 @@ class SimulatedLab:
 
         ECM physics: noise relative to |Z| per speed at 1.5 V (``config.noise.bridge_relative``),
         growing as the test level falls and shrinking with the square root of the averages.
+        Either physics: the bridge's gain drift (``imperfections.bridge_gain_drift``) when on.
         """
         z = self.coil_impedance(frequency_hz)
+        if self._gain_drift is not None:
+            z = z * self._gain_drift.gain(self.clock.now())
         if self.field:
             return self.bridge_model.read(z, frequency_hz, speed, voltage_v, averages, self.rng)
         sigma = self.config.noise.bridge_relative[speed] * 1.5 / voltage_v / math.sqrt(max(1, averages))
