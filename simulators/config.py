@@ -20,6 +20,7 @@ from ecds_lab.simulators.physics.bridge_gain import BridgeGainDrift
 from ecds_lab.simulators.physics.bridge_model import BridgeModelSettings
 from ecds_lab.simulators.physics.coil import CoilSettings
 from ecds_lab.simulators.physics.former import FormerSettings
+from ecds_lab.simulators.physics.heater_pickup import BridgeHeaterPickup
 from ecds_lab.simulators.physics.plate import PlateSettings
 from ecds_lab.simulators.physics.slide_mechanics import SlideMechanicsSettings
 
@@ -153,6 +154,7 @@ class Imperfections(_Strict):
     physics: physical effects of the set-up beyond the parts above, each its own named, sized block."""
 
     bridge_gain_drift: BridgeGainDrift = BridgeGainDrift()
+    bridge_heater_pickup: BridgeHeaterPickup = BridgeHeaterPickup()
 
     def enabled(self) -> list[str]:
         return [name for name in type(self).model_fields if getattr(self, name).enabled]

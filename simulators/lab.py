@@ -27,6 +27,7 @@ from ecds_lab.simulators.physics.bridge_model import BridgeModel
 from ecds_lab.simulators.physics.field_sensor import FieldSensor
 from ecds_lab.simulators.physics.field_solution import Winding
 from ecds_lab.simulators.physics.former import FormerState
+from ecds_lab.simulators.physics.heater_pickup import HeaterPickup
 from ecds_lab.simulators.physics.plate import Plate
 from ecds_lab.simulators.physics.slide_mechanics import carriage_error_m, draw_scatter_m
 
@@ -154,6 +155,7 @@ class SimulatedLab:
         wider = cfg.imperfections
         self._gain_drift = (GainDrift(wider.bridge_gain_drift, cfg.seed, self.clock.now())
                             if wider.bridge_gain_drift.enabled else None)
+        self._pickup = HeaterPickup(wider.bridge_heater_pickup) if wider.bridge_heater_pickup.enabled else None
         self._carriage_key: tuple[float, int, float] = (math.nan, 0, math.nan)
         self._carriage_error = 0.0
         self._field_memo: dict[tuple[float, ...], complex] = {}
@@ -238,6 +240,10 @@ class SimulatedLab:
             return 0.0
         volts, amps = self.supply_readback(output)
         return volts * amps
+
+    def heater_currents_a(self) -> tuple[float, float]:
+        """The currents flowing through the target and box heaters now (A)."""
+        return self.supply_readback(TARGET_HEATER_OUTPUT)[1], self.supply_readback(BOX_HEATER_OUTPUT)[1]
 
     def set_supply(self, output: int, **changes: float | bool) -> None:
         """Change an output's settings; temperatures are integrated up to now with the old ones first."""
@@ -365,14 +371,20 @@ class SimulatedLab:
 
         ECM physics: noise relative to |Z| per speed at 1.5 V (``config.noise.bridge_relative``),
         growing as the test level falls and shrinking with the square root of the averages.
-        Either physics: the bridge's gain drift (``imperfections.bridge_gain_drift``) when on.
+        Either physics: the bridge's gain drift (``imperfections.bridge_gain_drift``) and the heater current's
+        pickup (``imperfections.bridge_heater_pickup``) when on.
         """
         z = self.coil_impedance(frequency_hz)
         if self._gain_drift is not None:
             z = z * self._gain_drift.gain(self.clock.now())
+        extra = 0.0
+        if self._pickup is not None:
+            extra = self._pickup.relative(self.heater_currents_a(), speed, voltage_v, averages)
         if self.field:
-            return self.bridge_model.read(z, frequency_hz, speed, voltage_v, averages, self.rng)
+            return self.bridge_model.read(z, frequency_hz, speed, voltage_v, averages, self.rng, extra)
         sigma = self.config.noise.bridge_relative[speed] * 1.5 / voltage_v / math.sqrt(max(1, averages))
+        if extra:
+            sigma = math.hypot(sigma, extra)
         if sigma <= 0:
             return z
         real, imag = self.rng.standard_normal(2).tolist()

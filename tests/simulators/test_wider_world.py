@@ -9,10 +9,11 @@ from typing import Any
 
 import numpy as np
 import pytest
+from scipy.stats import median_abs_deviation
 
 from ecds_lab.simulators import campaign
 from ecds_lab.simulators.config import LabConfig
-from ecds_lab.simulators.lab import SimulatedLab
+from ecds_lab.simulators.lab import BOX_HEATER_OUTPUT, TARGET_HEATER_OUTPUT, SimulatedLab
 
 #: ECM physics with a silent bridge: every reading is the impedance itself.
 QUIET_ECM: dict[str, Any] = {"physics": "ecm", "noise": {"bridge_relative": {"fast": 0.0, "medium": 0.0, "slow": 0.0}}}
@@ -107,3 +108,77 @@ def test_gain_drift_reaches_the_bridge_emulator(open_sim_station):
 def test_gain_drift_out_of_range_is_refused_naming_the_field():
     with pytest.raises(ValueError, match=r"bridge_gain_drift\.ppm_per_hour"):
         LabConfig(imperfections={"bridge_gain_drift": {"enabled": True, "ppm_per_hour": 5e4}})
+
+
+# -- 5. bridge noise grows with the heater current ---------------------------------------------------------------
+def relative_scatter(lab: SimulatedLab, n: int = 3000, frequency_hz: float = 15000.0) -> float:
+    """rms of the reading's reactance about its mean, relative to |Z| (each reading 0.6 s after the last)."""
+    values = []
+    for _ in range(n):
+        lab.clock.advance(0.6)
+        values.append(lab.measured_impedance(frequency_hz))
+    z = np.array(values)
+    return float(z.imag.std() / np.abs(z).mean())
+
+
+def test_bridge_noise_grows_with_the_heater_current_as_configured():
+    """In air (the target heater then changes nothing the bridge sees): 20 ppm of the bridge's own noise and
+    15 ppm/A of pickup add in quadrature; the pickup is proportional to the current."""
+    config = {"physics": "ecm", "target_present": False, "noise": {"bridge_relative": {"slow": 20e-6}},
+              "imperfections": {"bridge_heater_pickup": {"enabled": True, "ppm_per_ampere": {"slow": 15.0}}}}
+    lab = SimulatedLab(LabConfig(**config))
+    assert relative_scatter(lab) == pytest.approx(20e-6, rel=0.06)
+    for volts in (8.0, 24.0):  # 1 A and 3 A through the 8 Ohm heater
+        lab.set_supply(TARGET_HEATER_OUTPUT, voltage_v=volts, current_limit_a=4.0, on=True)
+        amperes = volts / 8.0
+        assert lab.heater_currents_a() == (pytest.approx(amperes), 0.0)
+        assert relative_scatter(lab) == pytest.approx(math.hypot(20e-6, 15e-6 * amperes), rel=0.06)
+
+
+def test_both_heaters_currents_add_in_quadrature():
+    lab = lab_with("ecm", bridge_heater_pickup={"ppm_per_ampere": {"slow": 20.0}})
+    lab.config.target_present = False
+    lab.set_supply(TARGET_HEATER_OUTPUT, voltage_v=24.0, current_limit_a=4.0, on=True)  # 3 A
+    lab.set_supply(BOX_HEATER_OUTPUT, voltage_v=32.0, current_limit_a=4.0, on=True)  # 4 A
+    lab.clock.advance(20 * HOUR_S)  # the coil settled at its new temperature: only the noise varies
+    assert relative_scatter(lab) == pytest.approx(20e-6 * 5.0, rel=0.06)
+
+
+def test_heater_pickup_is_silent_while_no_heater_current_flows():
+    lab = lab_with("field", bridge_heater_pickup={"ppm_per_ampere": {"slow": 30.0}})
+    lab.set_supply(TARGET_HEATER_OUTPUT, voltage_v=12.0, current_limit_a=4.0, on=False)
+    first = lab.measured_impedance(15000.0)
+    assert lab.measured_impedance(15000.0) == first
+
+
+def test_heater_pickup_shows_in_a_campaign_while_heating():
+    """Field physics, coil in air: noise of repeated readings before and while the target heater runs."""
+    config = LabConfig(physics="field", imperfections={"bridge_heater_pickup": {"enabled": True}})
+    lab = SimulatedLab(config.model_copy(update={"seed": 5}))
+    cold, hot = campaign.Recorder(lab), campaign.Recorder(lab)
+    campaign.read_in_air(cold, [15000.0], repeats=1500)
+    campaign.set_heater(lab, TARGET_HEATER_OUTPUT, 100.0)  # 78 W in 8 Ohm: 3.1 A
+    campaign.read_in_air(hot, [15000.0], repeats=1500)
+    amperes = lab.heater_currents_a()[0]
+    # robust scatter: the field bridge's rare glitches stay on
+    quiet, noisy = (float(median_abs_deviation(r.measurements().ls_h, scale="normal") / np.mean(r.measurements().ls_h))
+                    for r in (cold, hot))
+    assert amperes == pytest.approx(math.sqrt(78.0 / 8.0), rel=1e-3)
+    assert quiet == pytest.approx(15e-6, rel=0.1)  # the bridge's own slow noise at 15 kHz
+    assert noisy == pytest.approx(math.hypot(15e-6, 10e-6 * amperes), rel=0.1)
+
+
+def test_heater_pickup_reaches_the_bridge_emulator(open_sim_station):
+    station = open_sim_station(**QUIET_ECM, target_present=False, imperfections={
+        "bridge_heater_pickup": {"enabled": True, "ppm_per_ampere": {"slow": 200.0}}})
+    station.bridge.set_frequency(15000)
+    off = np.array([station.bridge.measure().main for _ in range(150)])
+    station.lab.set_supply(TARGET_HEATER_OUTPUT, voltage_v=16.0, current_limit_a=4.0, on=True)  # 2 A
+    on = np.array([station.bridge.measure().main for _ in range(150)])
+    assert off.std() / off.mean() < 10e-6  # the display's last digit
+    assert on.std() / on.mean() == pytest.approx(400e-6, rel=0.2)
+
+
+def test_heater_pickup_out_of_range_is_refused_naming_the_field():
+    with pytest.raises(ValueError, match=r"bridge_heater_pickup\.ppm_per_ampere"):
+        LabConfig(imperfections={"bridge_heater_pickup": {"ppm_per_ampere": {"slow": -5.0}}})
