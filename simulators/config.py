@@ -21,6 +21,7 @@ from ecds_lab.simulators.physics.bridge_model import BridgeModelSettings
 from ecds_lab.simulators.physics.coil import CoilSettings
 from ecds_lab.simulators.physics.former import FormerSettings
 from ecds_lab.simulators.physics.heater_pickup import BridgeHeaterPickup
+from ecds_lab.simulators.physics.metal_object import MetalObject
 from ecds_lab.simulators.physics.plate import PlateSettings
 from ecds_lab.simulators.physics.slide_mechanics import SlideMechanicsSettings
 
@@ -155,6 +156,7 @@ class Imperfections(_Strict):
 
     bridge_gain_drift: BridgeGainDrift = BridgeGainDrift()
     bridge_heater_pickup: BridgeHeaterPickup = BridgeHeaterPickup()
+    metal_object: MetalObject = MetalObject()
 
     def enabled(self) -> list[str]:
         return [name for name in type(self).model_fields if getattr(self, name).enabled]
@@ -195,6 +197,12 @@ class LabConfig(_Strict):
         if self.plate.material is not None and self.plate.material != self.sensor.target:
             raise ValueError(f"plate.material {self.plate.material!r} differs from sensor.target "
                              f"{self.sensor.target!r}; give one of them")
+        metal = self.imperfections.metal_object
+        outer_mm = (self.coil.outer_radius_m if self.physics == "field" else self.sensor.coil.outer_radius_m) * 1e3
+        if metal.enabled and metal.radial_mm - metal.radius_mm <= outer_mm:
+            raise ValueError(f"imperfections.metal_object.radial_mm: an object of radius {metal.radius_mm:g} mm at "
+                             f"{metal.radial_mm:g} mm from the coil's axis would touch the winding (outer radius "
+                             f"{outer_mm:g} mm); place it further out")
         if self.physics == "field":
             ecm_only = [name for name in self.effects.enabled() if name != "bridge_drift"]
             if ecm_only:

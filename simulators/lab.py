@@ -28,6 +28,7 @@ from ecds_lab.simulators.physics.field_sensor import FieldSensor
 from ecds_lab.simulators.physics.field_solution import Winding
 from ecds_lab.simulators.physics.former import FormerState
 from ecds_lab.simulators.physics.heater_pickup import HeaterPickup
+from ecds_lab.simulators.physics.metal_object import MetalObjectNearby
 from ecds_lab.simulators.physics.plate import Plate
 from ecds_lab.simulators.physics.slide_mechanics import carriage_error_m, draw_scatter_m
 
@@ -156,12 +157,26 @@ class SimulatedLab:
         self._gain_drift = (GainDrift(wider.bridge_gain_drift, cfg.seed, self.clock.now())
                             if wider.bridge_gain_drift.enabled else None)
         self._pickup = HeaterPickup(wider.bridge_heater_pickup) if wider.bridge_heater_pickup.enabled else None
+        self._metal = MetalObjectNearby(wider.metal_object, self._winding()) if wider.metal_object.enabled else None
+        #: State beyond the memo key's own that the field impedance depends on (None: nothing beyond it).
+        self._extra_state = self._wider_state if self._metal is not None else None
         self._carriage_key: tuple[float, int, float] = (math.nan, 0, math.nan)
         self._carriage_error = 0.0
         self._field_memo: dict[tuple[float, ...], complex] = {}
         #: The nodes' decay factors over a step: fixed per step length (the thermal constants are fixed once the
         #: lab is built), and a run's readings come at a few intervals.
         self._node_decays = lru_cache(maxsize=_DECAY_MEMO_SIZE)(self._node_decays_over)
+
+    def _winding(self) -> Winding:
+        """The winding of the physics in use (field: the ``coil`` block; ECM: the sensor's coil)."""
+        if self.field:
+            return self.config.coil.winding()
+        coil = self.config.sensor.coil
+        return Winding(coil.inner_radius_m, coil.outer_radius_m, coil.height_m, coil.turns)
+
+    def _wider_state(self) -> tuple[float, ...]:
+        """What the wider world's imperfections add to the state a field impedance depends on."""
+        return (self.carriage_distance_m(),)
 
     # -- time ---------------------------------------------------------------------------------
     def update(self) -> None:
@@ -281,6 +296,11 @@ class SimulatedLab:
         """True coil-target distance of the carriage (backlash and repeatability included), in m."""
         if not self.config.target_present:
             return math.inf
+        return self.carriage_distance_m()
+
+    def carriage_distance_m(self) -> float:
+        """Where the carriage really is, as the coil-target distance it gives with the target in place (m); the
+        carriage is there whether or not the target is."""
         motor = self.slide.position(self.clock.now())
         if self.field:
             return (self.config.slide_origin_mm + motor) * 1e-3 + self._carriage_error_m(motor)
@@ -314,14 +334,17 @@ class SimulatedLab:
         return z
 
     def _field_impedance(self, omega: float) -> complex:
-        """Dodd & Deeds coil over the plate, the former's strain, C and loss (docs/simulated_lab.md).
+        """Dodd & Deeds coil over the plate, the former's strain, C and loss, and the wider world's imperfections
+        that change the coil itself (docs/simulated_lab.md).
 
         Memoised on the state it depends on (the settings are fixed once the lab is built), so a remembered value
         is exactly what computing it again would give; a sweep reads one state many times in a row.
         """
         x_m = self.distance_m()
         former = self.former
-        key = (omega, x_m, self.t_winding_c, self.t_plate_surface_c, former.groove, former.bulk)
+        key: tuple[float, ...] = (omega, x_m, self.t_winding_c, self.t_plate_surface_c, former.groove, former.bulk)
+        if self._extra_state is not None:
+            key += self._extra_state()
         z = self._field_memo.get(key)
         if z is None:
             z = self._field_impedance_at(omega, x_m)
@@ -335,6 +358,8 @@ class SimulatedLab:
         t_plate = self.plate.field_temperature_c(self.t_plate_surface_c, ambient)
         branch = self.sensor.series_branch(omega, x_m, self.t_winding_c, t_plate, ambient,
                                            self.former.strain(self.t_winding_c))
+        if self._metal is not None:
+            branch += 1j * omega * self._metal.inductance_h(omega, self.carriage_distance_m())
         capacitance, conductance = self.former.parallel_elements(omega / (2 * math.pi))
         return ecm.with_parallel(branch, omega, capacitance, conductance)
 
@@ -362,7 +387,10 @@ class SimulatedLab:
         moisture = self.moisture if wet.enabled else 0.0
         capacitance = sensor.capacitance_f + wet.moist_extra_capacitance_f * moisture
         conductance = 1 / sensor.parallel_resistance_ohm + wet.moist_extra_conductance_s * moisture
-        return ecm.with_parallel(ecm.series_branch(l_coil, r_coil, k2, omega, tau), omega, capacitance, conductance)
+        branch = ecm.series_branch(l_coil, r_coil, k2, omega, tau)
+        if self._metal is not None:
+            branch += 1j * omega * self._metal.inductance_h(omega, self.carriage_distance_m())
+        return ecm.with_parallel(branch, omega, capacitance, conductance)
 
     def measured_impedance(self, frequency_hz: float, speed: str = "slow", voltage_v: float = 1.5,
                            averages: int = 1) -> complex:

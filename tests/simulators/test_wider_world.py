@@ -182,3 +182,125 @@ def test_heater_pickup_reaches_the_bridge_emulator(open_sim_station):
 def test_heater_pickup_out_of_range_is_refused_naming_the_field():
     with pytest.raises(ValueError, match=r"bridge_heater_pickup\.ppm_per_ampere"):
         LabConfig(imperfections={"bridge_heater_pickup": {"ppm_per_ampere": {"slow": -5.0}}})
+
+
+# -- 3. a metal object beside the slide --------------------------------------------------------------------------
+def biot_savart_field_squared(winding, turns_grid: tuple[int, int], point: np.ndarray, segments: int = 720) -> float:
+    """|H|^2 per A^2 at ``point`` from the winding as straight segments summed by Biot-Savart (an independent
+    check of the elliptic-integral loops)."""
+    radial = np.linspace(winding.inner_radius_m, winding.outer_radius_m, 2 * turns_grid[0] + 1)[1::2]
+    axial = np.linspace(0.0, winding.height_m, 2 * turns_grid[1] + 1)[1::2]
+    phi = np.linspace(0.0, 2 * np.pi, segments + 1)
+    total = np.zeros(3)
+    for r in radial:
+        for z in axial:
+            ends = np.stack([r * np.cos(phi), r * np.sin(phi), np.full_like(phi, z)], axis=1)
+            mid, dl = 0.5 * (ends[1:] + ends[:-1]), np.diff(ends, axis=0)
+            rel = point - mid
+            total += (np.cross(dl, rel) / np.linalg.norm(rel, axis=1)[:, None] ** 3).sum(axis=0) / (4 * np.pi)
+    return float(total @ total) * (winding.turns / (radial.size * axial.size)) ** 2
+
+
+def object_change_ppm(physics: str, x_mm: float, frequency_hz: float = 500.0, **settings: Any) -> float:
+    """The change of the reading's L that the object (default settings updated) makes at x, in ppm of the
+    coil's L in air (53.6 mH, the paper's coil)."""
+    with_object = lab_with(physics, metal_object=settings)
+    without = lab_with(physics)
+    values = []
+    for lab in (with_object, without):
+        campaign.move_to(lab, x_mm)
+        values.append(inductance_h(lab, frequency_hz))
+    return (values[0] - values[1]) / 53.6e-3 * 1e6
+
+
+def test_polarizability_reaches_its_limits_and_the_non_magnetic_closed_form():
+    from ecds_lab.simulators.physics.metal_object import polarizability
+
+    assert polarizability(2 * np.pi * 500, 3e-3, 0.0, 100.0) == pytest.approx(99 / 102)  # magnetostatic sphere
+    assert polarizability(2 * np.pi * 1e9, 3e-3, 6e7, 1.0) == pytest.approx(-0.5, abs=2e-3)  # perfect conductor
+    for frequency in (50.0, 500.0, 15000.0):
+        z = 3e-3 * np.sqrt(1j * 2 * np.pi * frequency * 4e-7 * np.pi * 3.5e7)
+        wait = -0.5 * (1 + 3 / z**2 - 3 / (np.tanh(z) * z))  # Wait (1951), mu_r = 1
+        assert polarizability(2 * np.pi * frequency, 3e-3, 3.5e7, 1.0) == pytest.approx(wait, rel=1e-9)
+
+
+def test_a_non_conducting_magnetic_object_changes_l_by_its_dipole_in_the_coils_field():
+    """sigma = 0: dL = mu0 4 pi a^3 (mu_r - 1)/(mu_r + 2) |H|^2, H from Biot-Savart over the winding."""
+    from ecds_lab.simulators.physics.field_solution import Winding
+    from ecds_lab.simulators.physics.metal_object import MetalObject, MetalObjectNearby
+
+    winding = Winding(0.055, 0.075, 0.003, 500)
+    settings = MetalObject(enabled=True, conductivity_s_per_m=0.0, mu_r=200.0, radius_mm=2.0, radial_mm=80.0)
+    nearby = MetalObjectNearby(settings, winding)
+    for x_mm in (45.0, 50.0, 60.0):
+        point = np.array([0.080, 0.0, (45.0 - x_mm) * 1e-3 + 0.0015])
+        expected = 4e-7 * np.pi * 4 * np.pi * 2e-3**3 * 199 / 202 * biot_savart_field_squared(winding, (40, 6), point)
+        assert nearby.inductance_h(2 * np.pi * 500, x_mm * 1e-3) == pytest.approx(expected, rel=2e-3)
+
+
+@pytest.mark.parametrize("physics", ["ecm", "field"])
+def test_metal_object_changes_l_only_near_its_place_and_by_a_few_hundred_ppm(physics):
+    """Defaults: a steel object of 3 mm radius, 3.5 mm beyond the winding's rim, passed at 45 mm."""
+    peak = object_change_ppm(physics, 45.0)
+    assert 100 < peak < 400  # steel at 500 Hz: magnetized, L rises
+    profile = {x: object_change_ppm(physics, x) for x in (37.0, 41.0, 49.0, 53.0, 70.0, 100.0, 130.0)}
+    assert profile[41.0] == pytest.approx(profile[49.0], rel=0.02)  # symmetric about its place
+    assert peak / 2 < profile[41.0] < peak and profile[37.0] < peak / 2  # about 16 mm wide at half height
+    # tails falling about as the square of the distance: 25, 55, 85 mm away
+    assert 0 < profile[70.0] < 0.15 * peak and 0 < profile[100.0] < 0.04 * peak and 0 < profile[130.0] < 0.01 * peak
+    assert object_change_ppm(physics, 80.0, position_mm=80.0) == pytest.approx(peak, rel=0.01)  # placed elsewhere
+
+
+def test_metal_object_frequency_dependence_follows_its_material():
+    steel_low, steel_high = object_change_ppm("ecm", 45.0, 500.0), object_change_ppm("ecm", 45.0, 15000.0)
+    assert steel_low > steel_high > 0  # eddy currents screen part of the magnetization at 15 kHz
+    aluminium = {"conductivity_s_per_m": 3.5e7, "mu_r": 1.0}
+    al_low = object_change_ppm("ecm", 45.0, 500.0, **aluminium)
+    al_high = object_change_ppm("ecm", 45.0, 15000.0, **aluminium)
+    assert al_high < al_low < 0  # a non-magnetic conductor only lowers L, more as its skin depth falls
+    lab = lab_with("ecm", metal_object={})
+    plain = lab_with("ecm")
+    for each in (lab, plain):
+        campaign.move_to(each, 45.0)
+    assert lab.measured_impedance(15000.0).real > plain.measured_impedance(15000.0).real  # and it dissipates
+
+
+def test_metal_object_acts_with_the_target_removed_where_the_carriage_is():
+    lab, plain = lab_with("field", metal_object={}), lab_with("field")
+    for each in (lab, plain):
+        campaign.move_to(each, 45.0)
+        each.config.target_present = False
+    near = inductance_h(lab, 500.0) / inductance_h(plain, 500.0) - 1
+    for each in (lab, plain):
+        campaign.move_to(each, 120.0)
+    far = inductance_h(lab, 500.0) / inductance_h(plain, 500.0) - 1
+    assert near > 100e-6 and 0 < far < 0.02 * near
+
+
+def test_metal_object_shows_in_a_campaign_sweep():
+    positions = (30.0, 40.0, 45.0, 50.0, 60.0, 90.0)
+    config = LabConfig(physics="field", imperfections={"metal_object": {"enabled": True}})
+    with_object = campaign.paper_campaign(config, seed=2, positions_mm=positions, target_setpoints_c=(),
+                                          coil_setpoints_c=())
+    plain = campaign.paper_campaign(LabConfig(physics="field"), seed=2, positions_mm=positions,
+                                    target_setpoints_c=(), coil_setpoints_c=())
+    at = (with_object.x_m == 0.045) & (with_object.freq_hz == 500.0)
+    far = (with_object.x_m == 0.09) & (with_object.freq_hz == 500.0)
+    change = with_object.ls_h / plain.ls_h - 1
+    assert np.all(change[at] > 100e-6) and np.all(np.abs(change[far]) < 0.05 * change[at].min())
+
+
+def test_metal_object_reaches_the_bridge_emulator(open_sim_station):
+    def reading_h(station) -> float:
+        station.slide.move_to(0.045)
+        station.bridge.set_frequency(500)
+        return station.bridge.measure().main
+
+    near = reading_h(open_sim_station(**QUIET_ECM, imperfections={"metal_object": {"enabled": True}}))
+    assert near / reading_h(open_sim_station(**QUIET_ECM)) - 1 == pytest.approx(
+        object_change_ppm("ecm", 45.0) * 1e-6, abs=15e-6)
+
+
+def test_a_metal_object_touching_the_winding_is_refused_naming_the_field():
+    with pytest.raises(ValueError, match=r"imperfections\.metal_object\.radial_mm"):
+        LabConfig(imperfections={"metal_object": {"enabled": True, "radial_mm": 76.0}})
