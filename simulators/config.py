@@ -24,6 +24,7 @@ from ecds_lab.simulators.physics.heater_pickup import BridgeHeaterPickup
 from ecds_lab.simulators.physics.metal_object import MetalObject
 from ecds_lab.simulators.physics.plate import PlateSettings
 from ecds_lab.simulators.physics.slide_mechanics import SlideMechanicsSettings
+from ecds_lab.simulators.physics.target_tilt import TargetTilt
 
 
 class _Strict(BaseModel):
@@ -157,6 +158,7 @@ class Imperfections(_Strict):
     bridge_gain_drift: BridgeGainDrift = BridgeGainDrift()
     bridge_heater_pickup: BridgeHeaterPickup = BridgeHeaterPickup()
     metal_object: MetalObject = MetalObject()
+    target_tilt: TargetTilt = TargetTilt()
 
     def enabled(self) -> list[str]:
         return [name for name in type(self).model_fields if getattr(self, name).enabled]

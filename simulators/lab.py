@@ -31,6 +31,7 @@ from ecds_lab.simulators.physics.heater_pickup import HeaterPickup
 from ecds_lab.simulators.physics.metal_object import MetalObjectNearby
 from ecds_lab.simulators.physics.plate import Plate
 from ecds_lab.simulators.physics.slide_mechanics import carriage_error_m, draw_scatter_m
+from ecds_lab.simulators.physics.target_tilt import Tilt
 
 #: Longest step of the thermal/moisture integration (s); inputs are constant within a step.
 _MAX_STEP_S = 5.0
@@ -157,7 +158,10 @@ class SimulatedLab:
         self._gain_drift = (GainDrift(wider.bridge_gain_drift, cfg.seed, self.clock.now())
                             if wider.bridge_gain_drift.enabled else None)
         self._pickup = HeaterPickup(wider.bridge_heater_pickup) if wider.bridge_heater_pickup.enabled else None
-        self._metal = MetalObjectNearby(wider.metal_object, self._winding()) if wider.metal_object.enabled else None
+        winding = self._winding()
+        self._metal = MetalObjectNearby(wider.metal_object, winding) if wider.metal_object.enabled else None
+        self._tilt = (Tilt(wider.target_tilt, 0.5 * (winding.inner_radius_m + winding.outer_radius_m), ambient)
+                      if wider.target_tilt.enabled else None)
         #: State beyond the memo key's own that the field impedance depends on (None: nothing beyond it).
         self._extra_state = self._wider_state if self._metal is not None else None
         self._carriage_key: tuple[float, int, float] = (math.nan, 0, math.nan)
@@ -356,8 +360,13 @@ class SimulatedLab:
     def _field_impedance_at(self, omega: float, x_m: float) -> complex:
         ambient = self.thermal.ambient_c
         t_plate = self.plate.field_temperature_c(self.t_plate_surface_c, ambient)
-        branch = self.sensor.series_branch(omega, x_m, self.t_winding_c, t_plate, ambient,
-                                           self.former.strain(self.t_winding_c))
+        strain = self.former.strain(self.t_winding_c)
+        gaps = self._tilt.gaps_m(x_m, self.t_plate_surface_c) if self._tilt is not None else None
+        if gaps is None:
+            branch = self.sensor.series_branch(omega, x_m, self.t_winding_c, t_plate, ambient, strain)
+        else:  # a tilted plate: the coupling averaged over the coil's face
+            branch = sum(self.sensor.series_branch(omega, gap, self.t_winding_c, t_plate, ambient, strain)
+                         for gap in gaps) / len(gaps)
         if self._metal is not None:
             branch += 1j * omega * self._metal.inductance_h(omega, self.carriage_distance_m())
         capacitance, conductance = self.former.parallel_elements(omega / (2 * math.pi))
@@ -376,7 +385,8 @@ class SimulatedLab:
             d_target = self.t_target_c - t_ref
             if effects.target_bending.enabled:
                 x -= effects.target_bending.shift_um_per_k * 1e-6 * d_target
-            k2 = self.coupling.k2(x)
+            gaps = self._tilt.gaps_m(x, self.t_target_c) if self._tilt is not None else None
+            k2 = self.coupling.k2(x) if gaps is None else sum(self.coupling.k2(gap) for gap in gaps) / len(gaps)
             if effects.target_tau_temperature.enabled:
                 tempco = effects.target_tau_temperature.tempco_per_k
                 tempco = ecm.TAU_TEMPCO_PER_K[sensor.target] if tempco is None else tempco

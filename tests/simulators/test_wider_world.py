@@ -304,3 +304,85 @@ def test_metal_object_reaches_the_bridge_emulator(open_sim_station):
 def test_a_metal_object_touching_the_winding_is_refused_naming_the_field():
     with pytest.raises(ValueError, match=r"imperfections\.metal_object\.radial_mm"):
         LabConfig(imperfections={"metal_object": {"enabled": True, "radial_mm": 76.0}})
+
+
+# -- 4. a target tilt that changes with temperature ---------------------------------------------------------------
+def true_l_h(physics: str, x_mm: float, t_target_c: float, frequency_hz: float = 15000.0, **tilt: Any) -> float:
+    """True L with the plate at ``t_target_c`` (its surface and bulk), the tilt on when settings are given; a
+    field lab without carriage errors, so distances are exact."""
+    config: dict[str, Any] = dict(QUIET[physics])
+    if physics == "field":
+        config["slide"] = {part: {"enabled": False} for part in ("backlash", "lead_screw", "repeatability")}
+    if tilt:
+        config["imperfections"] = {"target_tilt": {"enabled": True, **tilt}}
+    lab = SimulatedLab(LabConfig(**config))
+    campaign.move_to(lab, x_mm)
+    lab.update()
+    lab.t_target_c = lab.t_plate_surface_c = t_target_c
+    return lab.coil_impedance(frequency_hz).imag / (2 * math.pi * frequency_hz)
+
+
+def test_tilt_follows_the_plate_temperature_and_vanishes_at_ambient():
+    from ecds_lab.simulators.physics.target_tilt import TargetTilt, Tilt
+
+    tilt = Tilt(TargetTilt(enabled=True, tilt_urad_per_k=10.0), 0.065, 22.0)
+    assert tilt.angle_rad(132.0) == pytest.approx(1.1e-3)
+    assert tilt.gaps_m(0.020, 22.0) is None
+    gaps = tilt.gaps_m(0.020, 132.0)
+    assert gaps is not None and np.mean(gaps) == pytest.approx(0.020 - 1.1e-3 * 0.150)  # the centre 165 um nearer
+    assert max(gaps) - min(gaps) == pytest.approx(2 * 1.1e-3 * 0.065 * math.cos(math.pi / 8))  # rim +-72 um
+    assert true_l_h("field", 30.0, 22.0, tilt_urad_per_k=50.0) == true_l_h("field", 30.0, 22.0)
+
+
+@pytest.mark.parametrize("physics", ["ecm", "field"])
+def test_tilt_moves_the_centre_by_angle_times_pivot(physics):
+    """10 urad/K at a 110 K rise, pivot 150 mm: as the plate 165 um nearer, to within the face average."""
+    for x_mm in (20.0, 50.0):
+        flat_hot = true_l_h(physics, x_mm, 132.0)
+        tilted = true_l_h(physics, x_mm, 132.0, tilt_urad_per_k=10.0)
+        shifted = true_l_h(physics, x_mm - 0.165, 132.0)
+        assert tilted / flat_hot - 1 < -50e-6  # clearly nearer
+        assert tilted / shifted - 1 == pytest.approx(0.0, abs=3e-6)  # and the face average adds ppm at most
+
+
+@pytest.mark.parametrize("physics", ["ecm", "field"])
+def test_tilt_about_the_centre_changes_l_beyond_any_uniform_shift(physics):
+    """Pivot 0: the mean gap is kept, yet the average coupling over a tilted face is larger (it is convex in
+    the gap), so L falls, as the square of the tilt, and by an x dependence no uniform shift has."""
+    def change(x_mm: float, t_c: float) -> float:
+        return true_l_h(physics, x_mm, t_c, tilt_urad_per_k=50.0, pivot_mm=0.0) - true_l_h(physics, x_mm, t_c)
+
+    assert change(20.0, 122.0) < 0
+    assert change(20.0, 122.0) / change(20.0, 72.0) == pytest.approx(4.0, rel=0.02)  # quadratic in the tilt
+    # the shift that would explain it, change / (dL/dx), differs by x: no uniform shift reproduces the tilt
+    slope = {x: (true_l_h(physics, x + 0.01, 122.0) - true_l_h(physics, x - 0.01, 122.0)) / 0.02e-3
+             for x in (20.0, 60.0)}
+    equivalent = {x: change(x, 122.0) / slope[x] for x in (20.0, 60.0)}
+    assert equivalent[20.0] / equivalent[60.0] > 1.5 or equivalent[60.0] / equivalent[20.0] > 1.5
+
+
+def test_tilt_acts_in_a_target_heating_campaign():
+    options: dict[str, Any] = {"positions_mm": (20.0, 40.0), "frequencies_hz": (15000.0,),
+                               "directions": ("forward",)}
+    config = LabConfig(physics="field", imperfections={"target_tilt": {"enabled": True}})
+    tilted = campaign.target_heating(SimulatedLab(config), (22.0, 130.0), **options)
+    flat = campaign.target_heating(SimulatedLab(LabConfig(physics="field")), (22.0, 130.0), **options)
+    change = tilted.ls_h / flat.ls_h - 1
+    cold, hot = flat.t_target_c < 30.0, flat.t_target_c > 120.0
+    assert np.all(np.abs(change[cold]) < 1e-9)
+    assert np.all(change[hot & (flat.x_m == 0.02)] < -1000e-6)  # 160 um nearer at 20 mm
+
+
+def test_tilt_reaches_the_bridge_emulator(open_sim_station):
+    def heated_reading_h(station) -> float:
+        station.slide.move_to(0.020)
+        station.bridge.set_frequency(15000)
+        station.lab.set_supply(TARGET_HEATER_OUTPUT, voltage_v=28.0, current_limit_a=4.0, on=True)  # 98 W
+        station.lab.clock.advance(3 * HOUR_S)
+        return station.bridge.measure().main
+
+    tilted = open_sim_station(**QUIET_ECM, imperfections={"target_tilt": {"enabled": True}})
+    flat = open_sim_station(**QUIET_ECM)
+    measured = heated_reading_h(tilted) / heated_reading_h(flat) - 1
+    true = tilted.lab.coil_impedance(15000.0).imag / flat.lab.coil_impedance(15000.0).imag - 1
+    assert true < -1000e-6 and measured == pytest.approx(true, abs=15e-6)
