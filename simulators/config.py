@@ -19,6 +19,7 @@ from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.simulators.physics.bridge_gain import BridgeGainDrift
 from ecds_lab.simulators.physics.bridge_model import BridgeModelSettings
 from ecds_lab.simulators.physics.coil import CoilSettings
+from ecds_lab.simulators.physics.expansion_hysteresis import ExpansionHysteresis
 from ecds_lab.simulators.physics.former import FormerSettings
 from ecds_lab.simulators.physics.heater_pickup import BridgeHeaterPickup
 from ecds_lab.simulators.physics.metal_object import MetalObject
@@ -159,6 +160,7 @@ class Imperfections(_Strict):
     bridge_heater_pickup: BridgeHeaterPickup = BridgeHeaterPickup()
     metal_object: MetalObject = MetalObject()
     target_tilt: TargetTilt = TargetTilt()
+    expansion_hysteresis: ExpansionHysteresis = ExpansionHysteresis()
 
     def enabled(self) -> list[str]:
         return [name for name in type(self).model_fields if getattr(self, name).enabled]

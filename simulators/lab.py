@@ -24,6 +24,7 @@ from ecds_lab.simulators.config import LabConfig, Thermal
 from ecds_lab.simulators.physics import ecm
 from ecds_lab.simulators.physics.bridge_gain import GainDrift
 from ecds_lab.simulators.physics.bridge_model import BridgeModel
+from ecds_lab.simulators.physics.expansion_hysteresis import ExpansionPlay
 from ecds_lab.simulators.physics.field_sensor import FieldSensor
 from ecds_lab.simulators.physics.field_solution import Winding
 from ecds_lab.simulators.physics.former import FormerState
@@ -162,8 +163,10 @@ class SimulatedLab:
         self._metal = MetalObjectNearby(wider.metal_object, winding) if wider.metal_object.enabled else None
         self._tilt = (Tilt(wider.target_tilt, 0.5 * (winding.inner_radius_m + winding.outer_radius_m), ambient)
                       if wider.target_tilt.enabled else None)
+        self._play = (ExpansionPlay(wider.expansion_hysteresis, ambient)
+                      if wider.expansion_hysteresis.enabled else None)
         #: State beyond the memo key's own that the field impedance depends on (None: nothing beyond it).
-        self._extra_state = self._wider_state if self._metal is not None else None
+        self._extra_state = self._wider_state if self._metal is not None or self._play is not None else None
         self._carriage_key: tuple[float, int, float] = (math.nan, 0, math.nan)
         self._carriage_error = 0.0
         self._field_memo: dict[tuple[float, ...], complex] = {}
@@ -180,7 +183,11 @@ class SimulatedLab:
 
     def _wider_state(self) -> tuple[float, ...]:
         """What the wider world's imperfections add to the state a field impedance depends on."""
-        return (self.carriage_distance_m(),)
+        return (self.carriage_distance_m(), self._play.temperature_c if self._play is not None else 0.0)
+
+    def _expansion_temperature_c(self) -> float:
+        """The temperature that sets the winding's thermal strain: the winding's own, or the play's behind it."""
+        return self._play.temperature_c if self._play is not None else self.t_winding_c
 
     # -- time ---------------------------------------------------------------------------------
     def update(self) -> None:
@@ -204,12 +211,15 @@ class SimulatedLab:
         # The nodes as locals while stepping (stored back below): the same arithmetic, less attribute traffic.
         t_target, t_surface, t_box = self.t_target_c, self.t_plate_surface_c, self.t_box_c
         t_former, t_winding = self.t_former_c, self.t_winding_c
+        play = self._play
         for _ in range(steps):
             t_target = target_goal + (t_target - target_goal) * decay_target
             t_surface = t_target + (t_surface - t_target) * decay_surface
             t_box = box_goal + (t_box - box_goal) * decay_box
             t_former = t_box + (t_former - t_box) * decay_former
             t_winding = t_former + (t_winding - t_former) * decay_winding
+            if play is not None:
+                play.follow(t_winding)
             if self.field:
                 self.former.step(t_former, dt)
             elif wet is not None:
@@ -360,7 +370,7 @@ class SimulatedLab:
     def _field_impedance_at(self, omega: float, x_m: float) -> complex:
         ambient = self.thermal.ambient_c
         t_plate = self.plate.field_temperature_c(self.t_plate_surface_c, ambient)
-        strain = self.former.strain(self.t_winding_c)
+        strain = self.former.strain(self._expansion_temperature_c())
         gaps = self._tilt.gaps_m(x_m, self.t_plate_surface_c) if self._tilt is not None else None
         if gaps is None:
             branch = self.sensor.series_branch(omega, x_m, self.t_winding_c, t_plate, ambient, strain)
@@ -377,7 +387,8 @@ class SimulatedLab:
         cfg, sensor, effects = self.config, self.config.sensor, self.config.effects
         t_ref = sensor.reference_temperature_c
         d_coil = self.t_winding_c - t_ref
-        l_coil = sensor.inductance_h * (1 + cfg.alpha * d_coil + cfg.beta_per_k2 * d_coil**2)
+        d_expansion = d_coil if self._play is None else self._play.temperature_c - t_ref
+        l_coil = sensor.inductance_h * (1 + cfg.alpha * d_expansion + cfg.beta_per_k2 * d_coil**2)
         r_coil = sensor.resistance_ohm * (1 + sensor.resistance_tempco_per_k * d_coil)
         x = self.distance_m()
         k2, tau = 0.0, cfg.tau_t

@@ -124,7 +124,8 @@ class FormerState:
         return equilibrium + (m - equilibrium) * math.exp(-dt_s / tau)
 
     def strain(self, t_winding_c: float) -> float:
-        """Linear strain of the former at the winding relative to a dry former at 20 C."""
+        """Linear strain of the former at the winding relative to a dry former at 20 C, its thermal part at
+        ``t_winding_c`` (the winding's temperature, or the one a hysteresis of the expansion holds it at)."""
         swelling = self.swelling_strain * self.groove if self.moist else 0.0
         return self.expansion_per_k * (t_winding_c - 20.0) + swelling
 

@@ -386,3 +386,87 @@ def test_tilt_reaches_the_bridge_emulator(open_sim_station):
     measured = heated_reading_h(tilted) / heated_reading_h(flat) - 1
     true = tilted.lab.coil_impedance(15000.0).imag / flat.lab.coil_impedance(15000.0).imag - 1
     assert true < -1000e-6 and measured == pytest.approx(true, abs=15e-6)
+
+
+# -- 2. a hysteresis of the former's expansion -------------------------------------------------------------------
+def test_the_play_follows_only_beyond_half_the_width():
+    from ecds_lab.simulators.physics.expansion_hysteresis import ExpansionHysteresis, ExpansionPlay
+
+    play = ExpansionPlay(ExpansionHysteresis(enabled=True, width_k=4.0), 22.0)
+    path = [23.0, 24.0, 30.0, 29.0, 27.0, 26.0, 20.0, 21.0, 22.0]
+    followed = []
+    for t in path:
+        play.follow(t)
+        followed.append(play.temperature_c)
+    assert followed == [22.0, 22.0, 28.0, 28.0, 28.0, 28.0, 22.0, 22.0, 22.0]
+
+
+def twin_in_air(physics: str, width_k: float, **extra: Any) -> tuple[SimulatedLab, SimulatedLab]:
+    """Two labs, coil in air, moisture off, with and without the hysteresis; the same schedule gives both
+    the same temperatures."""
+    config: dict[str, Any] = {**QUIET[physics], "target_present": False, **extra}
+    if physics == "field":
+        config["former"] = {"expansion": {"per_k": 25e-6}, "moisture": {"enabled": False}}
+    plain = SimulatedLab(LabConfig(**config))
+    hysteretic = SimulatedLab(LabConfig(**config, imperfections={
+        "expansion_hysteresis": {"enabled": True, "width_k": width_k}}))
+    return hysteretic, plain
+
+
+@pytest.mark.parametrize("physics", ["ecm", "field"])
+def test_hysteresis_separates_the_heating_and_cooling_paths_by_the_width(physics):
+    """Heating runs w/2 below the winding's temperature, cooling w/2 above: the relative change of L is
+    -alpha w/2 heating, +alpha w/2 cooling, and +alpha w/2 stays after the cycle (alpha: L's expansion tempco,
+    field: the former's 25e-6/K in air; ECM: the configured alpha)."""
+    hysteretic, plain = twin_in_air(physics, 8.0)
+    alpha = 25e-6 if physics == "field" else plain.config.alpha
+
+    def relative_change() -> float:
+        return inductance_h(hysteretic, 500.0) / inductance_h(plain, 500.0) - 1
+
+    assert relative_change() == pytest.approx(0.0, abs=1e-12)
+    heating, cooling = [], []
+    for lab in (hysteretic, plain):
+        lab.set_supply(BOX_HEATER_OUTPUT, voltage_v=24.0, current_limit_a=4.0, on=True)  # 72 W: +86 K
+    for _ in range(12):
+        for lab in (hysteretic, plain):
+            lab.clock.advance(300.0)
+        heating.append((hysteretic.t_winding_c, relative_change()))
+    for lab in (hysteretic, plain):
+        lab.set_supply(BOX_HEATER_OUTPUT, on=False)
+    for _ in range(48):
+        for lab in (hysteretic, plain):
+            lab.clock.advance(300.0)
+        cooling.append((hysteretic.t_winding_c, relative_change()))
+    assert heating[-1][0] > 90.0 and cooling[-1][0] < 23.0
+    for _, change in heating[1:]:
+        assert change == pytest.approx(-alpha * 4.0, rel=0.02)
+    for _, change in cooling[2:]:
+        assert change == pytest.approx(alpha * 4.0, rel=0.02)
+    assert cooling[-1][1] - heating[-1][1] == pytest.approx(alpha * 8.0, rel=0.02)  # the paths, w apart
+
+
+def test_hysteresis_acts_in_a_coil_heating_campaign():
+    config: dict[str, Any] = {"physics": "field", "former": {"expansion": {"per_k": 25e-6}}}
+    plain = campaign.coil_heating(SimulatedLab(LabConfig(**config)), (60.0,), (500.0,))
+    hysteretic = campaign.coil_heating(SimulatedLab(LabConfig(**config, imperfections={
+        "expansion_hysteresis": {"enabled": True, "width_k": 6.0}})), (60.0,), (500.0,))
+    change = hysteretic.ls_h / plain.ls_h - 1
+    hot_index = int(np.argmax(plain.t_coil_c))
+    assert np.abs(change[:3]).max() < 1e-12  # before heating: the band is centred
+    assert change[hot_index] == pytest.approx(-25e-6 * 3.0, rel=0.05)  # heating: 3 K behind
+    assert change[-1] == pytest.approx(25e-6 * 3.0, rel=0.05)  # cooled: 3 K ahead, and kept
+
+
+def test_hysteresis_reaches_the_bridge_emulator(open_sim_station):
+    def heated_reading_h(station) -> float:
+        station.bridge.set_frequency(500)
+        station.lab.set_supply(BOX_HEATER_OUTPUT, voltage_v=20.0, current_limit_a=4.0, on=True)
+        station.lab.clock.advance(2 * HOUR_S)
+        return station.bridge.measure().main
+
+    hysteretic = open_sim_station(**QUIET_ECM, target_present=False,
+                                  imperfections={"expansion_hysteresis": {"enabled": True, "width_k": 10.0}})
+    plain = open_sim_station(**QUIET_ECM, target_present=False)
+    change = heated_reading_h(hysteretic) / heated_reading_h(plain) - 1
+    assert change == pytest.approx(-plain.lab.config.alpha * 5.0, abs=15e-6)
