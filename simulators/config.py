@@ -22,6 +22,7 @@ from ecds_lab.simulators.physics.coil import CoilSettings
 from ecds_lab.simulators.physics.expansion_hysteresis import ExpansionHysteresis
 from ecds_lab.simulators.physics.former import FormerSettings
 from ecds_lab.simulators.physics.heater_pickup import BridgeHeaterPickup
+from ecds_lab.simulators.physics.humidity_uptake import Reabsorption
 from ecds_lab.simulators.physics.metal_object import MetalObject
 from ecds_lab.simulators.physics.plate import PlateSettings
 from ecds_lab.simulators.physics.slide_mechanics import SlideMechanicsSettings
@@ -161,6 +162,7 @@ class Imperfections(_Strict):
     metal_object: MetalObject = MetalObject()
     target_tilt: TargetTilt = TargetTilt()
     expansion_hysteresis: ExpansionHysteresis = ExpansionHysteresis()
+    reabsorption: Reabsorption = Reabsorption()
 
     def enabled(self) -> list[str]:
         return [name for name in type(self).model_fields if getattr(self, name).enabled]

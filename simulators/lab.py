@@ -29,6 +29,7 @@ from ecds_lab.simulators.physics.field_sensor import FieldSensor
 from ecds_lab.simulators.physics.field_solution import Winding
 from ecds_lab.simulators.physics.former import FormerState
 from ecds_lab.simulators.physics.heater_pickup import HeaterPickup
+from ecds_lab.simulators.physics.humidity_uptake import HumidityUptake
 from ecds_lab.simulators.physics.metal_object import MetalObjectNearby
 from ecds_lab.simulators.physics.plate import Plate
 from ecds_lab.simulators.physics.slide_mechanics import carriage_error_m, draw_scatter_m
@@ -132,7 +133,9 @@ class SimulatedLab:
             plate = Plate(cfg.plate, cfg.plate_material)
             self.sensor = FieldSensor(cfg.coil, plate)
             self.plate = plate
-            self.former = FormerState(cfg.former, cfg.former_material, ambient)
+            uptake = (HumidityUptake(cfg.imperfections.reabsorption, ambient)
+                      if cfg.imperfections.reabsorption.enabled else None)
+            self.former = FormerState(cfg.former, cfg.former_material, ambient, uptake)
             self.bridge_model = BridgeModel(cfg.bridge, cfg.seed)
         else:
             sensor = cfg.sensor
@@ -159,6 +162,9 @@ class SimulatedLab:
         self._gain_drift = (GainDrift(wider.bridge_gain_drift, cfg.seed, self.clock.now())
                             if wider.bridge_gain_drift.enabled else None)
         self._pickup = HeaterPickup(wider.bridge_heater_pickup) if wider.bridge_heater_pickup.enabled else None
+        #: ECM physics: the room air's re-absorption replacing the moisture effect's absorption rate, when on.
+        self._ecm_uptake = (HumidityUptake(wider.reabsorption, ambient)
+                            if wider.reabsorption.enabled and not self.field else None)
         winding = self._winding()
         self._metal = MetalObjectNearby(wider.metal_object, winding) if wider.metal_object.enabled else None
         self._tilt = (Tilt(wider.target_tilt, 0.5 * (winding.inner_radius_m + winding.outer_radius_m), ambient)
@@ -208,6 +214,7 @@ class SimulatedLab:
         wet = None  # the ECM physics' moisture, when that effect is on
         if not self.field and self.config.effects.parasitic_capacitance.enabled:
             wet = self.config.effects.parasitic_capacitance
+            uptake = self._ecm_uptake
         # The nodes as locals while stepping (stored back below): the same arithmetic, less attribute traffic.
         t_target, t_surface, t_box = self.t_target_c, self.t_plate_surface_c, self.t_box_c
         t_former, t_winding = self.t_former_c, self.t_winding_c
@@ -224,8 +231,9 @@ class SimulatedLab:
                 self.former.step(t_former, dt)
             elif wet is not None:
                 dry = wet.drying_rate_at_100c_per_s * 2.0 ** ((t_former - 100.0) / wet.drying_doubling_k)
-                total = dry + wet.absorption_rate_per_s
-                equilibrium = wet.absorption_rate_per_s / total
+                absorb = wet.absorption_rate_per_s if uptake is None else 1.0 / uptake.taus_s(t_former)[0]
+                total = dry + absorb
+                equilibrium = absorb / total
                 self.moisture = equilibrium + (self.moisture - equilibrium) * math.exp(-total * dt)
         self.t_target_c, self.t_plate_surface_c, self.t_box_c = t_target, t_surface, t_box
         self.t_former_c, self.t_winding_c = t_former, t_winding

@@ -470,3 +470,93 @@ def test_hysteresis_reaches_the_bridge_emulator(open_sim_station):
     plain = open_sim_station(**QUIET_ECM, target_present=False)
     change = heated_reading_h(hysteretic) / heated_reading_h(plain) - 1
     assert change == pytest.approx(-plain.lab.config.alpha * 5.0, abs=15e-6)
+
+
+# -- 6. re-absorption of humidity while cooling ------------------------------------------------------------------
+def test_uptake_slows_as_the_surface_air_warms_and_dries():
+    from ecds_lab.simulators.physics.humidity_uptake import HumidityUptake, Reabsorption
+
+    uptake = HumidityUptake(Reabsorption(enabled=True, relative_humidity=0.5), 22.0)
+    assert uptake.taus_s(22.0) == (3600.0, 4 * 3600.0)
+    magnus = lambda t: 6.112 * math.exp(17.62 * t / (243.12 + t))  # noqa: E731  (WMO-No. 8, hPa)
+    assert uptake.surface_humidity(40.0) == pytest.approx(0.5 * magnus(22.0) / magnus(40.0))
+    assert uptake.taus_s(40.0)[0] == pytest.approx(3600.0 * magnus(40.0) / magnus(22.0))
+    humid = HumidityUptake(Reabsorption(enabled=True, relative_humidity=0.8), 22.0)
+    assert humid.taus_s(22.0)[0] == pytest.approx(3600.0 * 0.5 / 0.8)
+
+
+def dried_then_cooled(lab: SimulatedLab) -> None:
+    """Box heater to about 110 C for 3 h (the groove clay dries out), then off for 2 h."""
+    lab.set_supply(BOX_HEATER_OUTPUT, voltage_v=27.0, current_limit_a=4.0, on=True)
+    lab.clock.advance(3 * HOUR_S)
+    lab.set_supply(BOX_HEATER_OUTPUT, on=False)
+    lab.clock.advance(2 * HOUR_S)
+    lab.update()
+
+
+@pytest.mark.parametrize("humidity, tau_s", [(0.5, 3600.0), (0.25, 7200.0)])
+def test_a_cooled_former_takes_water_up_again_within_its_time_constant(humidity, tau_s):
+    settings = {"relative_humidity": humidity, "groove_uptake_tau_s": 3600.0}
+    wet, slow = lab_with("field", reabsorption=settings), lab_with("field")
+    for lab in (wet, slow):
+        lab.config.target_present = False
+        dried_then_cooled(lab)
+    assert slow.former.groove < 0.05 and wet.t_former_c < 23.0  # dried, and cool again
+    start = wet.former.groove
+    wet.clock.advance(tau_s)
+    wet.update()
+    # at room temperature: 1 - m falls by e within tau (the equilibrium is 1 there)
+    assert (1 - wet.former.groove) / (1 - start) == pytest.approx(math.exp(-1), rel=0.03)
+    slow.clock.advance(tau_s)
+    slow.update()
+    assert slow.former.groove < 0.05  # the former's own re-absorption takes days
+    capacitance = wet.former.parallel_elements(15000.0)[0]
+    assert capacitance == pytest.approx(47.5e-12 + 15e-12 * wet.former.groove)  # C_p back toward its moist 62.5 pF
+    assert capacitance > slow.former.parallel_elements(15000.0)[0] + 5e-12
+
+
+def test_reabsorption_acts_on_the_ecm_moisture():
+    effects = {"parasitic_capacitance": {"enabled": True}}
+    fast = SimulatedLab(LabConfig(**QUIET_ECM, effects=effects, imperfections={"reabsorption": {"enabled": True}}))
+    slow = SimulatedLab(LabConfig(**QUIET_ECM, effects=effects))
+    for lab in (fast, slow):
+        dried_then_cooled(lab)
+    assert slow.moisture < 0.2 and fast.moisture > slow.moisture + 0.3
+    assert fast.coil_impedance(15000.0).imag > slow.coil_impedance(15000.0).imag  # more C: apparent L up
+
+
+def test_reabsorption_shows_after_a_coil_heating_campaign():
+    """Readings in air at 15 kHz after the campaign's cool-down: the re-absorbing former's capacitance
+    (apparent L = L / (1 - w^2 L C)) comes back, the other's does not."""
+    def campaign_then_rest(config: LabConfig) -> np.ndarray:
+        lab = SimulatedLab(config)
+        rec = campaign.Recorder(lab)
+        campaign.read_in_air(rec, [15000.0], 3)
+        campaign.heat_and_record(rec, BOX_HEATER_OUTPUT, 120.0, [15000.0], in_air=True)
+        campaign.heat_and_record(rec, BOX_HEATER_OUTPUT, None, [15000.0], in_air=True)
+        for _ in range(6):
+            lab.clock.sleep(1800.0)
+            campaign.read_in_air(rec, [15000.0])
+        return rec.measurements().ls_h
+
+    plain = campaign_then_rest(LabConfig(physics="field", seed=4))
+    wet = campaign_then_rest(LabConfig(physics="field", seed=4, imperfections={"reabsorption": {"enabled": True}}))
+    moist_minus_dry = plain[:3].mean() - plain[-1]  # what drying took
+    assert moist_minus_dry > 300e-6 * plain[0]
+    recovered = (wet[-1] - plain[-1]) / moist_minus_dry
+    assert 0.5 < recovered < 1.0  # hours after cooling: most of the groove's water back
+
+
+def test_reabsorption_reaches_the_bridge_emulator(open_sim_station):
+    def cooled_reading_h(station) -> float:
+        station.bridge.set_frequency(15000)
+        dried_then_cooled(station.lab)
+        station.lab.clock.advance(HOUR_S)
+        return station.bridge.measure().main
+
+    wet = open_sim_station(**QUIET_FIELD, target_present=False, imperfections={"reabsorption": {"enabled": True}})
+    plain = open_sim_station(**QUIET_FIELD, target_present=False)
+    true = wet.lab.coil_impedance(15000.0).imag / plain.lab.coil_impedance(15000.0).imag - 1
+    # the moist former's 15 pF raise the apparent L by 0.7 % at 15 kHz; most of it is back after 3 h cool
+    assert cooled_reading_h(wet) / cooled_reading_h(plain) - 1 > 0.004
+    assert true == pytest.approx(0.0, abs=1e-12)  # read before: both still moist
