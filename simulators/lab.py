@@ -162,6 +162,7 @@ class SimulatedLab:
         self._gain_drift = (GainDrift(wider.bridge_gain_drift, cfg.seed, self.clock.now())
                             if wider.bridge_gain_drift.enabled else None)
         self._pickup = HeaterPickup(wider.bridge_heater_pickup) if wider.bridge_heater_pickup.enabled else None
+        self._outside_the_bridge = self._gain_drift is not None or self._pickup is not None
         #: ECM physics: the room air's re-absorption replacing the moisture effect's absorption rate, when on.
         self._ecm_uptake = (HumidityUptake(wider.reabsorption, ambient)
                             if wider.reabsorption.enabled and not self.field else None)
@@ -432,11 +433,9 @@ class SimulatedLab:
         pickup (``imperfections.bridge_heater_pickup``) when on.
         """
         z = self.coil_impedance(frequency_hz)
-        if self._gain_drift is not None:
-            z = z * self._gain_drift.gain(self.clock.now())
         extra = 0.0
-        if self._pickup is not None:
-            extra = self._pickup.relative(self.heater_currents_a(), speed, voltage_v, averages)
+        if self._outside_the_bridge:
+            z, extra = self._from_outside_the_bridge(z, speed, voltage_v, averages)
         if self.field:
             return self.bridge_model.read(z, frequency_hz, speed, voltage_v, averages, self.rng, extra)
         sigma = self.config.noise.bridge_relative[speed] * 1.5 / voltage_v / math.sqrt(max(1, averages))
@@ -446,6 +445,16 @@ class SimulatedLab:
             return z
         real, imag = self.rng.standard_normal(2).tolist()
         return z + abs(z) * sigma * complex(real, imag)
+
+    def _from_outside_the_bridge(self, z: complex, speed: str, voltage_v: float,
+                                 averages: int) -> tuple[complex, float]:
+        """The impedance as the drifting bridge scales it, and the relative noise the heater current adds."""
+        if self._gain_drift is not None:
+            z = z * self._gain_drift.gain(self.clock.now())
+        extra = 0.0
+        if self._pickup is not None:
+            extra = self._pickup.relative(self.heater_currents_a(), speed, voltage_v, averages)
+        return z, extra
 
     # -- thermocouples ------------------------------------------------------------------------
     def temperature_c(self, quantity: str) -> float:

@@ -20,14 +20,13 @@ import math
 
 import numpy as np
 from pydantic import Field
-from scipy.signal import lfilter
 
 from ecds_lab.simulators.physics._settings import Strict
 
 #: Points of the wander's grid per correlation time (linear interpolation between them).
 _POINTS_PER_CORRELATION_TIME = 20
 #: Grid points drawn at once when the wander is extended.
-_CHUNK = 4096
+_CHUNK = 1024
 #: Separates the wander's random stream from the lab's own (same lab seed, different stream).
 _STREAM = 23_001
 
@@ -72,6 +71,9 @@ class GainDrift:
 
     def _extend(self) -> None:
         """Exact OU steps: w_{k+1} = w_k e^{-dt/T} + sigma sqrt(1 - e^{-2 dt/T}) z_k."""
-        kicks = self._rng.standard_normal(_CHUNK) * (self.sigma * math.sqrt(1.0 - self.decay**2))
-        values, _ = lfilter([1.0], [1.0, -self.decay], kicks, zi=[self.decay * float(self._grid[-1])])
+        kicks = (self._rng.standard_normal(_CHUNK) * (self.sigma * math.sqrt(1.0 - self.decay**2))).tolist()
+        values, last = [], float(self._grid[-1])
+        for kick in kicks:  # a first-order recursion (scipy.signal.lfilter would cost seconds of import)
+            last = last * self.decay + kick
+            values.append(last)
         self._grid = np.concatenate([self._grid, values])

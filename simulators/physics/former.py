@@ -114,14 +114,13 @@ class FormerState:
                 self._uptake_taus = self.uptake.taus_s(t_former_c)
             self._equilibria_at_c = t_former_c
         groove_equilibrium, bulk_equilibrium = self._equilibria
-        groove_uptake_s, bulk_uptake_s = self._uptake_taus
         # A pool at its equilibrium stays there (relaxing would give exactly the same value).
         if self.groove != groove_equilibrium:
             self.groove = self._relax(self.groove, groove_equilibrium, t_former_c, dt_s, self.groove_drying_tau_s,
-                                      groove_uptake_s)
+                                      self._uptake_taus[0])
         if self.bulk != bulk_equilibrium:
             self.bulk = self._relax(self.bulk, bulk_equilibrium, t_former_c, dt_s, self.bulk_drying_tau_s,
-                                    bulk_uptake_s)
+                                    self._uptake_taus[1])
 
     def _equilibrium(self, t_c: float, scale_k: float) -> float:
         return min(1.0, math.exp(-(t_c - self.ambient_c) / scale_k))
