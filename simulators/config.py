@@ -16,11 +16,17 @@ from typing import Literal
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from ecds_lab.data.sensor import SensorConfig
+from ecds_lab.simulators.physics.bridge_gain import BridgeGainDrift
 from ecds_lab.simulators.physics.bridge_model import BridgeModelSettings
 from ecds_lab.simulators.physics.coil import CoilSettings
+from ecds_lab.simulators.physics.expansion_hysteresis import ExpansionHysteresis
 from ecds_lab.simulators.physics.former import FormerSettings
+from ecds_lab.simulators.physics.heater_pickup import BridgeHeaterPickup
+from ecds_lab.simulators.physics.humidity_uptake import Reabsorption
+from ecds_lab.simulators.physics.metal_object import MetalObject
 from ecds_lab.simulators.physics.plate import PlateSettings
 from ecds_lab.simulators.physics.slide_mechanics import SlideMechanicsSettings
+from ecds_lab.simulators.physics.target_tilt import TargetTilt
 
 
 class _Strict(BaseModel):
@@ -147,6 +153,21 @@ class InjectedFaults(_Strict):
         {}, description="instrument -> lines it sends unasked, one before each of its next replies")
 
 
+class Imperfections(_Strict):
+    """Imperfections of the wider world (docs/simulated_lab.md), each off by default and acting with either
+    physics: physical effects of the set-up beyond the parts above, each its own named, sized block."""
+
+    bridge_gain_drift: BridgeGainDrift = BridgeGainDrift()
+    bridge_heater_pickup: BridgeHeaterPickup = BridgeHeaterPickup()
+    metal_object: MetalObject = MetalObject()
+    target_tilt: TargetTilt = TargetTilt()
+    expansion_hysteresis: ExpansionHysteresis = ExpansionHysteresis()
+    reabsorption: Reabsorption = Reabsorption()
+
+    def enabled(self) -> list[str]:
+        return [name for name in type(self).model_fields if getattr(self, name).enabled]
+
+
 class LabConfig(_Strict):
     """One simulated lab: the physics, the sensor on the slide, the target, the climate, noise and effects."""
 
@@ -169,6 +190,7 @@ class LabConfig(_Strict):
     thermal: Thermal = Thermal()
     noise: Noise = Noise()
     effects: Effects = Effects()
+    imperfections: Imperfections = Field(Imperfections(), description="the wider world: off unless enabled")
     faults: InjectedFaults = InjectedFaults()
     seed: int | None = 1
 
@@ -181,6 +203,12 @@ class LabConfig(_Strict):
         if self.plate.material is not None and self.plate.material != self.sensor.target:
             raise ValueError(f"plate.material {self.plate.material!r} differs from sensor.target "
                              f"{self.sensor.target!r}; give one of them")
+        metal = self.imperfections.metal_object
+        outer_mm = (self.coil.outer_radius_m if self.physics == "field" else self.sensor.coil.outer_radius_m) * 1e3
+        if metal.enabled and metal.radial_mm - metal.radius_mm <= outer_mm:
+            raise ValueError(f"imperfections.metal_object.radial_mm: an object of radius {metal.radius_mm:g} mm at "
+                             f"{metal.radial_mm:g} mm from the coil's axis would touch the winding (outer radius "
+                             f"{outer_mm:g} mm); place it further out")
         if self.physics == "field":
             ecm_only = [name for name in self.effects.enabled() if name != "bridge_drift"]
             if ecm_only:

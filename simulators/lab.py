@@ -22,12 +22,18 @@ import numpy as np
 from ecds_lab.clock import SimulatedClock
 from ecds_lab.simulators.config import LabConfig, Thermal
 from ecds_lab.simulators.physics import ecm
+from ecds_lab.simulators.physics.bridge_gain import GainDrift
 from ecds_lab.simulators.physics.bridge_model import BridgeModel
+from ecds_lab.simulators.physics.expansion_hysteresis import ExpansionPlay
 from ecds_lab.simulators.physics.field_sensor import FieldSensor
 from ecds_lab.simulators.physics.field_solution import Winding
 from ecds_lab.simulators.physics.former import FormerState
+from ecds_lab.simulators.physics.heater_pickup import HeaterPickup
+from ecds_lab.simulators.physics.humidity_uptake import HumidityUptake
+from ecds_lab.simulators.physics.metal_object import MetalObjectNearby
 from ecds_lab.simulators.physics.plate import Plate
 from ecds_lab.simulators.physics.slide_mechanics import carriage_error_m, draw_scatter_m
+from ecds_lab.simulators.physics.target_tilt import Tilt
 
 #: Longest step of the thermal/moisture integration (s); inputs are constant within a step.
 _MAX_STEP_S = 5.0
@@ -127,7 +133,9 @@ class SimulatedLab:
             plate = Plate(cfg.plate, cfg.plate_material)
             self.sensor = FieldSensor(cfg.coil, plate)
             self.plate = plate
-            self.former = FormerState(cfg.former, cfg.former_material, ambient)
+            uptake = (HumidityUptake(cfg.imperfections.reabsorption, ambient)
+                      if cfg.imperfections.reabsorption.enabled else None)
+            self.former = FormerState(cfg.former, cfg.former_material, ambient, uptake)
             self.bridge_model = BridgeModel(cfg.bridge, cfg.seed)
         else:
             sensor = cfg.sensor
@@ -149,12 +157,44 @@ class SimulatedLab:
         self.thermal = ThermalConstants.of(cfg.thermal)
         # Read on every reading, held directly (the same object: changes to its fields still count).
         self._drift = cfg.effects.bridge_drift
+        # The wider world's imperfections: None when off, so a reading pays one comparison for each.
+        wider = cfg.imperfections
+        self._gain_drift = (GainDrift(wider.bridge_gain_drift, cfg.seed, self.clock.now())
+                            if wider.bridge_gain_drift.enabled else None)
+        self._pickup = HeaterPickup(wider.bridge_heater_pickup) if wider.bridge_heater_pickup.enabled else None
+        self._outside_the_bridge = self._gain_drift is not None or self._pickup is not None
+        #: ECM physics: the room air's re-absorption replacing the moisture effect's absorption rate, when on.
+        self._ecm_uptake = (HumidityUptake(wider.reabsorption, ambient)
+                            if wider.reabsorption.enabled and not self.field else None)
+        winding = self._winding()
+        self._metal = MetalObjectNearby(wider.metal_object, winding) if wider.metal_object.enabled else None
+        self._tilt = (Tilt(wider.target_tilt, 0.5 * (winding.inner_radius_m + winding.outer_radius_m), ambient)
+                      if wider.target_tilt.enabled else None)
+        self._play = (ExpansionPlay(wider.expansion_hysteresis, ambient)
+                      if wider.expansion_hysteresis.enabled else None)
+        #: State beyond the memo key's own that the field impedance depends on (None: nothing beyond it).
+        self._extra_state = self._wider_state if self._metal is not None or self._play is not None else None
         self._carriage_key: tuple[float, int, float] = (math.nan, 0, math.nan)
         self._carriage_error = 0.0
         self._field_memo: dict[tuple[float, ...], complex] = {}
         #: The nodes' decay factors over a step: fixed per step length (the thermal constants are fixed once the
         #: lab is built), and a run's readings come at a few intervals.
         self._node_decays = lru_cache(maxsize=_DECAY_MEMO_SIZE)(self._node_decays_over)
+
+    def _winding(self) -> Winding:
+        """The winding of the physics in use (field: the ``coil`` block; ECM: the sensor's coil)."""
+        if self.field:
+            return self.config.coil.winding()
+        coil = self.config.sensor.coil
+        return Winding(coil.inner_radius_m, coil.outer_radius_m, coil.height_m, coil.turns)
+
+    def _wider_state(self) -> tuple[float, ...]:
+        """What the wider world's imperfections add to the state a field impedance depends on."""
+        return (self.carriage_distance_m(), self._play.temperature_c if self._play is not None else 0.0)
+
+    def _expansion_temperature_c(self) -> float:
+        """The temperature that sets the winding's thermal strain: the winding's own, or the play's behind it."""
+        return self._play.temperature_c if self._play is not None else self.t_winding_c
 
     # -- time ---------------------------------------------------------------------------------
     def update(self) -> None:
@@ -175,21 +215,26 @@ class SimulatedLab:
         wet = None  # the ECM physics' moisture, when that effect is on
         if not self.field and self.config.effects.parasitic_capacitance.enabled:
             wet = self.config.effects.parasitic_capacitance
+            uptake = self._ecm_uptake
         # The nodes as locals while stepping (stored back below): the same arithmetic, less attribute traffic.
         t_target, t_surface, t_box = self.t_target_c, self.t_plate_surface_c, self.t_box_c
         t_former, t_winding = self.t_former_c, self.t_winding_c
+        play = self._play
         for _ in range(steps):
             t_target = target_goal + (t_target - target_goal) * decay_target
             t_surface = t_target + (t_surface - t_target) * decay_surface
             t_box = box_goal + (t_box - box_goal) * decay_box
             t_former = t_box + (t_former - t_box) * decay_former
             t_winding = t_former + (t_winding - t_former) * decay_winding
+            if play is not None:
+                play.follow(t_winding)
             if self.field:
                 self.former.step(t_former, dt)
             elif wet is not None:
                 dry = wet.drying_rate_at_100c_per_s * 2.0 ** ((t_former - 100.0) / wet.drying_doubling_k)
-                total = dry + wet.absorption_rate_per_s
-                equilibrium = wet.absorption_rate_per_s / total
+                absorb = wet.absorption_rate_per_s if uptake is None else 1.0 / uptake.taus_s(t_former)[0]
+                total = dry + absorb
+                equilibrium = absorb / total
                 self.moisture = equilibrium + (self.moisture - equilibrium) * math.exp(-total * dt)
         self.t_target_c, self.t_plate_surface_c, self.t_box_c = t_target, t_surface, t_box
         self.t_former_c, self.t_winding_c = t_former, t_winding
@@ -234,6 +279,10 @@ class SimulatedLab:
         volts, amps = self.supply_readback(output)
         return volts * amps
 
+    def heater_currents_a(self) -> tuple[float, float]:
+        """The currents flowing through the target and box heaters now (A)."""
+        return self.supply_readback(TARGET_HEATER_OUTPUT)[1], self.supply_readback(BOX_HEATER_OUTPUT)[1]
+
     def set_supply(self, output: int, **changes: float | bool) -> None:
         """Change an output's settings; temperatures are integrated up to now with the old ones first."""
         self.update()
@@ -270,6 +319,11 @@ class SimulatedLab:
         """True coil-target distance of the carriage (backlash and repeatability included), in m."""
         if not self.config.target_present:
             return math.inf
+        return self.carriage_distance_m()
+
+    def carriage_distance_m(self) -> float:
+        """Where the carriage really is, as the coil-target distance it gives with the target in place (m); the
+        carriage is there whether or not the target is."""
         motor = self.slide.position(self.clock.now())
         if self.field:
             return (self.config.slide_origin_mm + motor) * 1e-3 + self._carriage_error_m(motor)
@@ -303,14 +357,17 @@ class SimulatedLab:
         return z
 
     def _field_impedance(self, omega: float) -> complex:
-        """Dodd & Deeds coil over the plate, the former's strain, C and loss (docs/simulated_lab.md).
+        """Dodd & Deeds coil over the plate, the former's strain, C and loss, and the wider world's imperfections
+        that change the coil itself (docs/simulated_lab.md).
 
         Memoised on the state it depends on (the settings are fixed once the lab is built), so a remembered value
         is exactly what computing it again would give; a sweep reads one state many times in a row.
         """
         x_m = self.distance_m()
         former = self.former
-        key = (omega, x_m, self.t_winding_c, self.t_plate_surface_c, former.groove, former.bulk)
+        key: tuple[float, ...] = (omega, x_m, self.t_winding_c, self.t_plate_surface_c, former.groove, former.bulk)
+        if self._extra_state is not None:
+            key += self._extra_state()
         z = self._field_memo.get(key)
         if z is None:
             z = self._field_impedance_at(omega, x_m)
@@ -322,8 +379,15 @@ class SimulatedLab:
     def _field_impedance_at(self, omega: float, x_m: float) -> complex:
         ambient = self.thermal.ambient_c
         t_plate = self.plate.field_temperature_c(self.t_plate_surface_c, ambient)
-        branch = self.sensor.series_branch(omega, x_m, self.t_winding_c, t_plate, ambient,
-                                           self.former.strain(self.t_winding_c))
+        strain = self.former.strain(self._expansion_temperature_c())
+        gaps = self._tilt.gaps_m(x_m, self.t_plate_surface_c) if self._tilt is not None else None
+        if gaps is None:
+            branch = self.sensor.series_branch(omega, x_m, self.t_winding_c, t_plate, ambient, strain)
+        else:  # a tilted plate: the coupling averaged over the coil's face
+            branch = sum(self.sensor.series_branch(omega, gap, self.t_winding_c, t_plate, ambient, strain)
+                         for gap in gaps) / len(gaps)
+        if self._metal is not None:
+            branch += 1j * omega * self._metal.inductance_h(omega, self.carriage_distance_m())
         capacitance, conductance = self.former.parallel_elements(omega / (2 * math.pi))
         return ecm.with_parallel(branch, omega, capacitance, conductance)
 
@@ -332,7 +396,8 @@ class SimulatedLab:
         cfg, sensor, effects = self.config, self.config.sensor, self.config.effects
         t_ref = sensor.reference_temperature_c
         d_coil = self.t_winding_c - t_ref
-        l_coil = sensor.inductance_h * (1 + cfg.alpha * d_coil + cfg.beta_per_k2 * d_coil**2)
+        d_expansion = d_coil if self._play is None else self._play.temperature_c - t_ref
+        l_coil = sensor.inductance_h * (1 + cfg.alpha * d_expansion + cfg.beta_per_k2 * d_coil**2)
         r_coil = sensor.resistance_ohm * (1 + sensor.resistance_tempco_per_k * d_coil)
         x = self.distance_m()
         k2, tau = 0.0, cfg.tau_t
@@ -340,7 +405,8 @@ class SimulatedLab:
             d_target = self.t_target_c - t_ref
             if effects.target_bending.enabled:
                 x -= effects.target_bending.shift_um_per_k * 1e-6 * d_target
-            k2 = self.coupling.k2(x)
+            gaps = self._tilt.gaps_m(x, self.t_target_c) if self._tilt is not None else None
+            k2 = self.coupling.k2(x) if gaps is None else sum(self.coupling.k2(gap) for gap in gaps) / len(gaps)
             if effects.target_tau_temperature.enabled:
                 tempco = effects.target_tau_temperature.tempco_per_k
                 tempco = ecm.TAU_TEMPCO_PER_K[sensor.target] if tempco is None else tempco
@@ -351,7 +417,10 @@ class SimulatedLab:
         moisture = self.moisture if wet.enabled else 0.0
         capacitance = sensor.capacitance_f + wet.moist_extra_capacitance_f * moisture
         conductance = 1 / sensor.parallel_resistance_ohm + wet.moist_extra_conductance_s * moisture
-        return ecm.with_parallel(ecm.series_branch(l_coil, r_coil, k2, omega, tau), omega, capacitance, conductance)
+        branch = ecm.series_branch(l_coil, r_coil, k2, omega, tau)
+        if self._metal is not None:
+            branch += 1j * omega * self._metal.inductance_h(omega, self.carriage_distance_m())
+        return ecm.with_parallel(branch, omega, capacitance, conductance)
 
     def measured_impedance(self, frequency_hz: float, speed: str = "slow", voltage_v: float = 1.5,
                            averages: int = 1) -> complex:
@@ -360,15 +429,32 @@ class SimulatedLab:
 
         ECM physics: noise relative to |Z| per speed at 1.5 V (``config.noise.bridge_relative``),
         growing as the test level falls and shrinking with the square root of the averages.
+        Either physics: the bridge's gain drift (``imperfections.bridge_gain_drift``) and the heater current's
+        pickup (``imperfections.bridge_heater_pickup``) when on.
         """
         z = self.coil_impedance(frequency_hz)
+        extra = 0.0
+        if self._outside_the_bridge:
+            z, extra = self._from_outside_the_bridge(z, speed, voltage_v, averages)
         if self.field:
-            return self.bridge_model.read(z, frequency_hz, speed, voltage_v, averages, self.rng)
+            return self.bridge_model.read(z, frequency_hz, speed, voltage_v, averages, self.rng, extra)
         sigma = self.config.noise.bridge_relative[speed] * 1.5 / voltage_v / math.sqrt(max(1, averages))
+        if extra:
+            sigma = math.hypot(sigma, extra)
         if sigma <= 0:
             return z
         real, imag = self.rng.standard_normal(2).tolist()
         return z + abs(z) * sigma * complex(real, imag)
+
+    def _from_outside_the_bridge(self, z: complex, speed: str, voltage_v: float,
+                                 averages: int) -> tuple[complex, float]:
+        """The impedance as the drifting bridge scales it, and the relative noise the heater current adds."""
+        if self._gain_drift is not None:
+            z = z * self._gain_drift.gain(self.clock.now())
+        extra = 0.0
+        if self._pickup is not None:
+            extra = self._pickup.relative(self.heater_currents_a(), speed, voltage_v, averages)
+        return z, extra
 
     # -- thermocouples ------------------------------------------------------------------------
     def temperature_c(self, quantity: str) -> float:

@@ -100,10 +100,14 @@ class BridgeModel:
         return error
 
     def read(self, z: complex, frequency_hz: float, speed: str, voltage_v: float, averages: int,
-             rng: np.random.Generator) -> complex:
+             rng: np.random.Generator, extra_relative: float = 0.0) -> complex:
+        """The reading of the true impedance ``z``; ``extra_relative``: noise from outside the bridge (1 sigma
+        relative to |Z|), added in quadrature to its own."""
         if self._accurate:
             z = z * self._systematic(frequency_hz, z)
         sigma = self.noise_relative(frequency_hz, speed, voltage_v, averages)
+        if extra_relative:
+            sigma = math.hypot(sigma, extra_relative)
         if sigma > 0:
             real, imag = rng.standard_normal(2).tolist()
             z = z + abs(z) * sigma * complex(real, imag)

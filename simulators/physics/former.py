@@ -31,6 +31,7 @@ from typing import Literal
 from pydantic import Field
 
 from ecds_lab.simulators.physics._settings import Strict
+from ecds_lab.simulators.physics.humidity_uptake import HumidityUptake
 
 FormerMaterial = Literal["gypsum", "fired_clay", "plastic"]
 
@@ -81,8 +82,11 @@ class FormerState:
     of them, and a pydantic model's field costs several times a plain attribute.
     """
 
-    def __init__(self, settings: FormerSettings, material: str, ambient_c: float) -> None:
+    def __init__(self, settings: FormerSettings, material: str, ambient_c: float,
+                 uptake: HumidityUptake | None = None) -> None:
+        """``uptake``: the room air's re-absorption (``humidity_uptake``) in place of the slow room-temperature one."""
         self.settings, self.material, self.ambient_c = settings, material, ambient_c
+        self.uptake = uptake
         e, wet = settings.expansion, settings.moisture
         self.expansion_per_k = (e.per_k if e.per_k is not None else EXPANSION_PER_K[material]) if e.enabled else 0.0
         self.moist = wet.enabled
@@ -98,6 +102,7 @@ class FormerState:
         self.groove, self.bulk = start, start
         self._equilibria_at_c = math.nan  # the temperature the pools' equilibria below were worked out for
         self._equilibria = (1.0, 1.0)
+        self._uptake_taus = (self.reabsorption_tau_s, self.reabsorption_tau_s)  # (groove, bulk) at that temperature
 
     def step(self, t_former_c: float, dt_s: float) -> None:
         if not self.moist:
@@ -105,26 +110,31 @@ class FormerState:
         if t_former_c != self._equilibria_at_c:  # the equilibria change only with the temperature (ambient is fixed)
             self._equilibria = (self._equilibrium(t_former_c, self.groove_scale_k),
                                 self._equilibrium(t_former_c, self.bulk_scale_k))
+            if self.uptake is not None:
+                self._uptake_taus = self.uptake.taus_s(t_former_c)
             self._equilibria_at_c = t_former_c
         groove_equilibrium, bulk_equilibrium = self._equilibria
         # A pool at its equilibrium stays there (relaxing would give exactly the same value).
         if self.groove != groove_equilibrium:
-            self.groove = self._relax(self.groove, groove_equilibrium, t_former_c, dt_s, self.groove_drying_tau_s)
+            self.groove = self._relax(self.groove, groove_equilibrium, t_former_c, dt_s, self.groove_drying_tau_s,
+                                      self._uptake_taus[0])
         if self.bulk != bulk_equilibrium:
-            self.bulk = self._relax(self.bulk, bulk_equilibrium, t_former_c, dt_s, self.bulk_drying_tau_s)
+            self.bulk = self._relax(self.bulk, bulk_equilibrium, t_former_c, dt_s, self.bulk_drying_tau_s,
+                                    self._uptake_taus[1])
 
     def _equilibrium(self, t_c: float, scale_k: float) -> float:
         return min(1.0, math.exp(-(t_c - self.ambient_c) / scale_k))
 
-    def _relax(self, m: float, equilibrium: float, t_c: float, dt_s: float, tau100_s: float) -> float:
+    def _relax(self, m: float, equilibrium: float, t_c: float, dt_s: float, tau100_s: float, uptake_s: float) -> float:
         if m > equilibrium:
             tau = tau100_s * 2.0 ** ((100.0 - t_c) / self.drying_doubling_k)
         else:
-            tau = self.reabsorption_tau_s
+            tau = uptake_s
         return equilibrium + (m - equilibrium) * math.exp(-dt_s / tau)
 
     def strain(self, t_winding_c: float) -> float:
-        """Linear strain of the former at the winding relative to a dry former at 20 C."""
+        """Linear strain of the former at the winding relative to a dry former at 20 C, its thermal part at
+        ``t_winding_c`` (the winding's temperature, or the one a hysteresis of the expansion holds it at)."""
         swelling = self.swelling_strain * self.groove if self.moist else 0.0
         return self.expansion_per_k * (t_winding_c - 20.0) + swelling
 

@@ -132,6 +132,21 @@ def malformed_experiment(copy, tmp_path, experiments) -> BadConfig:
     return BadConfig(path, None, path, ["not valid YAML", "line 4"])
 
 
+def simulated_size_out_of_range(copy, tmp_path, experiments) -> BadConfig:
+    station = copy("stations/simulated_lab.yaml", lambda d: d["simulated"]["lab"].update(
+        imperfections={"bridge_gain_drift": {"enabled": True, "ppm_per_hour": 5e4}}))
+    return BadConfig(experiments / "displacement_sweep.yaml", station, station,
+                     ["field 'simulated.lab.imperfections.bridge_gain_drift.ppm_per_hour'",
+                      "less than or equal to 1000", "50000"])
+
+
+def simulated_object_in_the_winding(copy, tmp_path, experiments) -> BadConfig:
+    station = copy("stations/simulated_lab.yaml", lambda d: d["simulated"]["lab"].update(
+        imperfections={"metal_object": {"enabled": True, "radial_mm": 76.0}}))
+    return BadConfig(experiments / "displacement_sweep.yaml", station, station,
+                     ["imperfections.metal_object.radial_mm", "would touch the winding", "75 mm"])
+
+
 def malformed_station(copy, tmp_path, experiments) -> BadConfig:
     path = tmp_path / "station.yaml"
     path.write_text("name: lab\nbridge:\n  driver: hm8118\n\tslide: {driver: grbl}\n")
@@ -142,6 +157,7 @@ CASES: list[Callable[..., BadConfig]] = [
     unknown_key, unknown_key_in_station, wrong_type, wrong_choice, wrong_type_in_station, frequency_not_on_the_bridge,
     position_beyond_travel, range_beyond_travel, park_beyond_travel, setpoint_above_safety_limit,
     power_above_heater_wiring, driver_in_the_wrong_role, unknown_driver, malformed_experiment, malformed_station,
+    simulated_size_out_of_range, simulated_object_in_the_winding,
 ]
 
 
