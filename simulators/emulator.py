@@ -106,7 +106,18 @@ class LineEmulator(ABC):
 
     def reply(self, text: str, delay_s: float = 0.0) -> None:
         """Queue one reply line, ready ``delay_s`` simulated seconds from now."""
-        ready = self.lab.clock.now() + max(0.0, delay_s)
+        self.reply_at(text, self.lab.clock.now() + max(0.0, delay_s))
+
+    def reply_at(self, text: str, ready: float) -> None:
+        """Queue one reply line, ready at simulated time ``ready`` (now, if that has passed).
+
+        Lines meant for one instant are given the same ``ready`` and leave in the order they were queued:
+        the time is not re-derived from a clock read per line, which on a clock running with the wall
+        clock (``ecds-lab simulate``) would differ between lines and could swap them.
+        """
+        now = self.lab.clock.now()
+        if ready < now:
+            ready = now
         faults = self.lab.faults
         if faults.unsolicited_lines or faults.short_replies:  # injected faults only: skipped on a clean link
             lines = [*self._unsolicited(), self._maybe_cut(text)]
