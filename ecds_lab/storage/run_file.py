@@ -28,7 +28,7 @@ from __future__ import annotations
 import json
 import math
 import operator
-import os
+import shutil
 import sys
 from collections.abc import Mapping, Sequence
 from datetime import datetime, timezone
@@ -368,14 +368,14 @@ class RunWriter:
         last flushed row left it (a reader sees an interrupted run with every row) and the run fails."""
         needed = 2 * self.rows * len(COLUMNS) * 8 + (1 << 20)
         try:
-            stats = os.statvfs(self.path.parent)
+            free = shutil.disk_usage(self.path.parent).free  # statvfs's f_bavail x f_frsize, on every platform
         except OSError:
             return
-        if stats.f_bavail * stats.f_frsize < needed:
+        if free < needed:
             self.broken = True
             BROKEN_WRITERS.append(self)
             self._lock.release()
-            raise RunFileError(f"{self.path}: the disk is (nearly) full: {stats.f_bavail * stats.f_frsize} bytes free, "
+            raise RunFileError(f"{self.path}: the disk is (nearly) full: {free} bytes free, "
                                f"{needed} needed to complete the file; it keeps its {self.rows} rows and reads as an "
                                "interrupted run")
 
