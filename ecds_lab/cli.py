@@ -33,6 +33,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
     print(f"{result.status}: {result.points} points in {result.path} ({result.wall_s:.1f} s)")
     if result.error:
         print(f"error: {result.error}", file=sys.stderr)
+    for note in result.notes:
+        print(f"note: {note}", file=sys.stderr)
     if args.watch:
         _keep_watching()
     return _run_exit_code(result.status, result.stopped_by)

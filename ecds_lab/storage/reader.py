@@ -18,7 +18,7 @@ import numpy as np
 
 from ecds_lab.data.columns import COLUMN_NAMES, INDEX, PLANNED_POINT
 from ecds_lab.data.measurements import Measurements
-from ecds_lab.data.run_metadata import recorded_repeatability
+from ecds_lab.data.run_metadata import recorded_link_notes, recorded_repeatability
 from ecds_lab.errors import RunFileError
 from ecds_lab.storage.lock import is_being_written
 from ecds_lab.storage.recovery import private_folder, read_superblock, readable_copy, truncated, unreadable_rows
@@ -85,6 +85,7 @@ def read_run(path: str | Path, *, transcripts: bool = True) -> RunFile:
                 notes.append(f"{int(lost.sum())} row(s) of the points table were lost from the end of the file "
                              "and are left out (never read as zeros)")
             points = points[~np.isnan(points[:, INDEX["time_s"]])]  # a row grown but never written (killed)
+            notes.extend(recorded_link_notes(metadata))  # stale lines the run's links discarded
             events = _read_transcripts(entry, size) if transcripts and "transcripts" in entry else {}
             identities = _read_identities(entry)
     except RunFileError:
