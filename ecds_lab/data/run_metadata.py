@@ -110,7 +110,8 @@ class RunMetadata:
         if attributes.get("error"):
             faults.append(attributes["error"])
         if status == "interrupted":
-            faults.append("the run was interrupted: its writer never closed the file (killed or crashed)")
+            faults.append("the run was interrupted: its writer never closed the file (killed, crashed, or a write "
+                          "failed on a full disk)")
         elif status not in ("completed", "unknown") and not attributes.get("error"):
             faults.append(f"the run ended as {status}")
         planned = _int_or_none(attributes.get("planned_points"))

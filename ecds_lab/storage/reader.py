@@ -113,9 +113,9 @@ def _open(path: Path, notes: list[str], stack: ExitStack) -> h5py.File:
         notes.append("a run is still writing this file (read live)")
         return h5py.File(path, "r", swmr=True)
     if block.left_open:
-        notes.append(f"the run's writer never closed this file (killed or crashed); ecds-lab reads it from a "
-                     f"repaired copy and leaves it as it is; other HDF5 tools need its write flags cleared "
-                     f"first: h5clear -s {path}")
+        notes.append("the run's writer never closed this file (killed, crashed, or a write failed on a full disk); "
+                     "ecds-lab reads it from a repaired copy and leaves it as it is; other HDF5 tools need its "
+                     f"write flags cleared first: h5clear -s {path}")
     elif truncated(path):
         notes.append("the file is shorter than its superblock records: it was cut short (full disk? "
                      f"interrupted copy?); read from a repaired copy, {path} itself is left as it is")
