@@ -19,8 +19,8 @@ from ecds_lab.errors import RunFileError
 
 #: A probe that finds the lock held tries again this many times, this far apart (s): another reader's
 #: probe holds it for microseconds, a writer for its whole run.
-_PROBES = 3
-_PROBE_PAUSE_S = 0.01
+_PROBES = 2
+_PROBE_PAUSE_S = 0.005
 
 
 def lock_path(path: Path) -> Path:

@@ -367,3 +367,17 @@ def test_a_nearly_full_disk_stops_the_writer_while_it_can_complete_the_file(tmp_
     run = read_run(path)
     assert run.status == "failed" and str(path) in run.metadata["error"]
     assert len(run.points) == 2 * run_file.ROOM_CHECK_ROWS
+
+
+def test_the_writer_lock_is_seen_by_readers_and_gone_after_close(tmp_path):
+    """storage/lock.py through filelock: a reader's probe sees the writer and does not disturb it."""
+    from ecds_lab.storage.lock import is_being_written
+
+    path = tmp_path / "locked.h5"
+    w = writer(path)
+    assert lock_path(path).read_text() == str(os.getpid())  # the holder named in a second writer's refusal
+    assert is_being_written(path) and is_being_written(path)
+    w.append_row([1.0] * w._points.width[0])
+    w.close("completed")
+    assert not lock_path(path).exists() and not is_being_written(path)
+    assert read_run(path).status == "completed"
