@@ -1,6 +1,7 @@
 """The analysis and the reader need nothing POSIX-only (issue 24, point 12): lab PCs run Windows, and no
 Windows runner is available here, so a child process with ``fcntl``, ``termios``, ``pty`` and ``tty``
-made unimportable (as on Windows) reads a run file and runs ``ecds-lab fit`` and ``ecds-lab diagnose``."""
+made unimportable (as on Windows) reads a run file and runs ``ecds-lab fit``, ``ecds-lab diagnose`` and
+``ecds-lab report``."""
 
 from __future__ import annotations
 
@@ -53,6 +54,8 @@ def test_fit_diagnose_and_the_reader_run_without_fcntl(tmp_path: Path) -> None:
         for command in ("fit", "diagnose"):
             code = main([command, {str(csv)!r}, "--json"])
             print(json.dumps({{"command": command, "exit": code}}))
+        code = main(["report", {str(run_file)!r}, "-o", {str(tmp_path / "report.html")!r}])
+        print(json.dumps({{"command": "report", "exit": code}}))
         sys.exit(0 if "fcntl" not in sys.modules or sys.modules["fcntl"] is None else 3)
     """)
     assert done.returncode == 0, done.stderr[-3000:]
@@ -62,6 +65,7 @@ def test_fit_diagnose_and_the_reader_run_without_fcntl(tmp_path: Path) -> None:
     assert lines[0] == {"status": "completed", "rows": lines[0]["rows"]} and lines[0]["rows"] > 10
     assert {"command": "fit", "exit": 0} in lines
     assert {"command": "diagnose", "exit": 0} in lines
+    assert {"command": "report", "exit": 0} in lines and (tmp_path / "report.html").stat().st_size > 10_000
 
 
 def test_tcp_serving_works_without_ptys_and_pty_serving_is_refused_with_the_way_out() -> None:
