@@ -41,6 +41,9 @@ TRIGGER_MODES = {"continuous": 0, "manual": 1, "external": 2}
 SERIAL_SETTINGS: dict[str, Any] = {
     "baudrate": 9600, "bytesize": 8, "parity": "N", "stopbits": 1,
     "write_termination": "\r", "read_termination": "\r", "timeout_s": 3.0, "min_interval_s": 0.2,
+    # a refused set command answers ERROR [M23]: waiting before the read-back query, it is that command's
+    # answer, not a stale line (ecds_lab/transports/base.py)
+    "write_replies": ("ERROR",),
 }
 #: ``XALL?`` -> main,secondary,bin: both values in NR3 with a two-digit exponent, the bin number an
 #: integer (the emulator and the recorded sessions: ``1.23456E-04,5.83000E+01,0``). The bridge's

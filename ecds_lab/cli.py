@@ -33,6 +33,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
     print(f"{result.status}: {result.points} points in {result.path} ({result.wall_s:.1f} s)")
     if result.error:
         print(f"error: {result.error}", file=sys.stderr)
+    for note in result.notes:
+        print(f"note: {note}", file=sys.stderr)
     if args.watch:
         _keep_watching()
     return _run_exit_code(result.status, result.stopped_by)
@@ -245,8 +247,9 @@ def _simulate_parser(command: Callable[..., argparse.ArgumentParser]) -> None:
     p.add_argument("--station", type=Path, help="simulated station YAML (default: the shipped simulated lab)")
     p.add_argument("--port-base", type=int, default=5025, metavar="PORT",
                    help="first TCP port (default 5025, the LXI raw-socket port); 0 lets the system choose")
-    p.add_argument("--serial", choices=("pty", "tcp"), default="pty",
-                   help="serial instruments on pseudo-terminals (default) or TCP ports for pyserial's socket://")
+    p.add_argument("--serial", choices=("pty", "tcp"), default="pty" if hasattr(os, "openpty") else "tcp",
+                   help="serial instruments on pseudo-terminals (default on POSIX) or TCP ports for pyserial's "
+                        "socket:// (default elsewhere)")
 
 
 def build_parser() -> argparse.ArgumentParser:

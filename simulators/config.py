@@ -151,6 +151,10 @@ class InjectedFaults(_Strict):
                         "their length (-1: every one)")
     unsolicited_lines: dict[str, list[str]] = Field(
         {}, description="instrument -> lines it sends unasked, one before each of its next replies")
+    stale_lines: dict[str, list[str]] = Field(
+        {}, description="'instrument:COMMAND' (e.g. 'hm8118:*TRG') -> lines it sends unasked the moment it "
+                        "receives that command, one per receipt: they wait on the link when the host's next "
+                        "query goes out (a line left from an earlier exchange)")
 
 
 class Imperfections(_Strict):

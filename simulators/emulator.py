@@ -62,6 +62,8 @@ class LineEmulator(ABC):
         if self._single_ending and not self._line and last >= 0 and data.find(self.line_endings) == last:
             # the usual write: one whole command line, nothing before it (what the general path below does)
             self._command = data[:-1].decode("ascii", errors="replace").strip()
+            if self.lab.faults.stale_lines:  # injected faults only
+                self._send_stale()
             self.handle_line(self._command)
             return
         self._line += data
@@ -70,6 +72,8 @@ class LineEmulator(ABC):
             self._line = bytearray(lines.pop())  # the start of a line still to come
             for line in lines:
                 self._command = line.decode("ascii", errors="replace").strip()
+                if self.lab.faults.stale_lines:  # injected faults only
+                    self._send_stale()
                 self.handle_line(self._command)
 
     def next_reply_time(self) -> float | None:
@@ -106,7 +110,18 @@ class LineEmulator(ABC):
 
     def reply(self, text: str, delay_s: float = 0.0) -> None:
         """Queue one reply line, ready ``delay_s`` simulated seconds from now."""
-        ready = self.lab.clock.now() + max(0.0, delay_s)
+        self.reply_at(text, self.lab.clock.now() + max(0.0, delay_s))
+
+    def reply_at(self, text: str, ready: float) -> None:
+        """Queue one reply line, ready at simulated time ``ready`` (now, if that has passed).
+
+        Lines meant for one instant are given the same ``ready`` and leave in the order they were queued:
+        the time is not re-derived from a clock read per line, which on a clock running with the wall
+        clock (``ecds-lab simulate``) would differ between lines and could swap them.
+        """
+        now = self.lab.clock.now()
+        if ready < now:
+            ready = now
         faults = self.lab.faults
         if faults.unsolicited_lines or faults.short_replies:  # injected faults only: skipped on a clean link
             lines = [*self._unsolicited(), self._maybe_cut(text)]
@@ -119,6 +134,15 @@ class LineEmulator(ABC):
         """An injected line sent unasked ahead of this reply (lab.faults.unsolicited_lines), if any."""
         queued = self.lab.faults.unsolicited_lines.get(self.name)
         return [queued.pop(0)] if queued else []
+
+    def _send_stale(self) -> None:
+        """An injected line sent unasked the moment this command arrives (lab.faults.stale_lines), if any: it is
+        on the link, ahead of everything this command brings, when the host sends its next query."""
+        queued = self.lab.faults.stale_lines.get(f"{self.name}:{self._command.upper()}")
+        if queued:
+            line = queued.pop(0)
+            heapq.heappush(self._scheduled, (self.lab.clock.now(), next(self._order),
+                                             line.encode("ascii") + self.reply_termination))
 
     def _maybe_cut(self, text: str) -> str:
         """The reply, or its first half when lab.faults.short_replies asks for it (a garbled link)."""

@@ -273,7 +273,7 @@ class GrblEmulator(LineEmulator):
         if self._dry:
             self._dry_first = at if self._dry_first is None else min(self._dry_first, at)
         else:
-            self.reply(text, at - self.lab.clock.now())
+            self.reply_at(text, at)  # lines due at one instant share it, so they keep their order
 
     # -- power-up and reset ------------------------------------------------------------------
     def on_open(self) -> None:

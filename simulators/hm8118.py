@@ -178,7 +178,7 @@ class HM8118Emulator(LineEmulator):
     def _answer(self, text: str) -> None:
         """Replies wait until the measurement in progress is done (one command at a time; reply() takes a
         finished measurement's negative delay as none)."""
-        self.reply(text, self.busy_until - self.lab.clock.now())
+        self.reply_at(text, self.busy_until)
 
     def _handle(self, command: str) -> None:
         if "\n" in command:  # a lone LF is no terminator: the line is garbled [M32]

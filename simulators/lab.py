@@ -111,6 +111,8 @@ class Faults:
     short_replies: dict[str, int] = field(default_factory=dict)
     #: instrument -> lines it sends unasked, one before each of its next replies (then forgotten).
     unsolicited_lines: dict[str, list[str]] = field(default_factory=dict)
+    #: "instrument:COMMAND" -> lines it sends unasked as soon as that command arrives, one per receipt.
+    stale_lines: dict[str, list[str]] = field(default_factory=dict)
 
 
 class SimulatedLab:
@@ -125,7 +127,8 @@ class SimulatedLab:
                              bridge_error_commands=set(injected.bridge_error_commands),
                              silent_instruments=set(injected.silent_instruments),
                              short_replies=dict(injected.short_replies),
-                             unsolicited_lines={k: list(v) for k, v in injected.unsolicited_lines.items()})
+                             unsolicited_lines={k: list(v) for k, v in injected.unsolicited_lines.items()},
+                             stale_lines={k: list(v) for k, v in injected.stale_lines.items()})
         cfg = self.config
         ambient = cfg.thermal.ambient_c
         self.field = cfg.physics == "field"

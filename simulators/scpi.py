@@ -170,7 +170,7 @@ class SCPIEmulator(LineEmulator):
             if answer is not None:
                 replies.append(answer)
         if replies:
-            self.reply(";".join(replies), self.busy_until - self.lab.clock.now())
+            self.reply_at(";".join(replies), self.busy_until)
 
     def execute(self, header: str, argument: str) -> str | None:
         """Run one command; errors go to the queue and yield no reply."""

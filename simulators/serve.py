@@ -12,7 +12,9 @@ the target in real minutes. The emulators are the same line-based firmware model
 ``ecdssim://`` port reaches; here one selector loop moves their bytes, so nothing runs concurrently.
 A pseudo-terminal has no "port opened" signal, so a serial emulator there sees ``on_open`` (GRBL's
 reset and banner) once, when serving starts; over TCP it sees it at every connection, as an
-Arduino's DTR reset does at every port opening.
+Arduino's DTR reset does at every port opening. Pseudo-terminals are POSIX-only (``os.openpty``, ``tty``:
+imported only when one is opened); TCP serving works on every platform, and is ``ecds-lab simulate``'s
+default where there are no ptys.
 """
 
 from __future__ import annotations
@@ -24,7 +26,6 @@ import socket
 import sys
 import threading
 import time
-import tty
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Literal
@@ -40,6 +41,8 @@ SerialMode = Literal["pty", "tcp"]
 #: First raw-socket port (LXI / SCPI-RAW convention).
 LXI_PORT = 5025
 HOST = "127.0.0.1"
+#: Whether this system has pseudo-terminals (POSIX); elsewhere serial instruments are served over TCP.
+PTY_AVAILABLE = hasattr(os, "openpty")
 #: Longest the loop sleeps with nothing to do (s): how late a reply due at a given time can be sent.
 _POLL_S = 0.02
 
@@ -88,6 +91,9 @@ class LabServer:
         """``drivers`` maps each role (bridge, slide, ...) to the instrument kind that serves it."""
         if serial not in ("pty", "tcp"):
             raise ValueError(f"serial must be 'pty' or 'tcp', got {serial!r}")
+        if serial == "pty" and not PTY_AVAILABLE:
+            raise ConfigError("simulate: pseudo-terminals exist only on POSIX systems; serve the serial instruments "
+                              "over TCP (--serial tcp)")
         self.lab = SimulatedLab(lab, RunningClock())
         self.host = host
         self.selector = selectors.DefaultSelector()
@@ -127,6 +133,8 @@ class LabServer:
         self.selector.register(listener, selectors.EVENT_READ, ("accept", endpoint))
 
     def _open_pty(self, endpoint: Endpoint) -> None:
+        import tty  # POSIX-only (termios): imported only where a pseudo-terminal is opened
+
         master, slave = os.openpty()
         tty.setraw(slave)  # no echo, no CR/LF translation: bytes pass as on a USB serial port
         os.set_blocking(master, False)

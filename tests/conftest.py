@@ -146,9 +146,8 @@ def instrument_guard(monkeypatch: pytest.MonkeyPatch) -> InstrumentGuard:
     monkeypatch.setattr(ecds_lab.runner.session, "open_station", refuse_station)
     monkeypatch.setattr(ecds_lab.station, "open_station", refuse_station)
     monkeypatch.setattr(Transport, "__init__", init)
-    monkeypatch.setattr(Transport, "write", lambda self, command: guard.sent.append((self.name, command)))
-    monkeypatch.setattr(Transport, "write_bytes",
-                        lambda self, data: guard.sent.append((self.name, data.decode("latin-1"))))
+    # every command goes out through _send_logged (write, write_bytes and query alike)
+    monkeypatch.setattr(Transport, "_send_logged", lambda self, text, data: guard.sent.append((self.name, text)))
     return guard
 
 

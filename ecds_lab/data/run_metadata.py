@@ -23,6 +23,21 @@ SENSOR_ATTRIBUTE = "sensor"
 #: The /entry attribute holding the slide's declared positioning repeatability (1 sigma, metres) from the
 #: station YAML (``slide.repeatability_um``); absent when the station declares none.
 REPEATABILITY_ATTRIBUTE = "slide_repeatability_m"
+#: /entry attribute: JSON list of one line per instrument link that discarded stale lines before its queries
+#: (written at close; absent when there were none, and in older files).
+LINK_NOTES_ATTRIBUTE = "link_notes"
+
+
+def recorded_link_notes(attributes: Mapping[str, str]) -> list[str]:
+    """The link notes a run file recorded (an unreadable attribute is itself a note, never an error)."""
+    text = str(attributes.get(LINK_NOTES_ATTRIBUTE, "")).strip()
+    if not text:
+        return []
+    try:
+        notes = json.loads(text)
+    except ValueError:
+        return [f"/entry attribute {LINK_NOTES_ATTRIBUTE} is not JSON: {text[:80]!r}"]
+    return [str(note) for note in notes] if isinstance(notes, list) else [str(notes)]
 
 
 def sensor_attribute(sensor: SensorConfig) -> str:
@@ -95,7 +110,8 @@ class RunMetadata:
         if attributes.get("error"):
             faults.append(attributes["error"])
         if status == "interrupted":
-            faults.append("the run was interrupted: its writer never closed the file (killed or crashed)")
+            faults.append("the run was interrupted: its writer never closed the file (killed, crashed, or a write "
+                          "failed on a full disk)")
         elif status not in ("completed", "unknown") and not attributes.get("error"):
             faults.append(f"the run ended as {status}")
         planned = _int_or_none(attributes.get("planned_points"))

@@ -13,14 +13,19 @@ import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 from types import FrameType
+from typing import TYPE_CHECKING
 
 from ecds_lab.errors import HeaterNotOff
-from ecds_lab.station import Station
+
+if TYPE_CHECKING:  # the command line imports StopSignal for every command: no serial/VISA stack for a fit
+    from ecds_lab.station import Station
 
 log = logging.getLogger("ecds_lab.runner")
 
 #: The signals that stop a run the way Ctrl-C does (SIGINT arrives as KeyboardInterrupt).
-STOP_SIGNALS: tuple[signal.Signals, ...] = (signal.SIGTERM, signal.SIGHUP)
+#: Windows has no SIGHUP: there only SIGTERM (and Ctrl-C) stop a run.
+STOP_SIGNALS: tuple[signal.Signals, ...] = tuple(getattr(signal, name) for name in ("SIGTERM", "SIGHUP")
+                                                 if hasattr(signal, name))
 _DEFERRED: tuple[signal.Signals, ...] = (signal.SIGINT, *STOP_SIGNALS)
 
 

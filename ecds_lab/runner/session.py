@@ -10,7 +10,8 @@ from __future__ import annotations
 import json
 import logging
 import time
-from dataclasses import dataclass
+from collections.abc import Iterable
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -21,7 +22,7 @@ from ecds_lab.config.experiment import EXPERIMENT_ADAPTER, ExperimentConfig
 from ecds_lab.config.loading import parse_yaml, read_text, validate
 from ecds_lab.config.station import StationConfig
 from ecds_lab.data.columns import INDEX
-from ecds_lab.data.run_metadata import SENSOR_ATTRIBUTE, sensor_attribute
+from ecds_lab.data.run_metadata import LINK_NOTES_ATTRIBUTE, SENSOR_ATTRIBUTE, sensor_attribute
 from ecds_lab.errors import ConfigError, RunFileError
 from ecds_lab.runner.plan import Plan, build_plan
 from ecds_lab.runner.runner import Runner
@@ -29,6 +30,7 @@ from ecds_lab.runner.safe_state import ctrl_c_deferred, stop_signals_raise
 from ecds_lab.station import DEFAULT_STATION, open_station
 from ecds_lab.storage.reader import RunFile, read_run
 from ecds_lab.storage.run_file import RunWriter, metadata_for
+from ecds_lab.transports.base import Transport
 
 log = logging.getLogger("ecds_lab.run")
 
@@ -42,6 +44,8 @@ class RunResult:
     wall_s: float
     #: The signal that stopped the run (SIGINT for Ctrl-C, SIGTERM, SIGHUP), or None.
     stopped_by: int | None = None
+    #: What the operator should know beyond the status: one line per link that discarded stale lines.
+    notes: list[str] = field(default_factory=list)
 
 
 def load_experiment(path: Path | str, text: str | None = None) -> ExperimentConfig:
@@ -116,13 +120,22 @@ def _run_experiment(experiment_path: Path, station_path: Path | None, output: Pa
             done, offset = _carry_over(previous, writer)
         runner = Runner(station, plan, writer, done=done, time_offset_s=offset, progress=progress)
         status, error = runner.run()
+        notes = link_notes(station.transports.values())
         with ctrl_c_deferred():
-            writer.close(status, error)
+            writer.close(status, error, {LINK_NOTES_ATTRIBUTE: json.dumps(notes)} if notes else None)
     finally:
         station.close()
-    result = RunResult(output, status, error, writer.rows, time.monotonic() - started, runner.stopped_by)
+    result = RunResult(output, status, error, writer.rows, time.monotonic() - started, runner.stopped_by, notes)
     log.info("run %s: %d points in %s (%.1f s)", status, result.points, output, result.wall_s)
     return result
+
+
+def link_notes(transports: Iterable[Transport]) -> list[str]:
+    """One line per link that discarded stale lines before its queries (each also logged as it happened)."""
+    notes = [note for transport in transports if (note := transport.stale_note()) is not None]
+    for note in notes:
+        log.warning("%s", note)
+    return notes
 
 
 def check_same_station(previous: RunFile, config: StationConfig, identities: dict[str, str] | None,

@@ -16,7 +16,8 @@ from __future__ import annotations
 import csv
 import json
 import math
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +25,7 @@ import numpy as np
 from ecds_lab.data.columns import COLUMNS, INDEX
 from ecds_lab.data.measurements import CSV_COLUMNS
 from ecds_lab.errors import EcdsLabError
+from ecds_lab.storage.outputs import OutputError, replacing
 from ecds_lab.storage.reader import read_run
 
 #: Import column -> the run-file column it comes from (the rest keep their names).
@@ -65,7 +67,7 @@ def export_run(run_path: Path, output: Path, columns: Sequence[str] = ALL_COLUMN
     rows = run.points[np.isfinite(run.column("ls_h")) & ~np.isnan(run.column("x_commanded_mm"))]
     sources = [INDEX[_IMPORT_SOURCES.get(name, name)] for name in columns]
     table = rows[:, sources]
-    with Path(output).open("w", newline="", encoding="utf-8") as handle:
+    with _written(Path(output)) as part, part.open("w", newline="", encoding="utf-8") as handle:
         writer = csv.writer(handle, lineterminator="\n")
         writer.writerow(columns)
         writer.writerows([number(v) for v in row] for row in table.tolist())
@@ -73,5 +75,17 @@ def export_run(run_path: Path, output: Path, columns: Sequence[str] = ALL_COLUMN
              for name in columns}
     sidecar = {"source": str(run_path), "csv": Path(output).name, "rows": len(table), "columns": units,
                "import_columns": list(IMPORT_COLUMNS)}
-    sidecar_path(Path(output)).write_text(json.dumps(sidecar, indent=2) + "\n", encoding="utf-8")
+    with _written(sidecar_path(Path(output))) as part:
+        part.write_text(json.dumps(sidecar, indent=2) + "\n", encoding="utf-8")
     return len(table)
+
+
+@contextmanager
+def _written(path: Path) -> Iterator[Path]:
+    """Write ``path`` through a temporary beside it, moved over it once complete (storage/outputs.py); a write
+    that fails (a full disk) leaves no half-written file and becomes one OutputError naming ``path``."""
+    try:
+        with replacing(path) as part:
+            yield part
+    except OSError as exc:
+        raise OutputError(f"{path}: could not be written: {exc.strerror or exc}") from exc

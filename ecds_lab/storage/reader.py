@@ -18,7 +18,7 @@ import numpy as np
 
 from ecds_lab.data.columns import COLUMN_NAMES, INDEX, PLANNED_POINT
 from ecds_lab.data.measurements import Measurements
-from ecds_lab.data.run_metadata import recorded_repeatability
+from ecds_lab.data.run_metadata import recorded_link_notes, recorded_repeatability
 from ecds_lab.errors import RunFileError
 from ecds_lab.storage.lock import is_being_written
 from ecds_lab.storage.recovery import private_folder, read_superblock, readable_copy, truncated, unreadable_rows
@@ -85,6 +85,7 @@ def read_run(path: str | Path, *, transcripts: bool = True) -> RunFile:
                 notes.append(f"{int(lost.sum())} row(s) of the points table were lost from the end of the file "
                              "and are left out (never read as zeros)")
             points = points[~np.isnan(points[:, INDEX["time_s"]])]  # a row grown but never written (killed)
+            notes.extend(recorded_link_notes(metadata))  # stale lines the run's links discarded
             events = _read_transcripts(entry, size) if transcripts and "transcripts" in entry else {}
             identities = _read_identities(entry)
     except RunFileError:
@@ -112,9 +113,9 @@ def _open(path: Path, notes: list[str], stack: ExitStack) -> h5py.File:
         notes.append("a run is still writing this file (read live)")
         return h5py.File(path, "r", swmr=True)
     if block.left_open:
-        notes.append(f"the run's writer never closed this file (killed or crashed); ecds-lab reads it from a "
-                     f"repaired copy and leaves it as it is; other HDF5 tools need its write flags cleared "
-                     f"first: h5clear -s {path}")
+        notes.append("the run's writer never closed this file (killed, crashed, or a write failed on a full disk); "
+                     "ecds-lab reads it from a repaired copy and leaves it as it is; other HDF5 tools need its "
+                     f"write flags cleared first: h5clear -s {path}")
     elif truncated(path):
         notes.append("the file is shorter than its superblock records: it was cut short (full disk? "
                      f"interrupted copy?); read from a repaired copy, {path} itself is left as it is")

@@ -19,8 +19,13 @@ status and end_time are completed at close (a killed run's file says status 'run
 Data safety: a writer lock beside the file (:mod:`~ecds_lab.storage.lock`) admits one writer per
 path; each point's transcript events (every role's, in one append) are on disk before its row;
 the file is completed at close without reopening it (no window in which a kill leaves a complete
-run unreadable, and a live SWMR reader cannot block the close); a write that fails (full disk)
-raises RunFileError and the rows already flushed stay readable.
+run unreadable, and a live SWMR reader cannot block the close). A full disk is seen coming: every
+ROOM_CHECK_ROWS rows the room left for the file (free disk space, and the process's file-size limit
+where there is one) is compared with what completing it needs plus the next rows' headroom; below
+that the append raises RunFileError naming the file, the run stops, and the file is completed with
+status 'failed' and every row. A write that fails all the same (the disk filled faster) raises
+RunFileError naming the file; the file is then never touched again (HDF5 cannot write its metadata),
+keeps its flushed rows and reads as an interrupted run whose reader says so.
 """
 
 from __future__ import annotations
@@ -29,8 +34,9 @@ import json
 import math
 import operator
 import os
+import shutil
 import sys
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
@@ -52,6 +58,13 @@ from ecds_lab.transports.transcript import KINDS, Transcript, pack_event
 #: (32 rows, 5 KB) keep that cheap. Columns written once at close use large chunks.
 _TABLE_CHUNK_ROWS = 32
 _IN_COLUMN_ORDER = operator.itemgetter(*COLUMN_NAMES)
+#: The room left for the file is checked every this many rows (a statvfs call: about 2 us).
+ROOM_CHECK_ROWS = 32
+#: Kept free to complete the file beyond twice its table: completing a 250-330-row run grew its file by 6.2 KB.
+COMPLETE_MARGIN_BYTES = 256 * 1024
+#: Kept free for the rows (and their transcripts) written until the next check: 32 rows take about 5 KB of
+#: table and up to some 30 KB of transcript (a move's status polls).
+HEADROOM_BYTES = 256 * 1024
 
 
 def _now_iso() -> str:
@@ -65,6 +78,22 @@ def _quiet_about_unwritable_metadata(unraisable: sys.UnraisableHookArgs) -> None
         return
     sys.__unraisablehook__(unraisable)
 
+
+def _posix_file_size_limit() -> Callable[[], int] | None:
+    """The process's file-size limit (RLIMIT_FSIZE) as a function read at each check, where the system has one."""
+    try:
+        import resource  # POSIX-only; the writer runs without it elsewhere
+    except ImportError:
+        return None
+
+    def limit() -> int:
+        soft = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
+        return sys.maxsize if soft == resource.RLIM_INFINITY else int(soft)
+
+    return limit
+
+
+_FILE_SIZE_LIMIT = _posix_file_size_limit()
 
 #: Writers whose file failed a write: kept referenced so that no HDF5 object of theirs is ever freed.
 BROKEN_WRITERS: list[RunWriter] = []
@@ -261,6 +290,8 @@ class RunWriter:
         if len(row) != len(COLUMNS):
             raise RunFileError(f"a run file row has {len(COLUMNS)} values ({', '.join(COLUMN_NAMES)}), "
                                f"not {len(row)}")
+        if self._points.length % ROOM_CHECK_ROWS == 0 and not self.broken:
+            self._check_room_to_continue()
         self.write_transcripts()  # the traffic that produced this row is on disk before the row
         self._write_rows((row,))
 
@@ -362,20 +393,40 @@ class RunWriter:
         self._finish_nexus()
         self._lock.release()
 
+    def _room_left(self) -> int | None:
+        """Bytes this file may still grow by: the free disk space (statvfs's f_bavail x f_frsize, on every
+        platform), or less under the process's file-size limit (RLIMIT_FSIZE, POSIX); None if unknown."""
+        try:
+            room = shutil.disk_usage(self.path.parent).free
+            if _FILE_SIZE_LIMIT is not None:
+                room = min(room, _FILE_SIZE_LIMIT() - os.path.getsize(self.path))
+        except OSError:
+            return None
+        return room
+
+    def _needed_to_complete(self) -> int:
+        return 2 * self.rows * len(COLUMNS) * 8 + COMPLETE_MARGIN_BYTES
+
+    def _check_room_to_continue(self) -> None:
+        """Stop the run while the file can still be completed: with less room than completing needs plus the
+        headroom of the rows until the next check, RunFileError (the run fails, and its file says so)."""
+        room = self._room_left()
+        needed = self._needed_to_complete() + HEADROOM_BYTES
+        if room is not None and room < needed:
+            raise RunFileError(f"{self.path}: the disk is nearly full ({room} bytes left for the file, {needed} kept "
+                               f"free to complete it); the run stops here and the file keeps its {self.rows} rows")
+
     def _check_room_to_complete(self) -> None:
         """Completing writes metadata and (for NeXus) reopens the file; with less free space than the
         table's size and a margin it could fail half-way and could leave the file unreadable, so the file is left as the
         last flushed row left it (a reader sees an interrupted run with every row) and the run fails."""
-        needed = 2 * self.rows * len(COLUMNS) * 8 + (1 << 20)
-        try:
-            stats = os.statvfs(self.path.parent)
-        except OSError:
-            return
-        if stats.f_bavail * stats.f_frsize < needed:
+        needed = self._needed_to_complete()
+        free = self._room_left()
+        if free is not None and free < needed:
             self.broken = True
             BROKEN_WRITERS.append(self)
             self._lock.release()
-            raise RunFileError(f"{self.path}: the disk is (nearly) full: {stats.f_bavail * stats.f_frsize} bytes free, "
+            raise RunFileError(f"{self.path}: the disk is (nearly) full: {free} bytes free, "
                                f"{needed} needed to complete the file; it keeps its {self.rows} rows and reads as an "
                                "interrupted run")
 

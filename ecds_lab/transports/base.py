@@ -7,11 +7,19 @@ replay) implement three primitives: send bytes, receive one line, close.
 
 from __future__ import annotations
 
+import logging
 from abc import ABC, abstractmethod
+from collections.abc import Iterable
 
 from ecds_lab.clock import Clock, WallClock
 from ecds_lab.errors import EcdsLabError, TransportError, TransportTimeout
-from ecds_lab.transports.transcript import ERROR, RECEIVED, SENT, Transcript
+from ecds_lab.transports.transcript import ERROR, RECEIVED, SENT, STALE, Transcript
+
+log = logging.getLogger("ecds_lab.link")
+
+#: At most this many waiting lines are discarded before one query (a link that chatters without end
+#: would otherwise hold the query back for ever; what is left fails the reply's format check).
+MAX_STALE_LINES = 64
 
 
 class Transport(ABC):
@@ -20,6 +28,13 @@ class Transport(ABC):
     ``min_interval_s`` enforces a pause between consecutive commands (the HM8118
     handles one command at a time and needs ~0.15-0.2 s between them); the pause
     is taken on ``clock`` so simulated runs do not wait in real time.
+
+    ``query`` first discards every line already waiting on the link (an unsolicited line, a reply
+    left from an earlier exchange), so that only a line arriving after the command can be its reply;
+    each is recorded in the transcript as kind ``stale``, logged, and summed up by ``stale_note``.
+    ``write_replies`` names the lines an instrument sends in answer to a command that otherwise answers
+    nothing (the HM8118's ``ERROR`` for a refused setting): such a line is not stale but the answer to
+    the write before the query, so it and what follows it are left for the query to read.
     """
 
     def __init__(
@@ -32,6 +47,7 @@ class Transport(ABC):
         min_interval_s: float = 0.0,
         clock: Clock | None = None,
         record: bool = True,
+        write_replies: Iterable[str] = (),
     ) -> None:
         self.name = name
         self.write_termination = write_termination
@@ -42,6 +58,12 @@ class Transport(ABC):
         self.transcript: Transcript | None = Transcript(name) if record else None
         self._last_command_at: float | None = None
         self._closed = False
+        self.write_replies = frozenset(write_replies)
+        #: A waiting line left unread by ``discard_waiting`` (one of ``write_replies``): the next read returns it.
+        self._held: str | None = None
+        #: Lines discarded as stale before a query, and the first of them: (clock_s, line, the query).
+        self.stale_count = 0
+        self.first_stale: tuple[float, str, str] | None = None
 
     # -- primitives a concrete link provides -------------------------------------------------
     @abstractmethod
@@ -55,6 +77,11 @@ class Transport(ABC):
     @abstractmethod
     def _close(self) -> None:
         """Release the port or resource."""
+
+    def _waiting_line(self) -> str | None:
+        """A whole line already received and not yet read, taken without waiting; None when there is none or
+        the link cannot tell without waiting (then nothing is discarded before a query)."""
+        return None
 
     # -- what drivers use --------------------------------------------------------------------
     def write(self, command: str) -> None:
@@ -75,7 +102,11 @@ class Transport(ABC):
         if self._closed:
             self._check_open()
         timeout = self.timeout_s if timeout_s is None else timeout_s
-        line = self._receive_line(timeout)
+        line: str | None = self._held
+        if line is not None:
+            self._held = None
+        else:
+            line = self._receive_line(timeout)
         if line is None:
             self._log(ERROR, "timeout")
             raise TransportTimeout(f"{self.name}: no reply within {timeout:g} s")
@@ -84,9 +115,48 @@ class Transport(ABC):
         return line
 
     def query(self, command: str, timeout_s: float | None = None) -> str:
-        """Send a command and return the one-line reply (waiting up to ``timeout_s`` if given)."""
-        self.write(command)
+        """Send a command and return the one-line reply (waiting up to ``timeout_s`` if given). Lines waiting
+        on the link when the command goes out (after the pacing pause) are discarded first: never the reply."""
+        if self.min_interval_s > 0:
+            self._pace()
+        self.discard_waiting(command)
+        self._send_logged(command, (command + self.write_termination).encode("ascii"))
         return self.read_line(timeout_s)
+
+    def discard_waiting(self, command: str = "") -> list[str]:
+        """Read and discard the lines already waiting (before ``command`` is sent); each is recorded in the
+        transcript as ``stale`` and logged. Returns them."""
+        if self._closed:
+            self._check_open()
+        if self._held is not None:
+            return []
+        line = self._waiting_line()
+        if line is None:  # the usual case: nothing waiting
+            return []
+        discarded: list[str] = []
+        while line is not None:
+            if line.strip() in self.write_replies:  # the answer to the write before this query: the query reads it
+                self._held = line
+                break
+            now = self.clock.now()
+            self._log(STALE, line)
+            log.warning("%s: discarded a line waiting on the link before %r (not taken as its reply): %r",
+                        self.name, command, line)
+            if self.first_stale is None:
+                self.first_stale = (now, line, command)
+            self.stale_count += 1
+            discarded.append(line)
+            line = self._waiting_line() if len(discarded) < MAX_STALE_LINES else None
+        return discarded
+
+    def stale_note(self) -> str | None:
+        """One line on the stale lines this link discarded (for the run's notes), or None if there were none."""
+        if self.first_stale is None:
+            return None
+        at, line, command = self.first_stale
+        return (f"{self.name}: {self.stale_count} stale line(s) found waiting on the link before a query were "
+                f"discarded, not taken as replies (first: {line!r} before {command!r} at {at:.3f} s; the "
+                "transcript records each as kind 'stale')")
 
     def close(self) -> None:
         if not self._closed:

@@ -18,7 +18,7 @@ from typing import Any
 from ecds_lab.clock import SimulatedClock
 from ecds_lab.errors import ReplayDivergence, TransportError
 from ecds_lab.transports.base import Transport
-from ecds_lab.transports.transcript import ERROR, RECEIVED, SENT, TranscriptEvent
+from ecds_lab.transports.transcript import ERROR, RECEIVED, SENT, STALE, TranscriptEvent
 
 
 @dataclass
@@ -34,6 +34,8 @@ def describe_event(event: TranscriptEvent) -> str:
         return f"command {event.text!r}"
     if event.kind == RECEIVED:
         return f"a read (recorded reply {event.text!r})"
+    if event.kind == STALE:
+        return f"a query (recorded: the stale line {event.text!r} discarded before it)"
     return f"a read (recorded {event.text})" if event.text == "timeout" else f"recorded error {event.text!r}"
 
 
@@ -105,7 +107,20 @@ class ReplayTransport(Transport):
             return event.text
         if event.kind == ERROR:
             return None
+        if event.kind == STALE:
+            raise self._diverge(describe_event(event), "a read")
         raise self._diverge(f"command {event.text!r} to be sent next", "a read")
+
+    def _waiting_line(self) -> str | None:
+        """The recorded stale line next in the recording, if that is what comes next (a recording made before
+        stale lines were recorded has none: nothing is discarded)."""
+        if self.state.divergence is not None or self.position >= len(self.events):
+            return None
+        if self.events[self.position].kind != STALE:
+            return None
+        event = self._next()
+        assert event is not None
+        return event.text
 
     def _close(self) -> None:
         """Nothing to release."""

@@ -84,6 +84,18 @@ class SerialTransport(Transport):
             elif self.clock.now() >= deadline:
                 return None
 
+    def _waiting_line(self) -> str | None:
+        line = self._pop_line() if self._buffer else None
+        if line is not None:
+            return line
+        try:
+            waiting = self._port.in_waiting
+            if waiting:
+                self._buffer += self._port.read(waiting)
+        except (serial.SerialException, OSError):  # a broken port: the query's own write says so
+            return None
+        return self._pop_line() if waiting else None
+
     def _pop_line(self) -> str | None:
         index = self._buffer.find(self._terminator)
         if index < 0:

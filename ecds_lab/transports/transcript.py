@@ -26,11 +26,14 @@ from collections.abc import Iterator, Sequence
 from typing import NamedTuple
 
 #: Event kinds: bytes the host sent (a terminated command or raw real-time bytes),
-#: a line the instrument sent, or a failure seen on the link (e.g. a timeout).
+#: a line the instrument sent, a failure seen on the link (e.g. a timeout), or a line found waiting
+#: on the link before a query was sent and discarded, never taken as that query's reply (stale: an
+#: unsolicited line, or one left from an earlier exchange). Codes are indices, so a kind is only appended.
 SENT = "sent"
 RECEIVED = "received"
 ERROR = "error"
-KINDS = (SENT, RECEIVED, ERROR)
+STALE = "stale"
+KINDS = (SENT, RECEIVED, ERROR, STALE)
 KIND_CODES = {kind: code for code, kind in enumerate(KINDS)}
 
 #: Text bytes per record; a longer text goes on in the next records.

@@ -46,6 +46,8 @@ class VisaTransport(Transport):
             raise TransportError(f"{name}: cannot open VISA resource {resource!r}: {exc}") from exc
         self.resource_name = resource
         self._timeout_ms = round(self.timeout_s * 1000)
+        #: Whether the resource tells how many bytes wait unread (serial ASRL resources do; raw sockets not).
+        self._can_peek = hasattr(type(opened), "bytes_in_buffer")
 
     def _send(self, data: bytes) -> None:
         self._resource.write_raw(data)
@@ -60,6 +62,16 @@ class VisaTransport(Transport):
             if exc.error_code == pyvisa.constants.StatusCode.error_timeout:
                 return None
             raise TransportError(f"{self.name}: VISA read failed: {exc}") from exc
+
+    def _waiting_line(self) -> str | None:
+        if not self._can_peek:
+            return None
+        try:
+            waiting = self._resource.bytes_in_buffer  # type: ignore[attr-defined]
+        except (pyvisa.Error, NotImplementedError, AttributeError):
+            self._can_peek = False  # the backend cannot tell without waiting
+            return None
+        return self._receive_line(self.timeout_s) if waiting else None
 
     def _close(self) -> None:
         self._resource.close()

@@ -231,3 +231,53 @@ def test_a_port_in_use_is_named(served_pty: Served) -> None:
     result = _simulate("--port-base", port)
     assert result.returncode == 2
     assert f"cannot listen on 127.0.0.1:{port} for the scanner (daq970a)" in result.stderr
+
+
+# -- GRBL's power-up lines over TCP ------------------------------------------------------------------
+def _power_up_lines(address: str, *, timeout_s: float = 5.0) -> list[str]:
+    """Connect to the served slide (pyserial's socket://, as a sender would) and read its lines up to the
+    alarm lock message; the connection is the Arduino's DTR reset."""
+    import socket
+    import time
+
+    host, port = address.removeprefix("socket://").rsplit(":", 1)
+    lines: list[str] = []
+    buffer = b""
+    with socket.create_connection((host, int(port)), timeout=timeout_s) as sock:
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            buffer += sock.recv(4096)
+            *complete, buffer = buffer.split(b"\n")
+            lines += [line.decode().strip("\r") for line in complete]
+            if any(line.startswith("[MSG:") for line in lines):
+                return lines
+    pytest.fail(f"no alarm lock message within {timeout_s} s; lines so far: {lines}")
+
+
+def test_grbl_power_up_lines_keep_the_firmwares_order_on_every_tcp_connect() -> None:
+    """Each connect resets the served GRBL: the banner comes first (grbl/main.c report_init_message), the alarm
+    lock message after it (grbl/protocol.c protocol_main_loop, $22 homing lock on). Lines due at the same instant
+    on a clock running with the wall clock must not swap (issue 24, point 8)."""
+    import threading
+
+    from ecds_lab.instruments.kinds import ROLE_NAMES
+    from ecds_lab.simulators.grbl import BANNER, UNLOCK_PROMPT
+    from ecds_lab.simulators.serve import LabServer
+    from ecds_lab.station import load_station_config
+
+    config, _ = load_station_config(None)
+    assert config.simulated is not None
+    server = LabServer(config.simulated.lab, {role: getattr(config, role).driver for role in ROLE_NAMES},
+                       port_base=0, serial="tcp")
+    slide = next(endpoint for endpoint in server.endpoints if endpoint.role == "slide")
+    slide.emulator.boot_delay_s = 0.01  # type: ignore[attr-defined]  # the bootloader's wait, short for 50 connects
+    thread = threading.Thread(target=server.serve_forever, daemon=True)
+    thread.start()
+    try:
+        orders = [_power_up_lines(slide.address) for _ in range(50)]
+    finally:
+        server.stop()
+        thread.join(timeout=5)
+        server.close()
+    assert all(lines == ["", BANNER, UNLOCK_PROMPT] for lines in orders), \
+        [lines for lines in orders if lines != ["", BANNER, UNLOCK_PROMPT]][:3]

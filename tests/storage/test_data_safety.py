@@ -96,6 +96,45 @@ def test_export_into_a_missing_or_read_only_folder_is_one_line(sweep_file, tmp_p
         locked.chmod(0o700)
 
 
+def test_export_onto_a_full_disk_names_the_file_in_one_line_and_leaves_no_part(sweep_file, tmp_path):
+    """A file-size limit stands for the full disk (no root needed): the write fails part way."""
+    output = tmp_path / "out" / "sweep.csv"
+    output.parent.mkdir()
+    done = python(f"""
+        import resource, signal, sys
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # a write past the limit fails (EFBIG), as ENOSPC would
+        from ecds_lab.cli import main
+        from ecds_lab.storage.reader import read_run
+        read_run({str(sweep_file)!r})  # anything the reader caches is in place before the limit
+        resource.setrlimit(resource.RLIMIT_FSIZE, (4096, 4096))
+        sys.exit(main(["export", {str(sweep_file)!r}, "-o", {str(output)!r}]))
+    """)
+    assert done.returncode == 2, (done.returncode, done.stderr)
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in done.stderr
+    assert lines[0].startswith(f"ecds-lab export: {output}: could not be written: ")
+    assert list(output.parent.iterdir()) == []  # neither a half-written CSV nor a temporary left
+
+
+def test_export_whose_sidecar_meets_a_full_disk_names_the_sidecar(sweep_file, tmp_path, monkeypatch, capsys):
+    import errno
+    from pathlib import Path
+
+    real = Path.write_text
+
+    def full(self, *args, **kwargs):
+        if self.name.startswith(".sweep.units.json."):
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return real(self, *args, **kwargs)
+
+    monkeypatch.setattr(Path, "write_text", full)
+    output = tmp_path / "sweep.csv"
+    assert main(["export", str(sweep_file), "-o", str(output)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == f"ecds-lab export: {tmp_path / 'sweep.units.json'}: could not be written: No space left on device"
+    assert not (tmp_path / "sweep.units.json").exists()
+
+
 def test_report_onto_an_input_is_refused(sweep_file, tmp_path, capsys):
     csv = tmp_path / "data.csv"
     assert main(["export", str(sweep_file), "-o", str(csv)]) == 0
@@ -253,21 +292,92 @@ def test_the_superblock_checksum_is_hdf5s(sweep_file):
 
 # -- a full disk -----------------------------------------------------------------------------------
 def test_a_full_disk_fails_the_run_with_a_clear_message_and_keeps_the_rows(tmp_path, experiments_dir):
+    """The file's room runs out part way (a file-size limit stands for the disk: no root, no tmpfs needed); the
+    run stops while the file can still be completed, so it says 'failed', names itself, and keeps every row."""
     path = tmp_path / "full.h5"
     done = python(f"""
         import resource, signal, sys
         signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # a write past the limit fails with EFBIG, as ENOSPC would
-        resource.setrlimit(resource.RLIMIT_FSIZE, (150_000, 150_000))  # full part way through
+        resource.setrlimit(resource.RLIMIT_FSIZE, (700_000, 700_000))  # full part way through (the run: 240 kB)
         from ecds_lab.cli import main
         sys.exit(main(["run", {str(experiments_dir / SWEEP)!r}, "-o", {str(path)!r}, "-q"]))
     """, timeout=300)
     assert done.returncode == 1, (done.returncode, done.stderr)  # failed, not killed by a signal
     assert "Traceback" not in done.stderr
-    assert "disk full?" in done.stderr
+    assert f"{path}: the disk is nearly full" in done.stderr
     assert done.stdout.startswith("failed: ")
     kept = int(done.stdout.split()[1])
     run = read_run(path)
-    assert run.status == "interrupted"  # the status could not be written; the reader says so, with every row
+    assert run.status == "failed"  # the status was written, with the reason naming the file
+    assert f"{path}: the disk is nearly full" in run.metadata["error"]
     assert len(run.points) == kept > 10
     assert np.isfinite(run.column("ls_h")).sum() > 0
     assert run.points[:, INDEX["wall_time_s"]].min() > 0
+
+
+def test_a_write_that_fails_unforeseen_names_the_file_and_the_reader_reports_it(tmp_path, experiments_dir):
+    """A disk that fills faster than the room checks see: the failing write (ENOSPC) ends the run with the file
+    named; the file is not touched again, keeps its flushed rows and reads as interrupted, saying why it may be."""
+    path = tmp_path / "sudden.h5"
+    done = python(f"""
+        import errno, sys
+        from ecds_lab.cli import main
+        from ecds_lab.storage import run_file
+        real = run_file._Appender.append
+        def append(self, values):
+            if self.width and self.length >= 40:  # the points table (2-D; the transcript log is 1-D)
+                raise OSError(errno.ENOSPC, "No space left on device")
+            return real(self, values)
+        run_file._Appender.append = append
+        sys.exit(main(["run", {str(experiments_dir / SWEEP)!r}, "-o", {str(path)!r}, "-q"]))
+    """, timeout=300)
+    assert done.returncode == 1, (done.returncode, done.stderr)
+    assert "Traceback" not in done.stderr
+    assert f"{path}: writing the run file failed (disk full?)" in done.stderr
+    run = read_run(path)
+    assert run.status == "interrupted" and len(run.points) == 40
+    assert any("a write failed on a full disk" in note for note in run.notes)
+
+
+def test_a_nearly_full_disk_stops_the_writer_while_it_can_complete_the_file(tmp_path, monkeypatch):
+    """The free space the system reports (shutil.disk_usage, on every platform) is watched every ROOM_CHECK_ROWS
+    rows; below what completing needs plus the headroom, the append refuses naming the file, and the file then
+    completes as failed with every row."""
+    import collections
+
+    from ecds_lab.data.columns import COLUMNS
+    from ecds_lab.storage import run_file
+
+    path = tmp_path / "nearly_full.h5"
+    free = {"bytes": 10**9}
+    usage = collections.namedtuple("usage", "total used free")
+    monkeypatch.setattr(run_file.shutil, "disk_usage", lambda _: usage(10**10, 0, free["bytes"]))
+    monkeypatch.setattr(run_file, "_FILE_SIZE_LIMIT", None)
+    w = writer(path)
+    row = [1.0] * len(COLUMNS)
+    for _ in range(run_file.ROOM_CHECK_ROWS + 5):
+        w.append_row(row)
+    free["bytes"] = run_file.COMPLETE_MARGIN_BYTES + run_file.HEADROOM_BYTES  # less than the table also needs
+    for _ in range(run_file.ROOM_CHECK_ROWS - 5):
+        w.append_row(row)  # no check until the next multiple of ROOM_CHECK_ROWS
+    with pytest.raises(RunFileError, match=f"{path}: the disk is nearly full") as refused:
+        w.append_row(row)
+    free["bytes"] = run_file.COMPLETE_MARGIN_BYTES + 4 * run_file.ROOM_CHECK_ROWS * len(COLUMNS) * 8
+    w.close("failed", f"RunFileError: {refused.value}")
+    run = read_run(path)
+    assert run.status == "failed" and str(path) in run.metadata["error"]
+    assert len(run.points) == 2 * run_file.ROOM_CHECK_ROWS
+
+
+def test_the_writer_lock_is_seen_by_readers_and_gone_after_close(tmp_path):
+    """storage/lock.py through filelock: a reader's probe sees the writer and does not disturb it."""
+    from ecds_lab.storage.lock import is_being_written
+
+    path = tmp_path / "locked.h5"
+    w = writer(path)
+    assert lock_path(path).read_text() == str(os.getpid())  # the holder named in a second writer's refusal
+    assert is_being_written(path) and is_being_written(path)
+    w.append_row([1.0] * w._points.width[0])
+    w.close("completed")
+    assert not lock_path(path).exists() and not is_being_written(path)
+    assert read_run(path).status == "completed"
