@@ -1,4 +1,4 @@
-"""The ``ecds-lab`` command line (DESIGN.md): run, demo, fit, diagnose, report, replay, export, watch."""
+"""The ``ecds-lab`` command line (DESIGN.md): run, demo, fit, diagnose, report, replay, export, watch, list."""
 
 from __future__ import annotations
 
@@ -86,6 +86,14 @@ def _cmd_watch(args: argparse.Namespace) -> int:
         print("live view stopped")
     finally:
         server.server_close()
+    return 0
+
+
+def _cmd_list(args: argparse.Namespace) -> int:
+    """Print the shipped experiments, stations and sensors by the names the other commands accept."""
+    from ecds_lab.config.catalogue import format_catalogue
+
+    print(format_catalogue())
     return 0
 
 
@@ -211,7 +219,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     config, _ = load_station_config(args.station)
     if config.simulated is None:
         raise ConfigError("simulate: the station has no 'simulated' section; give a simulated station YAML "
-                          "(e.g. experiments/stations/simulated_lab.yaml)")
+                          "or a shipped one's name (e.g. simulated_lab; see ecds-lab list)")
     drivers: dict[str, str] = {role: getattr(config, role).driver for role in ROLE_NAMES}
     server = LabServer(config.simulated.lab, drivers, port_base=args.port_base, serial=args.serial)
     try:
@@ -226,7 +234,8 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
 def _simulate_parser(command: Callable[..., argparse.ArgumentParser]) -> None:
     p = command("simulate", _cmd_simulate, "serve the simulated lab's instruments to any client: SCPI instruments "
                 "on raw sockets (5025 and up), serial ones on pseudo-terminals, until Ctrl-C")
-    p.add_argument("--station", type=Path, help="simulated station YAML (default: the shipped simulated lab)")
+    p.add_argument("--station", type=Path, help="simulated station YAML, or a shipped station's name "
+                   "(default: simulated_lab, shipped)")
     p.add_argument("--port-base", type=int, default=5025, metavar="PORT",
                    help="first TCP port (default 5025, the LXI raw-socket port); 0 lets the system choose")
     p.add_argument("--serial", choices=("pty", "tcp"), default="pty",
@@ -246,8 +255,10 @@ def build_parser() -> argparse.ArgumentParser:
         return p
 
     p = command("run", _cmd_run, "run an experiment YAML on a station (default: the simulated lab)")
-    p.add_argument("experiment", type=Path, help="experiment YAML")
-    p.add_argument("--station", type=Path, help="station YAML (default: experiments/stations/simulated_lab.yaml)")
+    p.add_argument("experiment", type=Path, help="experiment YAML, or a shipped experiment's name such as "
+                   "displacement_sweep (see: ecds-lab list)")
+    p.add_argument("--station", type=Path, help="station YAML, or a shipped station's name "
+                   "(default: simulated_lab, shipped)")
     p.add_argument("-o", "--output", type=Path, help="run file to write (.h5)")
     p.add_argument("--resume", type=Path, metavar="RUN.h5", help="continue an interrupted run into a new file")
     p.add_argument("--overwrite", action="store_true", help="replace an existing output file")
@@ -293,6 +304,9 @@ def build_parser() -> argparse.ArgumentParser:
     p = command("watch", _cmd_watch, "serve a live web page of a run file on 127.0.0.1 while it is written")
     p.add_argument("run", type=Path, help="run file (.h5); it may not exist yet")
     p.add_argument("--port", type=int, default=0, help="port (default: a free one, printed)")
+
+    command("list", _cmd_list, "what ships with ecds-lab: experiments (with kind), stations and sensors, "
+            "each usable by name from any folder")
 
     p = command("export", _cmd_export, "write a run's readings as CSV: the import format's columns first, "
                 "then every other column; units in RUN.units.json")
