@@ -99,12 +99,11 @@ def _cmd_list(args: argparse.Namespace) -> int:
 
 def _cmd_export(args: argparse.Namespace) -> int:
     output = args.output or Path(args.run).with_suffix(".csv")
-    rows = _export(args, output)
-    print(f"{rows} rows -> {output}")
+    print(_export(args, output))
     return 0
 
 
-def _export(args: argparse.Namespace, output: Path) -> int:
+def _export(args: argparse.Namespace, output: Path) -> str:
     """A run file: every column (or --columns) and the units sidecar; a CSV: the import columns.
 
     Never onto an input, never over an existing file without --overwrite (storage/outputs.py);
@@ -122,10 +121,10 @@ def _export(args: argparse.Namespace, output: Path) -> int:
             check_output(path, [args.run], overwrite=args.overwrite)
         for note in read_run(args.run, transcripts=False).notes:
             _say(f"ecds-lab export: note: {note}")
-        return export_run(args.run, output, columns)
+        return export_run(args.run, output, columns).describe(output)
     data = open_data(args.run).data
     write_output(output, [args.run], args.overwrite, data.to_csv)
-    return len(data)
+    return f"{len(data)} rows (one per reading) -> {output}"
 
 
 def _effects(text: str | None) -> list[str]:
