@@ -75,18 +75,47 @@ def _start_watch(path: Path) -> None:
 
 
 def _cmd_watch(args: argparse.Namespace) -> int:
-    """Serve the live page of a run file until Ctrl-C."""
+    """Serve the live page of a run file until Ctrl-C; a file that cannot become a run file fails at once,
+    one that does not exist yet is waited for at most ``--wait`` seconds (docs/live_view.md)."""
+    import threading
+
+    from ecds_lab.live.target import check_watch_target, wait_for_run_file
+
+    exists = check_watch_target(args.run)  # before importing the page's plotting: a bad path fails at once
+
     from ecds_lab.live.server import make_server, url_of
 
     server = make_server(args.run, args.port)
     print(f"live view of {args.run}: {url_of(server)} (Ctrl-C to stop)", flush=True)
+    thread = threading.Thread(target=server.serve_forever, name="live-view", daemon=True)
+    thread.start()
     try:
-        server.serve_forever()
+        if not exists:
+            print(f"waiting up to {args.wait:g} s for {args.run} to be created by its run "
+                  f"(ecds-lab run ... -o {args.run})", flush=True)
+            wait_for_run_file(args.run, args.wait)
+            print(f"{args.run} created; following it", flush=True)
+        while thread.is_alive():
+            thread.join(timeout=3600)
     except KeyboardInterrupt:
         print("live view stopped")
     finally:
+        server.shutdown()
         server.server_close()
     return 0
+
+
+def _seconds(text: str) -> float:
+    """A ``--wait`` value: a finite number of seconds >= 0."""
+    import math
+
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value >= 0):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number of seconds >= 0")
+    return value
 
 
 def _cmd_list(args: argparse.Namespace) -> int:
@@ -301,8 +330,12 @@ def build_parser() -> argparse.ArgumentParser:
     _simulate_parser(command)
 
     p = command("watch", _cmd_watch, "serve a live web page of a run file on 127.0.0.1 while it is written")
-    p.add_argument("run", type=Path, help="run file (.h5); it may not exist yet")
+    p.add_argument("run", type=Path, help="run file (.h5); if it does not exist yet, watch waits for its run "
+                   "to create it (see --wait)")
     p.add_argument("--port", type=int, default=0, help="port (default: a free one, printed)")
+    p.add_argument("--wait", type=_seconds, default=60.0, metavar="SECONDS",
+                   help="how long to wait for a run file that does not exist yet before giving up "
+                   "(default: 60; 0: do not wait)")
 
     command("list", _cmd_list, "what ships with ecds-lab: experiments (with kind), stations and sensors, "
             "each usable by name from any folder")
