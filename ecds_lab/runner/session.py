@@ -65,7 +65,7 @@ def prepare(experiment_path: Path, station_path: Path | None) -> tuple[object, s
     station_text = read_text(station_path)
     station = validate(str(station_path), parse_yaml(station_text, str(station_path)), StationConfig)
     check_experiment_fits_station(experiment, station, str(experiment_path), str(station_path))
-    return experiment, experiment_text, station, station_text, build_plan(experiment)
+    return experiment, experiment_text, station, station_text, build_plan(experiment, station.thermal)
 
 
 def default_output(experiment_path: Path, resume: Path | None) -> Path:
