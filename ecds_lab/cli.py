@@ -30,7 +30,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         _start_watch(args.output)
     result = run_experiment(args.experiment, args.station, args.output, resume=args.resume,
                             overwrite=args.overwrite, progress=not args.quiet)
-    print(f"{result.status}: {result.points} points in {result.path} ({result.wall_s:.1f} s)")
+    print(f"{result.status}: {result.points} rows in {result.path} ({result.wall_s:.1f} s); {result.rows_are()}")
     if result.error:
         print(f"error: {result.error}", file=sys.stderr)
     if args.watch:

@@ -176,7 +176,7 @@ def compare_points(recorded: np.ndarray, replayed: np.ndarray, limit: int = 20) 
     """Where two points tables differ (row, column, both values); empty when they agree."""
     differences: list[str] = []
     if len(recorded) != len(replayed):
-        differences.append(f"point count: recorded {len(recorded)}, replayed {len(replayed)}")
+        differences.append(f"row count: recorded {len(recorded)}, replayed {len(replayed)}")
     for row in range(min(len(recorded), len(replayed))):
         for name in COLUMN_NAMES:
             if name in _NOT_COMPARED:
@@ -193,14 +193,14 @@ def compare_points(recorded: np.ndarray, replayed: np.ndarray, limit: int = 20) 
 
 def format_replay(result: ReplayResult) -> str:
     """Human summary for ``ecds-lab replay``."""
-    head = (f"{result.path}: recorded {result.original_points} points ({result.original_status}), "
+    head = (f"{result.path}: recorded {result.original_points} rows ({result.original_status}), "
             f"replayed {result.replayed_points} ({result.replay_status})")
     if result.partial:
         head += ("\nthe run was interrupted (its writer was killed): replayed the part it measured, up to where "
                  "its recording ends (the replay drives no instrument: nothing to switch off)")
     if result.reproduced:
         ending = f"; the run ends as recorded: {result.error}" if result.error else ""
-        return head + "\nreproduced: every point equal" + ending
+        return head + "\nreproduced: every row equal" + ending
     lines = [head, "NOT reproduced:"] + [f"  {d}" for d in result.differences]
     if result.error and not result.divergence:
         lines.append(f"  replay stopped: {result.error}")

@@ -50,7 +50,7 @@ class Plan:
         return tuple(s for s in self.steps if isinstance(s, MeasurePoint))
 
     def describe(self) -> str:
-        lines = [f"plan '{self.name}' ({self.kind}): {len(self.steps)} steps, {len(self.points)} points"]
+        lines = [f"plan '{self.name}' ({self.kind}): {len(self.steps)} steps, {len(self.points)} planned readings"]
         lines += [f"{i:5d}  {step.describe()}" for i, step in enumerate(self.steps)]
         return "\n".join(lines) + "\n" + self.summary()
 

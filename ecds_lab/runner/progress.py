@@ -154,7 +154,8 @@ def summary(plan: Plan) -> str:
     logged = sum(s.rows for s, step in zip(steps, plan.steps, strict=True) if not isinstance(step, MeasurePoint))
     lines = ["summary:",
              "  steps: " + ", ".join(f"{count} {name}" for name, count in sorted(kinds.items())),
-             f"  readings: {len(plan.points)} planned, about {int(logged)} logged while waiting on heaters",
+             f"  readings: {len(plan.points)} planned, about {int(logged)} logged while waiting on heaters; "
+             f"about {len(plan.points) + int(logged)} rows in the run file, one per reading",
              f"  estimated duration: {_lab_time(sum(s.seconds for s in steps))} of lab time ({_basis(plan)})",
              "  temperatures: " + (f"{min(temperatures):g} C to {max(temperatures):g} C" if temperatures
                                    else "no heating"),

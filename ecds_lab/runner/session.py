@@ -28,6 +28,7 @@ from ecds_lab.errors import ConfigError, RunFileError
 from ecds_lab.runner.plan import Plan, build_plan
 from ecds_lab.runner.runner import Runner
 from ecds_lab.runner.safe_state import ctrl_c_deferred, stop_signals_raise
+from ecds_lab.runner.steps import CoolDown, WaitSteady
 from ecds_lab.station import open_station
 from ecds_lab.storage.reader import RunFile, read_run
 from ecds_lab.storage.run_file import RunWriter, metadata_for
@@ -44,6 +45,15 @@ class RunResult:
     wall_s: float
     #: The signal that stopped the run (SIGINT for Ctrl-C, SIGTERM, SIGHUP), or None.
     stopped_by: int | None = None
+    #: Readings the plan schedules one by one (its MeasurePoint steps)
+    planned: int = 0
+    #: Whether the plan waits on heaters, logging readings meanwhile
+    logs_while_heating: bool = False
+
+    def rows_are(self) -> str:
+        """What the rows are, in the data contract's words (docs/data-contract.md, "Words")."""
+        logged = " and the readings logged while waiting on heaters" if self.logs_while_heating else ""
+        return f"one row per reading: the plan's {self.planned} planned readings{logged}"
 
 
 def load_experiment(path: Path | str, text: str | None = None) -> ExperimentConfig:
@@ -127,8 +137,10 @@ def _run_experiment(experiment_path: Path, station_path: Path | None, output: Pa
             writer.close(status, error)
     finally:
         station.close()
-    result = RunResult(output, status, error, writer.rows, time.monotonic() - started, runner.stopped_by)
-    log.info("run %s: %d points in %s (%.1f s)", status, result.points, output, result.wall_s)
+    result = RunResult(output, status, error, writer.rows, time.monotonic() - started, runner.stopped_by,
+                       planned=len(plan.points), logs_while_heating=any(isinstance(step, WaitSteady | CoolDown)
+                                                                         for step in plan.steps))
+    log.info("run %s: %d rows in %s (%.1f s)", status, result.points, output, result.wall_s)
     return result
 
 
