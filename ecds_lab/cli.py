@@ -340,8 +340,9 @@ def build_parser() -> argparse.ArgumentParser:
     command("list", _cmd_list, "what ships with ecds-lab: experiments (with kind), stations and sensors, "
             "each usable by name from any folder")
 
-    p = command("export", _cmd_export, "write a run's readings as CSV: the import format's columns first, "
-                "then every other column; units in RUN.units.json")
+    p = command("export", _cmd_export, "write a run's readings as CSV, one row per reading: the import format's "
+                "columns first, then every other column; units, directions and the station's figures in "
+                "RUN.units.json")
     p.add_argument("run", type=Path)
     p.add_argument("-o", "--output", type=Path)
     p.add_argument("--overwrite", action="store_true", help="replace an existing output file (never an input)")

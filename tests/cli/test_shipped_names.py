@@ -86,3 +86,17 @@ def test_list_shows_every_shipped_experiment_with_its_kind_and_every_station_and
     for path in shipped.sensors_folder().glob("*.yaml"):
         assert any(line.split()[:1] == [path.stem] for line in lines)
     assert "displacement sweep 20-100 mm" in done.stdout
+
+
+def test_a_sensor_is_named_like_experiments_and_stations(tmp_path, monkeypatch):
+    from ecds_lab.data.sensor import load_sensor, sensor_path
+
+    monkeypatch.chdir(tmp_path)
+    assert sensor_path("steel_target.yaml") == sensor_path("steel_target") == shipped.sensors_folder() / \
+        "steel_target.yaml"
+    assert load_sensor("steel_target.yaml").target == "steel"
+    with pytest.raises(ConfigError, match=r"brass\.yaml.*paper_prototype, steel_target"):
+        sensor_path("brass.yaml")
+    own = tmp_path / "steel_target.yaml"
+    own.write_text("name: my own\ntarget: copper\n")
+    assert load_sensor("steel_target.yaml").name == "my own"  # a file here wins over the shipped name
