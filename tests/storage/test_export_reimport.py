@@ -115,3 +115,16 @@ def test_a_hand_written_csv_without_a_sidecar_is_read_as_before(tmp_path):
                     "1,20,500,25,25,1e-4,1\n2,30,500,25,25,1.1e-4,1\n")
     data = Measurements.from_csv(path)
     assert len(data) == 2 and list(data.direction) == [1, 1] and not data.slide_repeatability_m.any()
+
+
+def test_a_damaged_sidecar_is_one_line_naming_it(exported, tmp_path, capsys):
+    _, output = exported
+    copy = tmp_path / "steel.csv"
+    copy.write_text(output.read_text())
+    sidecar = tmp_path / "steel.units.json"
+    for damage in ("{", '{"direction": "up"}', '{"station": {"slide_repeatability_m": -1}}',
+                   '{"station": {"sensor": {"target": "gold"}}}'):
+        sidecar.write_text(damage)
+        assert main(["fit", str(copy)]) == 2
+        err = capsys.readouterr().err.strip()
+        assert "\n" not in err and "steel.units.json" in err, err
