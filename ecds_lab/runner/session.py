@@ -52,8 +52,8 @@ class RunResult:
 
     def rows_are(self) -> str:
         """What the rows are, in the data contract's words (docs/data-contract.md, "Words")."""
-        logged = " and the readings logged while waiting on heaters" if self.logs_while_heating else ""
-        return f"one row per reading: the plan's {self.planned} planned readings{logged}"
+        logged = "; readings logged while waiting on heaters come on top" if self.logs_while_heating else ""
+        return f"one row per reading (the plan has {self.planned} planned readings{logged})"
 
 
 def load_experiment(path: Path | str, text: str | None = None) -> ExperimentConfig:
@@ -138,8 +138,9 @@ def _run_experiment(experiment_path: Path, station_path: Path | None, output: Pa
     finally:
         station.close()
     result = RunResult(output, status, error, writer.rows, time.monotonic() - started, runner.stopped_by,
-                       planned=len(plan.points), logs_while_heating=any(isinstance(step, WaitSteady | CoolDown)
-                                                                         for step in plan.steps))
+                       planned=len(plan.points), logs_while_heating=any(
+                           isinstance(step, WaitSteady | CoolDown) and step.log is not None
+                           and bool(step.log.frequencies_hz) for step in plan.steps))
     log.info("run %s: %d rows in %s (%.1f s)", status, result.points, output, result.wall_s)
     return result
 

@@ -35,7 +35,8 @@ def test_dry_run_run_export_and_replay_count_in_the_same_words(tmp_path, capsys)
     ended = capsys.readouterr().out
     rows = len(read_run(run, transcripts=False).points)
     assert ended.startswith(f"completed: {rows} rows in {run}") and not POINTS.search(ended)
-    assert f"the plan's {planned} planned readings and the readings logged while waiting on heaters" in ended
+    assert f"(the plan has {planned} planned readings; readings logged while waiting on heaters come on top)" \
+        in ended
     assert abs(about_rows - rows) <= 0.3 * rows  # the dry run's row count is an estimate of the same thing
 
     assert main(["export", str(run), "-o", str(tmp_path / "heating.csv")]) == 0
@@ -46,3 +47,12 @@ def test_dry_run_run_export_and_replay_count_in_the_same_words(tmp_path, capsys)
     replayed = capsys.readouterr().out
     assert f"recorded {rows} rows (completed), replayed {rows} (completed)" in replayed
     assert "every row equal" in replayed and not POINTS.search(replayed)
+
+
+def test_a_run_without_logging_does_not_claim_logged_readings(tmp_path, capsys):
+    assert main(["run", "spectroscopy", "--station", "simulated_lab_in_air", "-o", str(tmp_path / "s.h5"),
+                 "-q"]) == 0
+    ended = capsys.readouterr().out
+    rows = len(read_run(tmp_path / "s.h5", transcripts=False).points)
+    assert ended.startswith(f"completed: {rows} rows in ") and "logged" not in ended
+    assert f"(the plan has {rows} planned readings)" in ended
