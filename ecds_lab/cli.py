@@ -1,4 +1,4 @@
-"""The ``ecds-lab`` command line (DESIGN.md): run, demo, fit, diagnose, report, replay, export, watch."""
+"""The ``ecds-lab`` command line (DESIGN.md): run, demo, fit, diagnose, report, replay, export, watch, list."""
 
 from __future__ import annotations
 
@@ -30,7 +30,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         _start_watch(args.output)
     result = run_experiment(args.experiment, args.station, args.output, resume=args.resume,
                             overwrite=args.overwrite, progress=not args.quiet)
-    print(f"{result.status}: {result.points} points in {result.path} ({result.wall_s:.1f} s)")
+    print(f"{result.status}: {result.points} rows in {result.path} ({result.wall_s:.1f} s); {result.rows_are()}")
     if result.error:
         print(f"error: {result.error}", file=sys.stderr)
     for note in result.notes:
@@ -77,28 +77,64 @@ def _start_watch(path: Path) -> None:
 
 
 def _cmd_watch(args: argparse.Namespace) -> int:
-    """Serve the live page of a run file until Ctrl-C."""
+    """Serve the live page of a run file until Ctrl-C; a file that cannot become a run file fails at once,
+    one that does not exist yet is waited for at most ``--wait`` seconds (docs/live_view.md)."""
+    import threading
+
+    from ecds_lab.live.target import check_watch_target, wait_for_run_file
+
+    exists = check_watch_target(args.run)  # before importing the page's plotting: a bad path fails at once
+
     from ecds_lab.live.server import make_server, url_of
 
     server = make_server(args.run, args.port)
     print(f"live view of {args.run}: {url_of(server)} (Ctrl-C to stop)", flush=True)
+    thread = threading.Thread(target=server.serve_forever, name="live-view", daemon=True)
+    thread.start()
     try:
-        server.serve_forever()
+        if not exists:
+            print(f"waiting up to {args.wait:g} s for {args.run} to be created by its run "
+                  f"(ecds-lab run ... -o {args.run})", flush=True)
+            wait_for_run_file(args.run, args.wait)
+            print(f"{args.run} created; following it", flush=True)
+        while thread.is_alive():
+            thread.join(timeout=3600)
     except KeyboardInterrupt:
         print("live view stopped")
     finally:
+        server.shutdown()
         server.server_close()
+    return 0
+
+
+def _seconds(text: str) -> float:
+    """A ``--wait`` value: a finite number of seconds >= 0."""
+    import math
+
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value >= 0):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number of seconds >= 0")
+    return value
+
+
+def _cmd_list(args: argparse.Namespace) -> int:
+    """Print the shipped experiments, stations and sensors by the names the other commands accept."""
+    from ecds_lab.config.catalogue import format_catalogue
+
+    print(format_catalogue())
     return 0
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
     output = args.output or Path(args.run).with_suffix(".csv")
-    rows = _export(args, output)
-    print(f"{rows} rows -> {output}")
+    print(_export(args, output))
     return 0
 
 
-def _export(args: argparse.Namespace, output: Path) -> int:
+def _export(args: argparse.Namespace, output: Path) -> str:
     """A run file: every column (or --columns) and the units sidecar; a CSV: the import columns.
 
     Never onto an input, never over an existing file without --overwrite (storage/outputs.py);
@@ -116,10 +152,10 @@ def _export(args: argparse.Namespace, output: Path) -> int:
             check_output(path, [args.run], overwrite=args.overwrite)
         for note in read_run(args.run, transcripts=False).notes:
             _say(f"ecds-lab export: note: {note}")
-        return export_run(args.run, output, columns)
+        return export_run(args.run, output, columns).describe(output)
     data = open_data(args.run).data
     write_output(output, [args.run], args.overwrite, data.to_csv)
-    return len(data)
+    return f"{len(data)} rows (one per reading) -> {output}"
 
 
 def _effects(text: str | None) -> list[str]:
@@ -229,7 +265,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     config, _ = load_station_config(args.station)
     if config.simulated is None:
         raise ConfigError("simulate: the station has no 'simulated' section; give a simulated station YAML "
-                          "(e.g. experiments/stations/simulated_lab.yaml)")
+                          "or a shipped one's name (e.g. simulated_lab; see ecds-lab list)")
     drivers: dict[str, str] = {role: getattr(config, role).driver for role in ROLE_NAMES}
     server = LabServer(config.simulated.lab, drivers, port_base=args.port_base, serial=args.serial)
     try:
@@ -244,7 +280,8 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
 def _simulate_parser(command: Callable[..., argparse.ArgumentParser]) -> None:
     p = command("simulate", _cmd_simulate, "serve the simulated lab's instruments to any client: SCPI instruments "
                 "on raw sockets (5025 and up), serial ones on pseudo-terminals, until Ctrl-C")
-    p.add_argument("--station", type=Path, help="simulated station YAML (default: the shipped simulated lab)")
+    p.add_argument("--station", type=Path, help="simulated station YAML, or a shipped station's name "
+                   "(default: simulated_lab, shipped)")
     p.add_argument("--port-base", type=int, default=5025, metavar="PORT",
                    help="first TCP port (default 5025, the LXI raw-socket port); 0 lets the system choose")
     p.add_argument("--serial", choices=("pty", "tcp"), default="pty" if hasattr(os, "openpty") else "tcp",
@@ -265,8 +302,10 @@ def build_parser() -> argparse.ArgumentParser:
         return p
 
     p = command("run", _cmd_run, "run an experiment YAML on a station (default: the simulated lab)")
-    p.add_argument("experiment", type=Path, help="experiment YAML")
-    p.add_argument("--station", type=Path, help="station YAML (default: experiments/stations/simulated_lab.yaml)")
+    p.add_argument("experiment", type=Path, help="experiment YAML, or a shipped experiment's name such as "
+                   "displacement_sweep (see: ecds-lab list)")
+    p.add_argument("--station", type=Path, help="station YAML, or a shipped station's name "
+                   "(default: simulated_lab, shipped)")
     p.add_argument("-o", "--output", type=Path, help="run file to write (.h5)")
     p.add_argument("--resume", type=Path, metavar="RUN.h5", help="continue an interrupted run into a new file")
     p.add_argument("--overwrite", action="store_true", help="replace an existing output file")
@@ -316,11 +355,19 @@ def build_parser() -> argparse.ArgumentParser:
     _simulate_parser(command)
 
     p = command("watch", _cmd_watch, "serve a live web page of a run file on 127.0.0.1 while it is written")
-    p.add_argument("run", type=Path, help="run file (.h5); it may not exist yet")
+    p.add_argument("run", type=Path, help="run file (.h5); if it does not exist yet, watch waits for its run "
+                   "to create it (see --wait)")
     p.add_argument("--port", type=int, default=0, help="port (default: a free one, printed)")
+    p.add_argument("--wait", type=_seconds, default=60.0, metavar="SECONDS",
+                   help="how long to wait for a run file that does not exist yet before giving up "
+                   "(default: 60; 0: do not wait)")
 
-    p = command("export", _cmd_export, "write a run's readings as CSV: the import format's columns first, "
-                "then every other column; units in RUN.units.json")
+    command("list", _cmd_list, "what ships with ecds-lab: experiments (with kind), stations and sensors, "
+            "each usable by name from any folder")
+
+    p = command("export", _cmd_export, "write a run's readings as CSV, one row per reading: the import format's "
+                "columns first, then every other column; units, directions and the station's figures in "
+                "RUN.units.json")
     p.add_argument("run", type=Path)
     p.add_argument("-o", "--output", type=Path)
     p.add_argument("--overwrite", action="store_true", help="replace an existing output file (never an input)")

@@ -31,7 +31,7 @@ def run_demo(output: Path, progress: bool = True) -> list[RunResult]:
         run_file = output / experiment.replace(".yaml", ".h5")
         result = run_experiment(shipped.experiment(experiment), shipped.station(station), run_file,
                                 overwrite=True, progress=progress)
-        print(f"{result.status:9s} {result.points:5d} points  {run_file}  ({result.wall_s:.1f} s)")
+        print(f"{result.status:9s} {result.points:5d} rows  {run_file}  ({result.wall_s:.1f} s)")
         results.append(result)
     analyse_campaign([r.path for r in results], output)
     print(f"demo finished in {time.monotonic() - started:.1f} s; open {output / 'report.html'}")

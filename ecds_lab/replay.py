@@ -35,6 +35,8 @@ from ecds_lab.transports.replay import ReplayState, ReplayTransport
 #: Columns not expected to reproduce: wall-clock time differs by nature.
 _NOT_COMPARED = {"wall_time_s"}
 _TIME_TOLERANCE_S = 0.5
+#: How the replay of a killed run ends: where its transcripts end, with no instrument behind it.
+ENDED_WITH_RECORDING = "stopped where the recording ends"
 
 
 @dataclass
@@ -139,10 +141,14 @@ def replay_run(path: str | Path) -> ReplayResult:
     divergence = next((link.state.divergence for link in links if link.state.divergence is not None), None)
     closed = original.status in ("completed", "failed")
     if divergence is not None and _recording_ran_out(original, divergence):
-        # a killed run's recording ends where it was killed: the replay reproduces the measured part
+        # a killed run's recording ends where it was killed: the replay reproduces the measured part. What
+        # the runner did after that (make the lab safe) went to replay links whose recording had ended, not
+        # to a heater: its "switch off by hand" is about no real instrument and is not the replay's ending.
         result.partial = True
         replayed_points = replayed_points[:len(original.points)]
         result.replayed_points = len(replayed_points)
+        result.replay_status = ENDED_WITH_RECORDING
+        result.error = ""
         divergence = None
     if divergence is not None:
         result.divergence = str(divergence)
@@ -170,7 +176,7 @@ def compare_points(recorded: np.ndarray, replayed: np.ndarray, limit: int = 20) 
     """Where two points tables differ (row, column, both values); empty when they agree."""
     differences: list[str] = []
     if len(recorded) != len(replayed):
-        differences.append(f"point count: recorded {len(recorded)}, replayed {len(replayed)}")
+        differences.append(f"row count: recorded {len(recorded)}, replayed {len(replayed)}")
     for row in range(min(len(recorded), len(replayed))):
         for name in COLUMN_NAMES:
             if name in _NOT_COMPARED:
@@ -187,14 +193,14 @@ def compare_points(recorded: np.ndarray, replayed: np.ndarray, limit: int = 20) 
 
 def format_replay(result: ReplayResult) -> str:
     """Human summary for ``ecds-lab replay``."""
-    head = (f"{result.path}: recorded {result.original_points} points ({result.original_status}), "
+    head = (f"{result.path}: recorded {result.original_points} rows ({result.original_status}), "
             f"replayed {result.replayed_points} ({result.replay_status})")
     if result.partial:
         head += ("\nthe run was interrupted (its writer was killed): replayed the part it measured, up to where "
-                 "its recording ends")
+                 "its recording ends (the replay drives no instrument: nothing to switch off)")
     if result.reproduced:
         ending = f"; the run ends as recorded: {result.error}" if result.error else ""
-        return head + "\nreproduced: every point equal" + ending
+        return head + "\nreproduced: every row equal" + ending
     lines = [head, "NOT reproduced:"] + [f"  {d}" for d in result.differences]
     if result.error and not result.divergence:
         lines.append(f"  replay stopped: {result.error}")

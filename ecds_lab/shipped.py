@@ -26,7 +26,12 @@ def experiment(name: str) -> Path:
 
 def station(name: str = "simulated_lab.yaml") -> Path:
     """A shipped station YAML by file name; the default is the simulated lab."""
-    return _existing(experiments_folder() / "stations" / name)
+    return _existing(stations_folder() / name)
+
+
+def stations_folder() -> Path:
+    """The folder holding the shipped station YAMLs (the simulated labs, the real lab's template)."""
+    return experiments_folder() / "stations"
 
 
 def sensors_folder() -> Path:

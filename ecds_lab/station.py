@@ -18,6 +18,7 @@ import yaml
 from ecds_lab import shipped
 from ecds_lab.clock import Clock, SimulatedClock, WallClock
 from ecds_lab.config.loading import load_yaml_model
+from ecds_lab.config.references import station_path
 from ecds_lab.config.station import InstrumentConfig, SerialLink, StationConfig, VisaLink
 from ecds_lab.instruments.interfaces import HeaterSupply, LCRBridge, Positioner, TemperatureScanner
 from ecds_lab.instruments.kinds import ROLE_NAMES, kind
@@ -88,8 +89,8 @@ class Station:
 
 
 def load_station_config(path: str | Path | None) -> tuple[StationConfig, str]:
-    """The station YAML (default: the simulated lab) validated, and its text as given."""
-    path = Path(path) if path is not None else DEFAULT_STATION
+    """The station YAML (a path or a shipped name; default: the simulated lab) validated, and its text."""
+    path = station_path(path)
     return load_yaml_model(path, StationConfig), path.read_text()
 
 

@@ -92,6 +92,25 @@ class HeaterWiring(_Strict):
     coil_heater_ohm: float = Field(8.0, gt=0)
 
 
+class HeatedPart(_Strict):
+    """How fast one heated part's temperature moves: the station's declared figures for the plan's lab-time
+    estimate (``--dry-run``, the progress bar's ETA before the first wait has calibrated it), not for control."""
+
+    settling_time_constant_s: float = Field(300.0, gt=0, le=86400.0, description=(
+        "1/e time of the part's remaining temperature error while the regulation brings it to a new setpoint "
+        "(read off a heating step's log: the time in which the error falls by a factor e near the setpoint)"))
+    cooling_time_constant_s: float = Field(900.0, gt=0, le=86400.0, description=(
+        "1/e time of the part's free cooling towards ambient with the heater off"))
+
+
+class ThermalConfig(_Strict):
+    """The heated parts' declared time constants (defaults: round values; declare the lab's own)."""
+
+    coil: HeatedPart = HeatedPart()
+    target: HeatedPart = HeatedPart(cooling_time_constant_s=600.0)
+    ambient_c: float = Field(22.0, ge=-40.0, le=60.0, description="the lab's temperature, where parts cool to")
+
+
 class SimulationConfig(_Strict):
     """The simulated lab behind the simulators, and how fast its time runs."""
 
@@ -111,6 +130,7 @@ class StationConfig(_Strict):
     heater: InstrumentConfig = InstrumentConfig(driver="hmp4040")
     heaters: HeaterWiring = HeaterWiring()
     safety: SafetyConfig = SafetyConfig()
+    thermal: ThermalConfig = ThermalConfig()
     sensor: SensorConfig | None = Field(None, description="the sensor on the slide, recorded in every run file: a "
                                         "shipped name (steel_target), a sensor YAML path, or the description inline; "
                                         "a simulated station without one uses its simulated lab's sensor")

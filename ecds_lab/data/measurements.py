@@ -1,9 +1,11 @@
 """Measurements: the bridge readings as columns of numbers in SI, from a run file or a CSV.
 
 The CSV import format:
-``time_s,x_mm,freq_hz,t_coil_c,t_target_c,ls_h,rs_ohm`` (``x_mm = inf``: coil in air).
-Derived inputs the model parts need (direction of approach, coil temperature rate)
-are computed here from the columns, so CSV imports work as well as run files.
+``time_s,x_mm,freq_hz,t_coil_c,t_target_c,ls_h,rs_ohm`` (``x_mm = inf``: coil in air; ``x_mm = nan``: a
+reading taken before the slide had a position, kept in the file but not analysed, as in a run file).
+Derived inputs the model parts need (direction of approach, coil temperature rate) are computed here
+from the columns, unless the CSV's export sidecar (data/sidecar.py) records them with the station's
+figures, so an exported CSV is analysed exactly as its run file.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ from typing import TextIO
 
 import numpy as np
 
+from ecds_lab.data.sidecar import read_sidecar
 from ecds_lab.errors import EcdsLabError
 
 #: Marks a derived column the caller did not give (computed in ``__post_init__``).
@@ -136,8 +139,14 @@ class Measurements:
         if not rows:
             raise DataError(f"{path}: no data rows")
         data = np.array(rows)
+        sidecar = read_sidecar(path, len(data))
+        positioned = ~np.isnan(data[:, 1])  # x_mm = nan: a reading before the slide had a position (unused,
+        if not positioned.any():            # as in the run file)
+            raise DataError(f"{path}: no row has a position (x_mm is nan in every row)")
+        data = data[positioned]
         return cls(time_s=data[:, 0], x_m=data[:, 1] * 1e-3, freq_hz=data[:, 2], t_coil_c=data[:, 3],
-                   t_target_c=data[:, 4], ls_h=data[:, 5], rs_ohm=data[:, 6], source=str(path))
+                   t_target_c=data[:, 4], ls_h=data[:, 5], rs_ohm=data[:, 6], source=str(path),
+                   **(sidecar.columns(positioned) if sidecar is not None else {}))
 
     def to_csv(self, path: str | Path) -> None:
         """Write the CSV import format: every value exactly, x rounded to 1 pm.
@@ -173,7 +182,7 @@ def _csv_rows(path: Path, handle: TextIO) -> list[list[float]]:
                 except (IndexError, ValueError):
                     cell = row[i] if i < len(row) else "<missing>"
                     raise DataError(f"{path}: row {line_number}, column {column}: {cell!r} is not a number") from None
-                if math.isnan(values[-1]) or (math.isinf(values[-1]) and column != "x_mm"):
+                if column != "x_mm" and not math.isfinite(values[-1]):  # x_mm: inf in air, nan unknown
                     raise DataError(f"{path}: row {line_number}, column {column}: {row[i]!r} is not allowed")
             rows.append(values)
     except UnicodeDecodeError as exc:

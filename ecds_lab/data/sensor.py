@@ -76,14 +76,17 @@ def shipped_sensors() -> list[str]:
 
 
 def sensor_path(name: str | Path) -> Path:
-    """The file a sensor reference names: a shipped name (no folder, no suffix) or a path."""
+    """The file a sensor reference names: a shipped name (no folder, no suffix) or a path; a name with a
+    suffix but no folder (``steel_target.yaml``) that is no file here is a shipped name too, as for
+    experiments and stations (config/references.py)."""
     text = str(name)
-    if "/" not in text and "\\" not in text and not text.endswith((".yaml", ".yml")):
-        if text not in shipped_sensors():
-            raise ConfigError(f"sensor {text!r}: no shipped sensor of that name; shipped: "
-                              f"{', '.join(shipped_sensors())} (or give a path to a sensor YAML)")
-        return shipped.sensors_folder() / f"{text}.yaml"
-    return Path(text)
+    if "/" in text or "\\" in text or Path(text).is_file():
+        return Path(text)
+    stem = text.removesuffix(".yaml") if text.endswith(".yaml") else text.removesuffix(".yml")
+    if stem not in shipped_sensors():
+        raise ConfigError(f"sensor {text!r}: no shipped sensor of that name; shipped: "
+                          f"{', '.join(shipped_sensors())} (or give a path to a sensor YAML)")
+    return shipped.sensors_folder() / f"{stem}.yaml"
 
 
 def load_sensor(name: str | Path | None) -> SensorConfig:

@@ -16,7 +16,7 @@ table {{ border-collapse: collapse; font-size: 90%; }} td {{ padding: 0 0.8em; b
 <body>
 <h1>{title}</h1>
 <p>status: <span id="status" class="status">…</span> · <span id="rows">0</span> rows of about
-<span id="expected">?</span> · <span id="points">0</span> plotted points · ETA <span id="eta">?</span></p>
+<span id="expected">?</span> · <span id="points">0</span> readings plotted · ETA <span id="eta">?</span></p>
 <p><progress id="bar" max="1" value="0"></progress> <span id="error"></span></p>
 <div class="plots"><img id="ls" alt="inductance against distance" src="ls.png">
 <img id="temperatures" alt="temperatures and heater power" src="temperatures.png"></div>

@@ -85,20 +85,26 @@ def read_snapshot(path: Path) -> Snapshot:
                       "(its file then keeps every row written so far; resume it with ecds-lab run --resume; "
                       f"h5dump and a plain h5py open need `h5clear -s {path}` first)")
     if snap.status == "running" and "experiment_yaml" in attrs:
-        _estimate(snap, attrs["experiment_yaml"])
+        _estimate(snap, attrs["experiment_yaml"], attrs.get("station_yaml", ""))
     else:
         snap.expected_rows, snap.remaining_s = len(snap.points), 0.0
     return snap
 
 
-def _estimate(snap: Snapshot, experiment_yaml: str) -> None:
-    """Progress from the plan's estimate, calibrated by the steps the file shows finished."""
+def _estimate(snap: Snapshot, experiment_yaml: str, station_yaml: str) -> None:
+    """Progress from the plan's estimate (with the station's thermal figures), calibrated by the steps the
+    file shows finished."""
+    import yaml
+
+    from ecds_lab.config.station import ThermalConfig
     from ecds_lab.runner.plan import build_plan
     from ecds_lab.runner.session import load_experiment
 
     try:
-        plan = build_plan(load_experiment("run file", experiment_yaml))
-    except Exception:  # a file whose recorded experiment no longer validates: show rows only
+        station = yaml.safe_load(station_yaml) if station_yaml else None
+        thermal = ThermalConfig.model_validate((station or {}).get("thermal") or {})
+        plan = build_plan(load_experiment("run file", experiment_yaml), thermal)
+    except Exception:  # a file whose recorded experiment or station no longer validates: show rows only
         return
     estimate = PlanEstimate(plan)
     if not len(snap.points):

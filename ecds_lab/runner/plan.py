@@ -7,7 +7,7 @@ skips what an interrupted run already measured, following the rule each step dec
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from ecds_lab.config.experiment import (
     CoilHeating,
@@ -18,6 +18,7 @@ from ecds_lab.config.experiment import (
     TargetHeating,
 )
 from ecds_lab.config.experiment import SteadyState as SteadyStateConfig
+from ecds_lab.config.station import ThermalConfig
 from ecds_lab.runner.steady_state import SteadyState
 from ecds_lab.runner.steps import (
     BridgeLog,
@@ -36,18 +37,20 @@ from ecds_lab.runner.steps import (
 
 @dataclass(frozen=True)
 class Plan:
-    """The steps of one experiment in order, and how many bridge points they measure."""
+    """The steps of one experiment in order, how many planned points they measure, and the station's thermal
+    figures its lab-time estimate uses (runner/progress.py)."""
 
     name: str
     kind: str
     steps: tuple[PlanStep, ...]
+    thermal: ThermalConfig = field(default_factory=ThermalConfig)
 
     @property
     def points(self) -> tuple[MeasurePoint, ...]:
         return tuple(s for s in self.steps if isinstance(s, MeasurePoint))
 
     def describe(self) -> str:
-        lines = [f"plan '{self.name}' ({self.kind}): {len(self.steps)} steps, {len(self.points)} points"]
+        lines = [f"plan '{self.name}' ({self.kind}): {len(self.steps)} steps, {len(self.points)} planned readings"]
         lines += [f"{i:5d}  {step.describe()}" for i, step in enumerate(self.steps)]
         return "\n".join(lines) + "\n" + self.summary()
 
@@ -118,8 +121,9 @@ class _Builder:
                               _bridge_log(heating, default_log)))
 
 
-def build_plan(experiment: DisplacementSweep | CoilHeating | TargetHeating | Spectroscopy) -> Plan:
-    """Turn a validated experiment into its plan."""
+def build_plan(experiment: DisplacementSweep | CoilHeating | TargetHeating | Spectroscopy,
+               thermal: ThermalConfig | None = None) -> Plan:
+    """Turn a validated experiment into its plan; ``thermal``: the station's figures for its time estimate."""
     b = _Builder()
     b.add(ConfigureBridge(experiment.bridge))
     b.add(ConfigureScanner())
@@ -156,4 +160,4 @@ def build_plan(experiment: DisplacementSweep | CoilHeating | TargetHeating | Spe
             b.readings_in_place(experiment.frequencies_hz, 1, label, experiment.coil_in_air)
         if experiment.coil_temperatures_c:
             b.add(SetHeater("coil"))
-    return Plan(experiment.name, experiment.kind, tuple(b.steps))
+    return Plan(experiment.name, experiment.kind, tuple(b.steps), thermal or ThermalConfig())

@@ -1,7 +1,8 @@
 """Progress and ETA from the plan's time estimate: moves, settling, readings, heating waits.
 
 Every step gets a nominal duration and the rows it will write (:func:`estimate_plan`); a heating
-wait's nominal length (the steady-state window plus the ramp at a nominal rate) is then
+wait's and a cool-down's nominal length come from the station's thermal time constants and the
+steady-state criterion the run waits on (runner/thermal_time.py); heating waits are then
 calibrated by the waits already finished, so the ETA converges as the run learns how fast this
 lab heats. The bar (tqdm, on a terminal only) counts rows written against the rows the run will
 write; :class:`PlanEstimate` is also what the live view (:mod:`ecds_lab.live`) shows.
@@ -28,16 +29,12 @@ from ecds_lab.runner.steps import (
     SetHeater,
     WaitSteady,
 )
+from ecds_lab.runner.thermal_time import cooling_s, heating_wait_s
 
 if TYPE_CHECKING:
     from ecds_lab.clock import Clock
     from ecds_lab.runner.plan import Plan
 
-#: Nominal rates for the estimate only, round values near the simulated lab's: a lab's real heating waits
-#: calibrate the later ones as it runs; the cool-down, always last, keeps its nominal rate.
-HEATING_K_PER_S = 6.0 / 60.0
-COOLING_K_PER_S = 3.0 / 60.0
-START_TEMPERATURE_C = 22.0
 HOME_S = 5.0
 #: Categories whose nominal durations the run calibrates by what it observes.
 _CALIBRATED = ("heat", "point")
@@ -57,7 +54,8 @@ def estimate_plan(plan: Plan) -> list[StepEstimate]:
     """Nominal duration and rows of every step, in order (positions and temperatures tracked along)."""
     reading_s = READING_S["slow"] + OVERHEAD_S
     x_mm: float | None = None
-    temperature = START_TEMPERATURE_C
+    thermal = plan.thermal
+    temperature = {"coil": thermal.ambient_c, "target": thermal.ambient_c}
     out = []
     for step in plan.steps:
         if isinstance(step, ConfigureBridge):
@@ -77,12 +75,14 @@ def estimate_plan(plan: Plan) -> list[StepEstimate]:
             x_mm = None
             out.append(StepEstimate(HOME_S, 0, "other"))
         elif isinstance(step, WaitSteady):
-            seconds = step.steady.window_s + abs(step.setpoint_c - temperature) / HEATING_K_PER_S
-            temperature = step.setpoint_c
+            part = getattr(thermal, step.heater)
+            seconds = heating_wait_s(step.steady, step.setpoint_c - temperature[step.heater], part)
+            temperature[step.heater] = step.setpoint_c
             out.append(StepEstimate(seconds, _logged_rows(step, seconds, reading_s), "heat"))
         elif isinstance(step, CoolDown):
-            seconds = max(temperature - step.below_c, 0.0) / COOLING_K_PER_S
-            temperature = min(temperature, step.below_c)
+            seconds = cooling_s(temperature[step.heater], step.below_c, thermal.ambient_c,
+                                getattr(thermal, step.heater), step.timeout_s)
+            temperature[step.heater] = min(temperature[step.heater], step.below_c)
             out.append(StepEstimate(seconds, _logged_rows(step, seconds, reading_s), "cool"))
         else:
             out.append(StepEstimate(0.1, 0, "other"))
@@ -154,14 +154,29 @@ def summary(plan: Plan) -> str:
     logged = sum(s.rows for s, step in zip(steps, plan.steps, strict=True) if not isinstance(step, MeasurePoint))
     lines = ["summary:",
              "  steps: " + ", ".join(f"{count} {name}" for name, count in sorted(kinds.items())),
-             f"  readings: {len(plan.points)} planned, about {int(logged)} logged while waiting on heaters",
-             f"  estimated duration: {format_duration(sum(s.seconds for s in steps))} "
-             f"(nominal: {HEATING_K_PER_S * 60:g} K/min heating, {COOLING_K_PER_S * 60:g} K/min cooling, "
-             f"slide {MOVE_MM_PER_S:g} mm/s)",
+             f"  readings: {len(plan.points)} planned, about {int(logged)} logged while waiting on heaters; "
+             f"about {len(plan.points) + int(logged)} rows in the run file, one per reading",
+             f"  estimated duration: {_lab_time(sum(s.seconds for s in steps))} of lab time ({_basis(plan)})",
              "  temperatures: " + (f"{min(temperatures):g} C to {max(temperatures):g} C" if temperatures
                                    else "no heating"),
              f"  slide travel: {sum(s.travel_mm for s in steps):.1f} mm between planned positions"]
     return "\n".join(lines)
+
+
+def _lab_time(seconds: float) -> str:
+    """Minutes always (comparable between plans), the larger unit beside them when it reads better."""
+    longer = format_duration(seconds)
+    return f"{seconds / 60:.1f} min" + (f" ({longer})" if not longer.endswith(("min", " s")) else "")
+
+
+def _basis(plan: Plan) -> str:
+    """What the estimate assumed: the station's time constants of the heated parts the plan uses, the slide speed."""
+    heated = sorted({step.heater for step in plan.steps if isinstance(step, (WaitSteady, CoolDown))})
+    parts = [f"{heater}: settles with tau {getattr(plan.thermal, heater).settling_time_constant_s:g} s, "
+             f"cools with {getattr(plan.thermal, heater).cooling_time_constant_s:g} s" for heater in heated]
+    if heated:
+        parts.append("from the station's thermal figures and the experiment's steady-state criterion")
+    return "; ".join([*parts, f"slide {MOVE_MM_PER_S:g} mm/s"])
 
 
 class Progress:

@@ -20,6 +20,8 @@ import yaml
 from ecds_lab.config.checks import check_experiment_fits_station
 from ecds_lab.config.experiment import EXPERIMENT_ADAPTER, ExperimentConfig
 from ecds_lab.config.loading import parse_yaml, read_text, validate
+from ecds_lab.config.references import experiment_path as find_experiment
+from ecds_lab.config.references import station_path as find_station
 from ecds_lab.config.station import StationConfig
 from ecds_lab.data.columns import INDEX
 from ecds_lab.data.run_metadata import LINK_NOTES_ATTRIBUTE, SENSOR_ATTRIBUTE, sensor_attribute
@@ -27,7 +29,8 @@ from ecds_lab.errors import ConfigError, RunFileError
 from ecds_lab.runner.plan import Plan, build_plan
 from ecds_lab.runner.runner import Runner
 from ecds_lab.runner.safe_state import ctrl_c_deferred, stop_signals_raise
-from ecds_lab.station import DEFAULT_STATION, open_station
+from ecds_lab.runner.steps import CoolDown, WaitSteady
+from ecds_lab.station import open_station
 from ecds_lab.storage.reader import RunFile, read_run
 from ecds_lab.storage.run_file import RunWriter, metadata_for
 from ecds_lab.transports.base import Transport
@@ -46,6 +49,15 @@ class RunResult:
     stopped_by: int | None = None
     #: What the operator should know beyond the status: one line per link that discarded stale lines.
     notes: list[str] = field(default_factory=list)
+    #: Readings the plan schedules one by one (its MeasurePoint steps)
+    planned: int = 0
+    #: Whether the plan waits on heaters, logging readings meanwhile
+    logs_while_heating: bool = False
+
+    def rows_are(self) -> str:
+        """What the rows are, in the data contract's words (docs/data-contract.md, "Words")."""
+        logged = "; readings logged while waiting on heaters come on top" if self.logs_while_heating else ""
+        return f"one row per reading (the plan has {self.planned} planned readings{logged})"
 
 
 def load_experiment(path: Path | str, text: str | None = None) -> ExperimentConfig:
@@ -55,14 +67,19 @@ def load_experiment(path: Path | str, text: str | None = None) -> ExperimentConf
 
 
 def prepare(experiment_path: Path, station_path: Path | None) -> tuple[object, str, StationConfig, str, Plan]:
-    """Load, validate and cross-check both files; build the plan. No instrument is touched."""
-    experiment_text = read_text(Path(experiment_path))
+    """Load, validate and cross-check both files; build the plan. No instrument is touched.
+
+    Either may be a path or a shipped name (``displacement_sweep``, ``simulated_lab``): see
+    ``config/references.py``; no station means the shipped simulated lab.
+    """
+    experiment_path = find_experiment(experiment_path)
+    experiment_text = read_text(experiment_path)
     experiment = load_experiment(experiment_path, experiment_text)
-    station_path = station_path or DEFAULT_STATION
-    station_text = read_text(Path(station_path))
+    station_path = find_station(station_path)
+    station_text = read_text(station_path)
     station = validate(str(station_path), parse_yaml(station_text, str(station_path)), StationConfig)
     check_experiment_fits_station(experiment, station, str(experiment_path), str(station_path))
-    return experiment, experiment_text, station, station_text, build_plan(experiment)
+    return experiment, experiment_text, station, station_text, build_plan(experiment, station.thermal)
 
 
 def default_output(experiment_path: Path, resume: Path | None) -> Path:
@@ -125,8 +142,11 @@ def _run_experiment(experiment_path: Path, station_path: Path | None, output: Pa
             writer.close(status, error, {LINK_NOTES_ATTRIBUTE: json.dumps(notes)} if notes else None)
     finally:
         station.close()
-    result = RunResult(output, status, error, writer.rows, time.monotonic() - started, runner.stopped_by, notes)
-    log.info("run %s: %d points in %s (%.1f s)", status, result.points, output, result.wall_s)
+    result = RunResult(output, status, error, writer.rows, time.monotonic() - started, runner.stopped_by, notes,
+                       planned=len(plan.points), logs_while_heating=any(
+                           isinstance(step, WaitSteady | CoolDown) and step.log is not None
+                           and bool(step.log.frequencies_hz) for step in plan.steps))
+    log.info("run %s: %d rows in %s (%.1f s)", status, result.points, output, result.wall_s)
     return result
 
 
@@ -142,7 +162,7 @@ def check_same_station(previous: RunFile, config: StationConfig, identities: dic
                        station_path: Path | None) -> None:
     """A resumed run continues on the station of the interrupted one: simulated or real alike, the same
     sensor and (once asked) the same instruments; otherwise ConfigError naming every difference."""
-    given = f"station {station_path or DEFAULT_STATION}"
+    given = f"station {station_path or 'simulated_lab'}"
     differences = []
     recorded = yaml.safe_load(previous.metadata.get("station_yaml", "") or "{}") or {}
     was_simulated = isinstance(recorded, dict) and recorded.get("simulated") is not None

@@ -117,7 +117,8 @@ class MeasurePoint(PlanStep):
     def describe(self) -> str:
         where = ("coil in air" if self.in_air else "in place" if self.x_mm is None
                  else f"x = {self.x_mm:g} mm ({self.direction})")
-        return f"point {self.point}: {where}, {self.freq_hz:g} Hz, repeat {self.repeat}, reading {self.reading}"
+        return (f"planned reading {self.point}: {where}, {self.freq_hz:g} Hz, repeat {self.repeat}, "
+                f"reading {self.reading} at this position and frequency")
 
 
 @dataclass(frozen=True)

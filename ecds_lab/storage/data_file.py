@@ -1,7 +1,8 @@
 """A DATA argument opened: what the file is, its readings, its run metadata, and which sensor measured it.
 
 The one answer to both questions the command line, the report and the analysis ask of a file:
-a run file brings its readings, metadata and recorded sensor; a CSV brings readings only.
+a run file brings its readings, metadata and recorded sensor; a CSV brings readings only, and the
+sensor its export sidecar records (data/sidecar.py) when it has one.
 ``--sensor`` overrides what the file says; when nothing says, the paper's copper prototype is
 assumed and ``sensor_note`` says so.
 """
@@ -18,6 +19,7 @@ from ecds_lab.data.files import FileKind, file_kind
 from ecds_lab.data.measurements import DataError, Measurements
 from ecds_lab.data.run_metadata import RunMetadata
 from ecds_lab.data.sensor import DEFAULT_SENSOR_NOTE, SensorConfig, load_sensor
+from ecds_lab.data.sidecar import read_sidecar
 from ecds_lab.errors import RunFileError
 from ecds_lab.storage.reader import read_measurements, read_run
 
@@ -31,7 +33,7 @@ class DataFile:
     data: Measurements
     run: RunMetadata | None
     sensor: SensorConfig
-    #: where the sensor came from: ``run file``, ``--sensor <path>`` or ``not recorded``
+    #: where the sensor came from: ``run file``, ``export sidecar <name>``, ``--sensor <path>`` or ``not recorded``
     sensor_source: str
 
     @property
@@ -73,6 +75,9 @@ def open_data(path: str | Path, sensor: str | Path | None = None, *, allow_empty
         return DataFile(path, kind, data, run, load_sensor(sensor), f"--sensor {sensor}")
     if run is not None and run.sensor is not None:
         return DataFile(path, kind, data, run, run.sensor, "run file")
+    exported = read_sidecar(path) if kind == "csv" else None
+    if exported is not None and exported.sensor is not None:
+        return DataFile(path, kind, data, run, exported.sensor, f"export sidecar {exported.path.name}")
     return DataFile(path, kind, data, run, SensorConfig(), "not recorded")
 
 

@@ -45,7 +45,7 @@ def test_every_recorded_session_replays_and_reproduces(path):
 def test_ecds_lab_replay_says_reproduced(path, capsys):
     assert main(["replay", str(path)]) == 0
     out = capsys.readouterr().out
-    assert "reproduced: every point equal" in out and "NOT" not in out
+    assert "reproduced: every row equal" in out and "NOT" not in out
 
 
 def test_the_instrument_error_session_fails_again_the_same_way():

@@ -30,5 +30,9 @@ def test_replay_of_a_killed_run_reproduces_the_measured_part(tmp_path, experimen
     assert result.partial and result.reproduced, result.differences
     assert result.original_points == result.replayed_points == 57
     text = format_replay(result)
-    assert "replayed the part it measured" in text and "reproduced: every point equal" in text
+    assert "replayed the part it measured" in text and "reproduced: every row equal" in text
     assert "NOT reproduced" not in text
+    # the replay's links ran out, not a heater: no call to switch one off by hand, no error, a truthful ending
+    assert "BY HAND" not in text.upper() and "switch off" not in text.lower().replace("nothing to switch off", "")
+    assert result.error == "" and result.replay_status == "stopped where the recording ends"
+    assert "the replay drives no instrument" in text

@@ -38,8 +38,8 @@ def test_a_fresh_simulated_run_replays_exactly(fresh_sweep, capsys):
     assert result.original_points == result.replayed_points == 20
     assert main(["replay", str(fresh_sweep)]) == 0
     out = capsys.readouterr().out
-    assert out == (f"{fresh_sweep}: recorded 20 points (completed), replayed 20 (completed)\n"
-                   "reproduced: every point equal\n")
+    assert out == (f"{fresh_sweep}: recorded 20 rows (completed), replayed 20 (completed)\n"
+                   "reproduced: every row equal\n")
 
 
 def test_a_run_file_with_per_role_transcripts_replays_exactly(fresh_sweep, tmp_path, per_role_transcripts,
@@ -53,7 +53,7 @@ def test_a_run_file_with_per_role_transcripts_replays_exactly(fresh_sweep, tmp_p
     assert result.reproduced, result.differences
     assert result.replayed_points == result.original_points == 20
     assert main(["replay", str(old)]) == 0
-    assert "reproduced: every point equal" in capsys.readouterr().out
+    assert "reproduced: every row equal" in capsys.readouterr().out
     with h5py.File(old, "a") as f:  # and as a real-lab recording (wall-clock transcript times)
         as_real_lab_recording(f)
     assert min(events[0].clock_s for events in read_run(old).transcripts.values() if events) > 1e6
@@ -149,14 +149,14 @@ def test_changed_data_are_reported_row_and_column(fresh_sweep):
     assert compare_points(points, points) == []
     assert compare_points(points, changed) == [f"row 3, ls_h: recorded {points[3, INDEX['ls_h']]!r}, "
                                                f"replayed {changed[3, INDEX['ls_h']]!r}"]
-    assert compare_points(points, changed[:-1])[0] == f"point count: recorded {len(points)}, replayed {len(points) - 1}"
+    assert compare_points(points, changed[:-1])[0] == f"row count: recorded {len(points)}, replayed {len(points) - 1}"
 
 
 def test_format_replay_summarises_a_difference(fresh_sweep, monkeypatch):
     monkeypatch.setattr(HM8118.frequency_hz, "set_command", "FREQ {:.1f}")
     text = format_replay(replay_run(fresh_sweep))
     assert text.splitlines()[:3] == [
-        f"{fresh_sweep}: recorded 20 points (completed), replayed 0 (failed)", "NOT reproduced:",
+        f"{fresh_sweep}: recorded 20 rows (completed), replayed 0 (failed)", "NOT reproduced:",
         text.splitlines()[2]]
     assert text.splitlines()[2].startswith("  diverged: bridge: replay diverges at transcript event")
 

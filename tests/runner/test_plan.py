@@ -28,7 +28,7 @@ def test_displacement_plan_is_positions_x_frequencies_x_directions_x_readings(ex
     assert list(dict.fromkeys(p.x_mm for p in backward)) == sweep.positions()[::-1]
     at_first = [(p.freq_hz, p.reading) for p in forward if p.x_mm == sweep.positions()[0]]
     assert sorted(at_first) == sorted((f, r) for f in sweep.frequencies_hz for r in range(sweep.readings_per_point))
-    assert plan.describe().splitlines()[0].endswith(f"{len(plan.steps)} steps, {len(points)} points")
+    assert plan.describe().splitlines()[0].endswith(f"{len(plan.steps)} steps, {len(points)} planned readings")
 
 
 @pytest.mark.parametrize("start, stop, step", [(20.0, 100.0, 10.0), (20.0, 21.0, 0.1), (100.0, 20.0, 10.0),

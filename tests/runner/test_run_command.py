@@ -33,7 +33,7 @@ def test_overwrite_replaces_the_run_file(short_sweep, tmp_path, capsys):
     run = read_run(output)
     assert run.status == "completed"
     assert len(run.points) == len(build_plan(load_experiment(short_sweep)).points)
-    assert capsys.readouterr().out.startswith(f"completed: {len(run.points)} points in {output}")
+    assert capsys.readouterr().out.startswith(f"completed: {len(run.points)} rows in {output}")
 
 
 def test_dry_run_prints_the_plan_and_touches_no_instrument(experiments_dir, tmp_path, instrument_guard, capsys):
@@ -43,9 +43,9 @@ def test_dry_run_prints_the_plan_and_touches_no_instrument(experiments_dir, tmp_
     lines = capsys.readouterr().out.splitlines()
     plan = build_plan(load_experiment(experiment))
     steps = lines[1:len(plan.steps) + 1]
-    assert f"{len(plan.points)} points" in lines[0] and lines[len(plan.steps) + 1] == "summary:"
+    assert f"{len(plan.points)} planned readings" in lines[0] and lines[len(plan.steps) + 1] == "summary:"
     assert [line.split(None, 1) for line in steps] == [[str(i), s.describe()] for i, s in enumerate(plan.steps)]
-    assert sum(line.split(None, 1)[1].startswith("point ") for line in steps) == len(plan.points)
+    assert sum(line.split(None, 1)[1].startswith("planned reading ") for line in steps) == len(plan.points)
     assert instrument_guard.untouched and not output.exists()
 
 
