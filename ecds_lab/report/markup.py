@@ -88,3 +88,13 @@ def value_error(value: float, stderr: float | None, scale: float = 1.0, unit: st
 
 def badge(content: str, css: str) -> Html:
     return Html(f'<span class="badge {html.escape(css)}">{text(content)}</span>')
+
+
+def quantity_span(key: str, value: float | None, unit: str = "", text_shown: str | None = None) -> Html:
+    """A reported quantity, shown with ``quantities.format_quantity`` and marked with its key and SI value
+    (``data-q``, ``data-v``), so every place that shows one quantity can be checked to show one value."""
+    from ecds_lab.analysis.quantities import format_quantity
+
+    shown = text_shown if text_shown is not None else format_quantity(value, unit)
+    raw = "" if value is None or not math.isfinite(value) else f"{value:.6g}"
+    return Html(f'<span data-q="{html.escape(key)}" data-v="{raw}">{text(shown)}</span>')
