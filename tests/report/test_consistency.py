@@ -68,3 +68,5 @@ def test_the_coil_compensation_is_the_papers_and_better_than_none_in_every_outpu
     alpha = fit["quantities"]["eq4.alpha_per_k.500Hz"]
     assert 0 < alpha * 1e6 < 30  # the coil expands: L grows with temperature at 500 Hz
     assert "joint model fit" in html and "model fails here" in html
+    coil = [r for r in rows if r["quantity"].startswith("coil heated")]
+    assert coil and all("steady coil temperatures" in r["how"] for r in coil[:1])
