@@ -16,7 +16,15 @@ from typing import Any
 import numpy as np
 
 from ecds_lab.analysis.calibration import temperature_stability_ppm_fs_per_k
-from ecds_lab.analysis.quantities import MODEL_FAILS, format_quantity, model_fails, parameter_rows
+from ecds_lab.analysis.quantities import (
+    MODEL_FAILS,
+    MODEL_FAILS_FACTOR,
+    PositionErrorFigure,
+    format_quantity,
+    model_fails,
+    parameter_rows,
+    position_error_figure,
+)
 from ecds_lab.analysis.summary import CalibrationCase, HeatedErrors, heated_figure, in_range, quantity_key
 from ecds_lab.data.sensor import DEFAULT_SENSOR_NOTE
 from ecds_lab.report import figures_model as fm
@@ -167,8 +175,11 @@ def _params_table(group: TargetGroup) -> Html:
     fit = group.fit
     rows = _param_rows(fit)
     noise = f", noise {fit.noise.ppm:.1f} ppm (from {fit.noise.source})"
+    failure = model_fails(fit.rms_ppm, fit.noise.ppm)
+    verdict = (f"; {MODEL_FAILS}: {failure}, so these parameters describe no coil and give no positions"
+               if failure else "")
     caption = (f"{group.material} target: baseline fit of {fit.n} readings, residual RMS {fit.rms_ppm:.1f} ppm of L"
-               f"{noise}")
+               f"{noise}{verdict}")
     return table(("parameter", "value", "status"), rows, caption=caption, css="params")
 
 
@@ -226,9 +237,10 @@ def diagnosis_section(findings: Findings) -> Parts:
                   f"noise {diagnosis.noise_ppm:.1f} ppm ({diagnosis.noise.source}), baseline residual "
                   f"{diagnosis.baseline.rms_ppm:.1f} ppm of L ({main.material if main else ''} target data)</p>"),
              paragraph(diagnosis.explanation, "explanation")]
+    parts.extend(_undiagnosed_groups(findings))
     steps = list(getattr(diagnosis, "steps", []))
     if steps:
-        parts.append(_chain_table(steps))
+        parts.append(_chain_table(steps, diagnosis.noise_ppm))
     if diagnosis.outliers:
         parts.append(table(("row", "reading (mH)", "deviation (σ)", "reason"),
                            [(str(o.row), f"{o.value * 1e3:.6g}", f"{o.residual_sigma:+.1f}", o.reason)
@@ -266,16 +278,50 @@ def diagnosis_section(findings: Findings) -> Parts:
     return parts
 
 
+def _undiagnosed_groups(findings: Findings) -> Parts:
+    """A note for every target group other than the diagnosed one: its fit, whether the model fails there,
+    and how to diagnose it (the report diagnoses one target material: one campaign's model at a time)."""
+    groups = findings.groups if isinstance(findings.groups, list) else []
+    notes: Parts = []
+    for group in groups[1:]:
+        fit = group.fit
+        failure = model_fails(fit.rms_ppm, fit.noise.ppm)
+        state = (f"{MODEL_FAILS}: {failure}" if failure else
+                 f"its baseline leaves {fit.rms_ppm:.4g} ppm against {fit.noise.ppm:.3g} ppm of noise")
+        files = " ".join(i.name for i in findings.inputs if i.name in group.sources and i.target == group.material
+                         and np.isfinite(i.data.x_m).any())
+        notes.append(paragraph(f"Not diagnosed here: the {group.material} target ({state}). The diagnosis above is "
+                               f"of the {groups[0].material} target's readings; a model of one target material "
+                               f"cannot explain another's. Diagnose it with: ecds-lab diagnose {files}", "explanation"))
+    return notes
+
+
 def _chain_label(effects: Sequence[str]) -> str:
     return " + ".join(["baseline", *effects])
 
 
-def _chain_table(steps: Sequence[Any]) -> Html:
-    """The chain baseline → +effect → …: RMS, position error (mm and % FS) and BIC of every model."""
-    rows = [(_chain_label(s.effects), number(s.rmse_ppm, 4), number(s.position_error_mm, 3),
-             number(s.position_error_fs_pct, 3), f"{s.fit.bic:.1f}") for s in steps]
+def step_error(step: Any, noise_ppm: float) -> PositionErrorFigure:
+    """The RMS position error of one model of the chain, or why it is no length (``quantities``)."""
+    return position_error_figure(step.residual_mm, step.full_scale_mm, model_rms_ppm=step.rmse_ppm,
+                                 noise_ppm=noise_ppm)
+
+
+def _step_error_text(step: Any, noise_ppm: float) -> str:
+    figure = step_error(step, noise_ppm)
+    return figure.text("rms") if figure.valid else figure.status
+
+
+def _chain_table(steps: Sequence[Any], noise_ppm: float) -> Html:
+    """The chain baseline → +effect → …: RMS, position error (RMS, % FS; or why none) and BIC of every model."""
+    rows = []
+    for s in steps:
+        figure = step_error(s, noise_ppm)
+        error = (number(figure.rms_mm, 3), number(figure.fs_percent(figure.rms_mm), 3)) if figure.valid else (
+            f"{figure.status} ({figure.reason})", "—")
+        rows.append((_chain_label(s.effects), number(s.rmse_ppm, 4), *error, f"{s.fit.bic:.1f}"))
     return table(("model", "RMS (ppm of L)", "position error RMS (mm)", "position error (% FS)", "BIC"), rows,
-                 caption="Watch the error fall: each step adds the effect the diagnosis claimed", css="chain")
+                 caption="Watch the error fall: each step adds the effect the diagnosis claimed; a model that leaves "
+                         f"more than {MODEL_FAILS_FACTOR:g}x the noise gives no position error", css="chain")
 
 
 def _step_plot(diagnosis: Any, before: Any, after: Any) -> Html | Plot:
@@ -284,19 +330,20 @@ def _step_plot(diagnosis: Any, before: Any, after: Any) -> Html | Plot:
     r0, r1 = np.asarray(before.fit.residuals_ppm), np.asarray(after.fit.residuals_ppm)
     if not (len(data) == len(r0) == len(r1)):
         return note("no residual plot for this step: the residuals do not match the readings row by row")
-    variables = [a.variable for a in diagnosis.associations if a.variable in fm.VARIABLES]
     added = after.effects[-1]
-    for name in ("x_mm",):
-        if name not in variables:
-            variables.append(name)
+    telling = [a.variable for a in diagnosis.associations if a.variable in fm.VARIABLES]
+    variables = fm.signature_variables(data, r0, r1, telling)
+    noise = diagnosis.noise_ppm
     caption = (f"{_chain_label(before.effects)} (red) → + {added} (blue): RMS {before.rmse_ppm:.1f} → "
-               f"{after.rmse_ppm:.1f} ppm, position error {number(before.position_error_mm, 3)} → "
-               f"{number(after.position_error_mm, 3)} mm.")
+               f"{after.rmse_ppm:.1f} ppm, position error RMS {_step_error_text(before, noise)} → "
+               f"{_step_error_text(after, noise)}. First panel: {fm.VARIABLES[variables[0]].label}, where the "
+               f"residual changes most when {added} is added.")
     if len(data) > MAX_STEP_POINTS:  # a scatter of every reading of a huge campaign only costs time
         shown = np.sort(np.random.default_rng(0).choice(len(data), MAX_STEP_POINTS, replace=False))
         caption += f" {MAX_STEP_POINTS:,} of the {len(data):,} readings shown, at random."
         data, r0, r1 = data.select(shown), r0[shown], r1[shown]
-    return Plot(fm.before_after, (data, r0, r1, added, variables, diagnosis.noise_ppm), caption)
+    return Plot(fm.before_after, (data, r0, r1, added, variables, diagnosis.noise_ppm, _chain_label(before.effects)),
+                caption)
 
 
 def _step_params(step: Any, title: str) -> Html:
