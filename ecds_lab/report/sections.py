@@ -383,6 +383,12 @@ def _ts_rows(group: TargetGroup, with_coil: bool) -> list[tuple[object, ...]]:
     out of range or from a failing model reads so here too."""
     rows: list[tuple[object, ...]] = []
     for freq, cases in group.cases.items():
+        room = [f"n = {c.calibration.n_points}: "
+                + quantity_span(quantity_key("room", group.material, freq, c.label),
+                                (figure := _figure_of(c.room, c.calibration)).max_abs_mm, text_shown=figure.text())
+                for c in cases]
+        rows.append((lines(["room temperature (the calibration's own error)", f"{group.material} target, {freq:g} Hz"]),
+                     "—", *(Html(r) for r in room), "—"))
         kinds = ["target_heated"] + (["coil_uncompensated", "coil_compensated"] if with_coil else [])
         for kind in kinds:
             found = [(case, getattr(case, kind)) for case in cases if getattr(case, kind) is not None]
@@ -400,6 +406,11 @@ def _ts_rows(group: TargetGroup, with_coil: bool) -> list[tuple[object, ...]]:
                 cells.append(Html(f"n = {case.calibration.n_points}: {shown}{ts}"))
             rows.append(tuple([*cells, PAPER_TS[kind]]))
     return rows
+
+
+def _figure_of(errors: Any, calibration: Any) -> PositionErrorFigure:
+    """The figure of room-temperature readings under their calibration (as ``ecds-lab fit`` shows it)."""
+    return heated_figure(HeatedErrors(errors, np.zeros(len(errors.x_ref_m))), calibration)
 
 
 def position_section(findings: Findings) -> Parts:
@@ -446,8 +457,11 @@ def position_section(findings: Findings) -> Parts:
                      caption="These data, by calibration inversion (Eq. 5-6, the paper's Section 5): max |e_pos| over "
                              "the readings inside the calibrated range, and TS = e_pos / (FS · Δϑ) in ppm FS/K over "
                              f"those of the highest temperature step; FS = {', '.join(fs)}, the calibrated span. "
-                             "The paper comparison below also quotes e_pos = ΔL / S (the paper's Section 3.3 and "
-                             "4.3), a different method, labelled there.", css="ts")
+                             "The first row of each frequency is the calibration's own error at room temperature, "
+                             "which the inversion carries into every heated figure. The paper comparison below quotes "
+                             "e_pos = ΔL / S (the paper's Section 3.3 and 4.3), which subtracts the room readings at "
+                             "the same positions and so leaves that error out: a different method, labelled there.",
+                     css="ts")
         paper = table(("sensor", "range", "temperature", "TS (ppm FS/K)"), PAPER_TABLE_1,
                       caption="The paper's Table 1: commercial sensors and the paper's demonstrator", css="ts")
         parts.append(side_by_side(ours, paper))
