@@ -56,33 +56,37 @@ def _with_unit(text: str, unit: str) -> str:
     return f"{text} {unit}" if unit else text
 
 
-def format_quantity(value: float | None, unit: str = "", stderr: float | None = None, digits: int = DIGITS) -> str:
+def format_quantity(value: float | None, unit: str = "", stderr: float | None = None, digits: int = DIGITS,
+                    keep_zeros: bool = False) -> str:
     """``value ± stderr unit`` with an SI prefix (or ppm for 1/K) and sensible digits; "—" when unknown.
 
     With a finite, positive standard error the error's two significant digits set the decimals
-    (the value is shown to the same place); without one, ``digits`` significant digits.
+    (the value is shown to the same place); without one, ``digits`` significant digits, trailing
+    zeros dropped unless ``keep_zeros`` (figures of merit compared side by side keep them).
     """
     if value is None or not math.isfinite(value):
         return "—"
     has_error = stderr is not None and math.isfinite(stderr) and stderr > 0
-    reference = value if value != 0 or not has_error else float(stderr)  # type: ignore[arg-type]
+    reference = max(abs(value), float(stderr)) if has_error else value  # type: ignore[arg-type]
     factor, shown = _scale_for(reference, unit)
     v = value * factor
     if not has_error:
-        return _with_unit(_significant(v, digits), shown)
+        return _with_unit(_significant(v, digits, keep_zeros), shown)
     e = float(stderr) * factor  # type: ignore[arg-type]
-    decimals = max(0, 1 - math.floor(math.log10(e)))
+    decimals = 1 - math.floor(math.log10(e))
+    if decimals < 0:  # an error of 100 or more: both rounded to the error's two significant digits
+        v, e, decimals = round(v, decimals), round(e, decimals), 0
     return _with_unit(f"{v:.{decimals}f} ± {e:.{decimals}f}", shown)
 
 
-def _significant(v: float, digits: int) -> str:
-    """``v`` to ``digits`` significant digits (trailing zeros dropped), no exponent for everyday sizes."""
+def _significant(v: float, digits: int, keep_zeros: bool = False) -> str:
+    """``v`` to ``digits`` significant digits (trailing zeros dropped unless kept), no exponent for everyday sizes."""
     if v == 0:
         return "0"
     if 1e-4 <= abs(v) < 1e7:
         decimals = max(0, digits - 1 - math.floor(math.log10(abs(v))))
         shown = f"{v:.{decimals}f}"
-        return shown.rstrip("0").rstrip(".") if "." in shown else shown
+        return shown.rstrip("0").rstrip(".") if "." in shown and not keep_zeros else shown
     return f"{v:.{digits - 1}e}"
 
 
@@ -169,7 +173,8 @@ class PositionErrorFigure:
         if not self.valid:
             return f"{self.status} ({self.reason})" if self.reason else self.status
         value = self.max_abs_mm if which == "max" else self.rms_mm
-        shown = f"{format_quantity((value or 0.0) * 1e-3, 'm', digits=3)} ({self.fs_percent(value):.3g} % FS)"
+        shown = (f"{format_quantity((value or 0.0) * 1e-3, 'm', digits=3, keep_zeros=True)} "
+                 f"({self.fs_percent(value):.3g} % FS)")
         if self.n_out_of_range:
             shown += f"; {self.n_out_of_range} of {self.n} readings out of range, not counted"
         return shown

@@ -84,12 +84,23 @@ def _quantities(calibrations: list[dict[str, Any]], material: str) -> dict[str, 
             entry = cal[label]
             out[f"full_scale_mm.{material}.{f:g}Hz"] = entry["fs_mm"]
             out[quantity_key("room", material, f, label)] = entry["room_temperature"]["max_abs_mm"]
-            if "target_heated" in entry:
-                out[quantity_key("target_heated", material, f, label)] = entry["target_heated"]["max_abs_mm"]
+            heated = {"target_heated": entry.get("target_heated")}
             if "coil_heated" in entry:
-                for kind in ("compensated", "uncompensated"):
-                    out[quantity_key(f"coil_{kind}", material, f, label)] = entry["coil_heated"][kind]["max_abs_mm"]
+                heated.update({f"coil_{kind}": entry["coil_heated"][kind] for kind in ("compensated", "uncompensated")})
+            for kind, figure in heated.items():
+                if figure is None:
+                    continue
+                key = quantity_key(kind, material, f, label)
+                out[key] = figure["max_abs_mm"]
+                if "ts_ppm_fs_per_k_min" in figure:
+                    out[ts_key(key, "min")] = figure["ts_ppm_fs_per_k_min"]
+                    out[ts_key(key, "max")] = figure["ts_ppm_fs_per_k_max"]
     return out
+
+
+def ts_key(error_key: str, end: str) -> str:
+    """The key of the TS (min or max) that goes with a max |e_pos| figure's key."""
+    return error_key.replace("position_error.max_abs_mm", "ts_ppm_fs_per_k") + f".{end}"
 
 
 @dataclass
@@ -261,6 +272,24 @@ def heated_figure(heated: HeatedErrors, calibration: Calibration) -> PositionErr
     return _figure(heated.errors, calibration.fit)
 
 
+#: TS is quoted over the readings of the highest temperature step: rises above this share of the largest.
+TOP_STEP_SHARE = 0.8
+TS_OVER = f"in-range readings of the highest temperature step (rise >= {TOP_STEP_SHARE:.0%} of the largest)"
+
+
+def temperature_stability_top_step(errors: PositionErrors, rise_k: np.ndarray) -> tuple[float, float] | None:
+    """(min, max) TS in ppm FS/K over the in-range readings of the highest temperature step, the one TS every
+    output quotes; None without such readings. Lower steps are left out: a small rise divides the noise into
+    a large, meaningless TS."""
+    if not len(rise_k):
+        return None
+    top = in_range(errors) & (rise_k >= TOP_STEP_SHARE * float(np.max(rise_k)))
+    if not top.any():
+        return None
+    ts = temperature_stability_ppm_fs_per_k(errors.error_m[top], errors.fs_m, rise_k[top])
+    return float(np.min(ts)), float(np.max(ts))
+
+
 def _figure(errors: PositionErrors, fit: FitResult | None) -> PositionErrorFigure:
     return position_error_figure(errors.error_mm, errors.fs_m * 1e3, errors.out_of_range,
                                  model_rms_ppm=fit.rms_ppm if fit is not None else None,
@@ -279,10 +308,9 @@ def _errors(errors: PositionErrors, rise_k: np.ndarray | None = None, fit: FitRe
     out["text"] = figure.text()
     if rise_k is not None:
         out["delta_t_k"] = float(np.max(rise_k)) if len(rise_k) else None
-        inside = in_range(errors)
-        if figure.valid and inside.any():
-            ts = temperature_stability_ppm_fs_per_k(errors.error_m[inside], errors.fs_m, rise_k[inside])
-            out.update(ts_ppm_fs_per_k_min=float(np.min(ts)), ts_ppm_fs_per_k_max=float(np.max(ts)))
+        ts = temperature_stability_top_step(errors, rise_k) if figure.valid else None
+        if ts is not None:
+            out.update(ts_ppm_fs_per_k_min=ts[0], ts_ppm_fs_per_k_max=ts[1], ts_over=TS_OVER)
     return out
 
 

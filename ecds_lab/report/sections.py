@@ -15,7 +15,6 @@ from typing import Any
 
 import numpy as np
 
-from ecds_lab.analysis.calibration import temperature_stability_ppm_fs_per_k
 from ecds_lab.analysis.quantities import (
     MODEL_FAILS,
     MODEL_FAILS_FACTOR,
@@ -25,7 +24,14 @@ from ecds_lab.analysis.quantities import (
     parameter_rows,
     position_error_figure,
 )
-from ecds_lab.analysis.summary import CalibrationCase, HeatedErrors, heated_figure, in_range, quantity_key
+from ecds_lab.analysis.summary import (
+    CalibrationCase,
+    HeatedErrors,
+    heated_figure,
+    quantity_key,
+    temperature_stability_top_step,
+    ts_key,
+)
 from ecds_lab.data.sensor import DEFAULT_SENSOR_NOTE
 from ecds_lab.report import figures_model as fm
 from ecds_lab.report import figures_temperature as ft
@@ -52,8 +58,6 @@ JOINT_EQ4_LABEL = "joint model fit of every in-air reading at every frequency"
 
 #: Residual plots of the diagnosis' chain show at most this many readings (drawn at random).
 MAX_STEP_POINTS = 20_000
-#: TS is quoted over the readings of the highest temperature step: rises above this share of the largest.
-TOP_STEP_SHARE = 0.8
 
 #: The paper's Table 1: temperature stability of commercial sensors and of the paper's demonstrator.
 PAPER_TABLE_1 = (
@@ -355,15 +359,6 @@ def _step_params(step: Any, title: str) -> Html:
 
 
 # -- position error ------------------------------------------------------------------------------
-def _ts_top_step(heated: HeatedErrors, inside: np.ndarray) -> tuple[float, float, float]:
-    """(largest rise K, TS min, TS max in ppm FS/K) over the in-range readings of the top temperature step."""
-    top = inside & (heated.rise_k >= TOP_STEP_SHARE * float(np.max(heated.rise_k)))
-    if not top.any():
-        return float(np.max(heated.rise_k)), float("nan"), float("nan")
-    ts = temperature_stability_ppm_fs_per_k(heated.errors.error_m[top], heated.errors.fs_m, heated.rise_k[top])
-    return float(np.max(heated.rise_k)), float(np.min(ts)), float(np.max(ts))
-
-
 #: The paper's figure to compare each case with (Table 1 and Section 5).
 PAPER_TS = {"target_heated": "−11 … 18", "coil_compensated": "< 22 (500 Hz)", "coil_uncompensated": "—"}
 
@@ -400,9 +395,10 @@ def _ts_rows(group: TargetGroup, with_coil: bool) -> list[tuple[object, ...]]:
                 figure = heated_figure(heated, case.calibration)
                 key = quantity_key(kind, group.material, freq, case.label)
                 shown = quantity_span(key, figure.max_abs_mm, text_shown=figure.text())
-                inside = in_range(heated.errors)
-                _, low, high = _ts_top_step(heated, inside)
-                ts = f"<br>TS {low:+.0f} … {high:+.0f}" if figure.valid and np.isfinite(low) else ""
+                top = temperature_stability_top_step(heated.errors, heated.rise_k) if figure.valid else None
+                ts = (f"<br>TS {quantity_span(ts_key(key, 'min'), top[0], text_shown=f'{top[0]:+.0f}')} … "
+                      f"{quantity_span(ts_key(key, 'max'), top[1], text_shown=f'{top[1]:+.0f}')}"
+                      if top is not None else "")
                 cells.append(Html(f"n = {case.calibration.n_points}: {shown}{ts}"))
             rows.append(tuple([*cells, PAPER_TS[kind]]))
     return rows

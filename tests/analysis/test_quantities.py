@@ -73,3 +73,8 @@ def test_a_position_error_outside_the_range_or_from_a_failing_model_is_no_length
     failing = position_error_figure([19723.0], 80.0, model_rms_ppm=7489.0, noise_ppm=27.7)
     assert failing.status == MODEL_FAILS and failing.max_abs_mm is None and failing.to_json()["max_abs_mm"] is None
     assert "270x" in failing.text()
+
+
+def test_an_error_larger_than_the_value_sets_the_prefix_and_rounds_both():
+    assert format_quantity(-0.958e-3, "m", 3.344e-3) == "-1.0 ± 3.3 mm"
+    assert format_quantity(5.0, "1", 189.6) == "0 ± 190"
