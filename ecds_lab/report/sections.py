@@ -473,11 +473,12 @@ def heating_section(findings: Findings) -> Parts:
     comp = heating.compensation
     fit = comp.fit
     expansion = fit.model.sensor.former_expansion_per_k
-    parts: Parts = [Plot(ft.coil_heating, (heating.data, comp),
+    parts: Parts = [Plot(ft.coil_heating, (heating.data, comp, heating.eq4),
                     "Change of the coil-in-air inductance with coil temperature (like the paper's Fig. 17 at "
-                    "15 kHz and Fig. 19 at 500 Hz) with the joint model fit of Eq. (4) over every in-air reading, "
-                    "L_coil = L0 (1 + α Δϑ + β Δϑ²); red: heating ramps, blue: cooling, black: steady. Below: what "
-                    "that fit leaves (ppm).")]
+                    "15 kHz and Fig. 19 at 500 Hz), L_coil = L0 (1 + α Δϑ + β Δϑ²) of Eq. (4) fitted two ways: "
+                    "green, the joint model fit over every in-air reading at every frequency; purple dashed, the "
+                    "paper's procedure, a quadratic per frequency through the steady points (squares). Red: heating "
+                    "ramps, blue: cooling, black: steady. Below: what the joint fit leaves (ppm).")]
     rows: list[tuple[object, ...]] = []
     for freq, eq4 in sorted(heating.eq4.items()):
         rows.append((f"{freq:g} Hz", STEADY_EQ4_LABEL,
