@@ -143,6 +143,18 @@ def parameter_rows(fit: Any) -> list[dict[str, Any]]:
     return rows
 
 
+def parameter_text(fit: Any, name: str) -> str:
+    """``name = value ± error unit`` and, unless fitted, its status: one parameter as every text output shows it
+    (e.g. ``moist_dC = 18.14 ± 0.50 pF``, ``p3 = 0 ± 190 (at bound: on its upper bound 5, ± 190)``)."""
+    p = fit.parameter(name)
+    stderr = None if p.fixed else fit.stderr.get(name)
+    status = parameter_status(fit, name)
+    shown = f"{name} = {format_quantity(p.value, p.unit, stderr)}"
+    if status.label == FITTED:
+        return shown
+    return f"{shown} ({status.label}: {status.reason})" if status.reason else f"{shown} ({status.label})"
+
+
 # -- position errors ---------------------------------------------------------------------------------
 VALID, OUT_OF_RANGE, MODEL_FAILS = "valid", "out of range", "model fails here"
 #: A model whose residual RMS exceeds this multiple of the noise fails: its inverse gives no position.

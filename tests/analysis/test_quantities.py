@@ -78,3 +78,13 @@ def test_a_position_error_outside_the_range_or_from_a_failing_model_is_no_length
 def test_an_error_larger_than_the_value_sets_the_prefix_and_rounds_both():
     assert format_quantity(-0.958e-3, "m", 3.344e-3) == "-1.0 ± 3.3 mm"
     assert format_quantity(5.0, "1", 189.6) == "0 ± 190"
+
+
+def test_parameter_text_says_value_error_unit_and_a_status_other_than_fitted():
+    from ecds_lab.analysis.quantities import parameter_text
+
+    dc = Parameter("moist_dC", 1.814e-11, 0.0, 1e-9, "F", prior_scale=5e-12)
+    assert parameter_text(_fit(dc, 5.0e-13), "moist_dC") == "moist_dC = 18.14 ± 0.50 pF"
+    tau = Parameter("tau_x_20mm", -2.0, -2.0, 2.0, "1", prior_scale=0.1)
+    text = parameter_text(_fit(tau, 0.3), "tau_x_20mm")
+    assert text.startswith("tau_x_20mm = -2.00 ± 0.30 (at bound: on its lower bound -2") and " 1 " not in text
