@@ -90,6 +90,8 @@ class Findings:
     diagnosis: Any
     heating: CoilHeating | Omitted
     spectra: list[Spectrum] | Omitted
+    #: material -> a Diagnosis or Omitted, for every target group after the main one (``diagnose`` sets them)
+    others: dict[str, Any] = field(default_factory=dict)
 
     @property
     def main(self) -> TargetGroup | None:
@@ -108,7 +110,8 @@ def find(inputs: list[ReportInput]) -> Findings:
 
 
 def diagnose(findings: Findings, given: Any = None) -> None:
-    """Set ``findings.diagnosis``: ``given`` (a Diagnosis of the main group's readings), else run one."""
+    """Set ``findings.diagnosis``: ``given`` (a Diagnosis of the main group's readings), else run one; and
+    diagnose every other target group like it (``findings.others``): a target whose model fails is diagnosed too."""
     main = findings.main
     if given is not None:
         findings.diagnosis = given
@@ -117,6 +120,9 @@ def diagnose(findings: Findings, given: Any = None) -> None:
         findings.diagnosis = Omitted(reason)
     else:
         findings.diagnosis = run_diagnosis_of(main)
+    groups = findings.groups if isinstance(findings.groups, list) else []
+    findings.others = {g.material: run_diagnosis_of(g) if g.has_target else
+                       Omitted(f"no readings with the {g.material} target present") for g in groups[1:]}
 
 
 def target_groups(inputs: list[ReportInput]) -> list[TargetGroup] | Omitted:
@@ -220,7 +226,7 @@ def split_spectra(data: Measurements) -> list[np.ndarray]:
 
 
 def run_diagnosis_of(group: TargetGroup) -> Any:
-    """The diagnosis of the main group, or Omitted saying why there is none."""
+    """The diagnosis of a target group's readings, or Omitted saying why there is none."""
     try:
         from ecds_lab.analysis.diagnosis import run_diagnosis
     except ImportError as exc:

@@ -49,6 +49,9 @@ from ecds_lab.report.markup import (
     table,
     value_error,
 )
+from ecds_lab.report.markup import (
+    text as html_text,
+)
 from ecds_lab.report.paper_section import paper_comparison_section
 from ecds_lab.report.render import Plot
 
@@ -234,14 +237,13 @@ def residual_section(findings: Findings) -> Parts:
 def diagnosis_section(findings: Findings) -> Parts:
     diagnosis = findings.diagnosis
     if isinstance(diagnosis, Omitted):
-        return [note(diagnosis.reason)]
+        return [note(diagnosis.reason), *_other_diagnoses(findings)]
     main = findings.main
     verdict = str(diagnosis.verdict)
     parts: Parts = [Html(f'<p>{badge(verdict.replace("_", " "), "good" if verdict == "adequate" else "bad")} '
                   f"noise {diagnosis.noise_ppm:.1f} ppm ({diagnosis.noise.source}), baseline residual "
                   f"{diagnosis.baseline.rms_ppm:.1f} ppm of L ({main.material if main else ''} target data)</p>"),
              paragraph(diagnosis.explanation, "explanation")]
-    parts.extend(_undiagnosed_groups(findings))
     steps = list(getattr(diagnosis, "steps", []))
     if steps:
         parts.append(_chain_table(steps, diagnosis.noise_ppm))
@@ -279,25 +281,38 @@ def diagnosis_section(findings: Findings) -> Parts:
         parts.append(_step_plot(diagnosis, before, after))
     for i, step in enumerate(steps):
         parts.append(_step_params(step, "given model" if i == 0 else "+ " + step.effects[-1]))
+    parts.extend(_other_diagnoses(findings))
     return parts
 
 
-def _undiagnosed_groups(findings: Findings) -> Parts:
-    """A note for every target group other than the diagnosed one: its fit, whether the model fails there,
-    and how to diagnose it (the report diagnoses one target material: one campaign's model at a time)."""
-    groups = findings.groups if isinstance(findings.groups, list) else []
-    notes: Parts = []
-    for group in groups[1:]:
+def _other_diagnoses(findings: Findings) -> Parts:
+    """Every target group after the main one, diagnosed like it: verdict, explanation and the chain
+    (a target whose model fails, e.g. steel far above the noise, is diagnosed, not left without a word)."""
+    groups = {g.material: g for g in findings.groups} if isinstance(findings.groups, list) else {}
+    parts: Parts = []
+    for material, diagnosis in findings.others.items():
+        group = groups.get(material)
+        if isinstance(diagnosis, Omitted) or group is None:
+            parts.append(note(f"{material} target not diagnosed: "
+                              + (diagnosis.reason if isinstance(diagnosis, Omitted) else "no readings")))
+            continue
+        verdict = str(diagnosis.verdict)
         fit = group.fit
         failure = model_fails(fit.rms_ppm, fit.noise.ppm)
-        state = (f"{MODEL_FAILS}: {failure}" if failure else
-                 f"its baseline leaves {fit.rms_ppm:.4g} ppm against {fit.noise.ppm:.3g} ppm of noise")
-        files = " ".join(i.name for i in findings.inputs if i.name in group.sources and i.target == group.material
-                         and np.isfinite(i.data.x_m).any())
-        notes.append(paragraph(f"Not diagnosed here: the {group.material} target ({state}). The diagnosis above is "
-                               f"of the {groups[0].material} target's readings; a model of one target material "
-                               f"cannot explain another's. Diagnose it with: ecds-lab diagnose {files}", "explanation"))
-    return notes
+        parts.append(Html(f'<h3>The {html_text(material)} target</h3><p>'
+                          f'{badge(verdict.replace("_", " "), "good" if verdict == "adequate" else "bad")} '
+                          f"noise {diagnosis.noise_ppm:.1f} ppm ({diagnosis.noise.source}), baseline residual "
+                          f"{diagnosis.baseline.rms_ppm:.1f} ppm of L"
+                          + (f"; {MODEL_FAILS}: {html_text(failure)}" if failure else "") + "</p>"))
+        parts.append(paragraph(diagnosis.explanation, "explanation"))
+        steps = list(getattr(diagnosis, "steps", []))
+        if steps:
+            parts.append(_chain_table(steps, diagnosis.noise_ppm))
+        if diagnosis.associations:
+            parts.append(table(("variable", "score", "detail"),
+                               [(a.variable, f"{a.score:.2f}", a.detail) for a in diagnosis.associations],
+                               caption=f"Where the {material} target's final residual lives"))
+    return parts
 
 
 def _chain_label(effects: Sequence[str]) -> str:
