@@ -66,14 +66,19 @@ def _sensitivity(x: np.ndarray, ls: np.ndarray) -> np.ndarray:
 
 
 def heating_errors_m(data: Measurements, freq: float) -> tuple[np.ndarray, np.ndarray, float]:
-    """e_pos(x) = (L_hot - L_room) / S of the hottest target sweep against the room one; and its dT."""
-    steps = np.round(data.t_target_c[np.isfinite(data.x_m)] / 5.0) * 5.0
+    """e_pos(x) = (L_hot - L_room) / S of the hottest target sweep against the room one; and its dT, the
+    measured difference of the two sweeps' mean target temperatures (not of the rounded set points)."""
+    finite = np.isfinite(data.x_m)
+    steps = np.round(data.t_target_c[finite] / 5.0) * 5.0
     cold_t, hot_t = float(steps.min()), float(steps.max())
     x_c, l_c = _sweep_l(data, freq, cold_t, 4.0)
     x_h, l_h = _sweep_l(data, freq, hot_t, 4.0)
     common = np.intersect1d(x_c, x_h)
     lc, lh = l_c[np.isin(x_c, common)], l_h[np.isin(x_h, common)]
-    return common, (lh - lc) / _sensitivity(common, lc), hot_t - cold_t
+    at_f = finite & (data.freq_hz == freq)
+    def mean_t(t_c: float) -> float:
+        return float(np.mean(data.t_target_c[at_f & (np.abs(data.t_target_c - t_c) <= 4.0)]))
+    return common, (lh - lc) / _sensitivity(common, lc), mean_t(hot_t) - mean_t(cold_t)
 
 
 def sensitivity_rows(copper: Measurements, steel: Measurements) -> list[Row]:

@@ -74,9 +74,12 @@ def format_quantity(value: float | None, unit: str = "", stderr: float | None = 
         return _with_unit(_significant(v, digits, keep_zeros), shown)
     e = float(stderr) * factor  # type: ignore[arg-type]
     decimals = 1 - math.floor(math.log10(e))
-    if decimals < 0:  # an error of 100 or more: both rounded to the error's two significant digits
-        v, e, decimals = round(v, decimals), round(e, decimals), 0
-    return _with_unit(f"{v:.{decimals}f} ± {e:.{decimals}f}", shown)
+    if decimals < 0:  # an error of 100 or more: rounded to its two significant digits, the value to units
+        e, decimals = round(e, decimals), 0
+    value_text = f"{v:.{decimals}f}"
+    if float(value_text) == 0:
+        value_text = value_text.lstrip("-")
+    return _with_unit(f"{value_text} ± {e:.{decimals}f}", shown)
 
 
 def _significant(v: float, digits: int, keep_zeros: bool = False) -> str:

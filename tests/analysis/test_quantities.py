@@ -77,7 +77,8 @@ def test_a_position_error_outside_the_range_or_from_a_failing_model_is_no_length
 
 def test_an_error_larger_than_the_value_sets_the_prefix_and_rounds_both():
     assert format_quantity(-0.958e-3, "m", 3.344e-3) == "-1.0 ± 3.3 mm"
-    assert format_quantity(5.0, "1", 189.6) == "0 ± 190"
+    assert format_quantity(5.0, "1", 189.6) == "5 ± 190"
+    assert format_quantity(-1e-4, "m", 0.36) == "0 ± 360 mm"
 
 
 def test_parameter_text_says_value_error_unit_and_a_status_other_than_fitted():
