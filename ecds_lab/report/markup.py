@@ -77,13 +77,13 @@ def number(value: float | None, digits: int = 3, unit: str = "") -> str:
 
 
 def value_error(value: float, stderr: float | None, scale: float = 1.0, unit: str = "") -> str:
-    """value ± standard error in a given scale, with the error's two significant digits setting the precision."""
-    v = value * scale
-    if stderr is None or not math.isfinite(stderr) or stderr <= 0:
-        return f"{v:.6g}" + (f" {unit}" if unit else "")
-    e = stderr * abs(scale)
-    decimals = max(0, 1 - math.floor(math.log10(e)))
-    return f"{v:.{decimals}f} ± {e:.{decimals}f}" + (f" {unit}" if unit else "")
+    """value ± standard error in a given scale (the unit in a table's header), by ``quantities.format_quantity``:
+    the error's two significant digits set the precision, as everywhere else."""
+    from ecds_lab.analysis.quantities import format_quantity
+
+    error = None if stderr is None or not math.isfinite(stderr) or stderr <= 0 else stderr * abs(scale)
+    shown = format_quantity(value * scale, "", error)
+    return f"{shown} {unit}" if unit else shown
 
 
 def badge(content: str, css: str) -> Html:
