@@ -27,8 +27,11 @@ from ecds_lab.analysis.compensation import SteadyEq4, fit_steady_eq4, heated_coi
 from ecds_lab.analysis.fitting import FitResult, fit_model
 from ecds_lab.analysis.noise import noise_parts_text
 from ecds_lab.analysis.quantities import (
+    MODEL_FAILS,
+    VALID,
     PositionErrorFigure,
     format_quantity,
+    model_fails,
     parameter_rows,
     position_error_figure,
 )
@@ -60,6 +63,7 @@ def fit_summary(data: Measurements, effects: Sequence[str] = (), sensor: SensorC
         "bic": result.bic,
         "converged": result.success,
         "fit_time_s": result.time_s,
+        "model": _model_status(result),
         "params": _params(result),
         "fixed": dict(result.fixed),
     }
@@ -251,6 +255,12 @@ def _calibration_summary(data: Measurements, model: SensorModel, result: FitResu
     return out
 
 
+def _model_status(fit: FitResult) -> dict[str, str]:
+    """``{"status": "valid"}``, or ``model fails here`` with the reason (residual far above the noise)."""
+    failure = model_fails(fit.rms_ppm, fit.noise.ppm)
+    return {"status": MODEL_FAILS, "reason": failure} if failure else {"status": VALID}
+
+
 def _params(fit: FitResult) -> dict[str, dict[str, Any]]:
     """name -> {value, stderr (SI; None when fixed or unconstrained), unit, status, shown}: one entry per parameter."""
     return {row["name"]: {k: v for k, v in row.items() if k != "name"} for row in parameter_rows(fit)}
@@ -338,7 +348,12 @@ def format_fit_summary(summary: dict[str, Any]) -> str:
              f"  residual RMS {summary['rmse_ppm']:.2f} ppm"
              + (f" (noise {noise:.2f} ppm{_noise_origin(summary)})"
                 if noise is not None else "")
-             + f", dof {summary['dof']}, BIC {summary['bic']:.1f}", "  parameters:"]
+             + f", dof {summary['dof']}, BIC {summary['bic']:.1f}"]
+    model = summary.get("model", {})
+    if model.get("status") == MODEL_FAILS:
+        lines.append(f"  {MODEL_FAILS}: {model['reason']}; the parameters below describe no coil and give no "
+                     "positions (ecds-lab diagnose finds what the model lacks)")
+    lines.append("  parameters:")
     for name, p in summary["params"].items():
         shown = p.get("shown") or format_quantity(p["value"], p["unit"], p["stderr"])
         status = p.get("status", "")

@@ -99,3 +99,9 @@ def test_parameters_carry_their_status_in_json_and_text(steel_summary):
     for name, p in params.items():
         line = next(li for li in text.splitlines() if li.strip().startswith(name + " "))
         assert p["status"] in line and "0.0000" not in line
+
+
+def test_a_model_far_above_the_noise_is_flagged_in_json_and_text(steel_summary, summary):
+    assert steel_summary["model"]["status"] == "model fails here" and "x the" in steel_summary["model"]["reason"]
+    assert "model fails here" in format_fit_summary(steel_summary).splitlines()[2]
+    assert summary["model"] == {"status": "valid"}
