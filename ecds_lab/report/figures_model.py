@@ -268,13 +268,21 @@ SIGNATURE_BINS = 48
 
 
 def explained_share(values: np.ndarray, change: np.ndarray, groups: np.ndarray) -> float:
-    """Share of the variance of ``change`` (within each group) that the means over bins of ``values`` explain."""
+    """Share of the variance of ``change`` (about its mean in each group) that the means over bins of
+    ``values`` explain, less the share bins explain by chance ((bins - 1) / readings). Readings where the
+    variable has no value (x of the coil in air) explain nothing: variables are compared on every reading."""
     total = explained = 0.0
     for g in np.unique(groups):
-        rows = (groups == g) & np.isfinite(values) & np.isfinite(change)
+        rows = (groups == g) & np.isfinite(change)
         if rows.sum() < 3:
             continue
-        v, c = values[rows], change[rows] - np.mean(change[rows])
+        c = change[rows] - np.mean(change[rows])
+        v = values[rows]
+        known = np.isfinite(v)
+        total += float(c @ c)
+        if known.sum() < 3:
+            continue
+        v, ck = v[known], c[known]
         distinct = np.unique(v)
         if len(distinct) <= SIGNATURE_BINS:
             index = np.searchsorted(distinct, v)
@@ -282,23 +290,24 @@ def explained_share(values: np.ndarray, change: np.ndarray, groups: np.ndarray) 
             edges = np.quantile(v, np.linspace(0, 1, SIGNATURE_BINS + 1)[1:-1])
             index = np.searchsorted(edges, v)
         counts = np.bincount(index)
-        means = np.bincount(index, c) / np.where(counts > 0, counts, 1)
-        total += float(c @ c)
-        explained += float(np.sum(counts * means**2))
+        means = np.bincount(index, ck) / np.where(counts > 0, counts, 1)
+        between = float(np.sum(counts * means**2))
+        bins = int((counts > 0).sum())
+        explained += max(0.0, between - (bins - 1) / len(c) * float(c @ c))
     return explained / total if total > 0 else 0.0
 
 
 def signature_variables(data: Measurements, before_ppm: np.ndarray, after_ppm: np.ndarray,
                         telling: Sequence[str] = (), panels: int = STEP_PANELS) -> list[str]:
-    """The variables a before/after figure shows: first the one where the added effect's signature lives
-    (the variable whose bins, within each frequency, explain most of the residual's change), then the
+    """The variables a before/after figure shows: first the two where the added effect's signature lives
+    (the variables whose bins, within each frequency, explain most of the residual's change), then the
     ``telling`` ones (e.g. where the final residual lives), up to ``panels``."""
     change = np.asarray(before_ppm, float) - np.asarray(after_ppm, float)
     scores = {name: explained_share(variable.values(data), change, data.freq_hz)
               for name, variable in VARIABLES.items() if name != "freq_hz"}
-    best = max(scores, key=lambda name: scores[name])
-    chosen = [best]
-    for name in [*telling, *sorted(scores, key=lambda n: -scores[n])]:
+    ranked = sorted(scores, key=lambda name: -scores[name])
+    chosen = ranked[:2] if panels > 2 else ranked[:1]
+    for name in [*telling, *ranked]:
         if name in VARIABLES and name not in chosen:
             chosen.append(name)
     return chosen[:panels]
