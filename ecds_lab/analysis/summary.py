@@ -3,8 +3,10 @@
 The fit uses all data (baseline plus named effects). Where the data hold a room-temperature
 sweep at a frequency, that frequency is calibrated paper-style (all positions and the n = 4
 sensitive ones; parameters other than L0 and p1..p4 held at the full fit's values) and the
-position errors of room-temperature, coil-heated (with and without Eq. 4) and target-heated
-readings are summarised in mm, % FS and ppm FS/K.
+position errors of room-temperature, coil-heated (without and with the paper's Eq. (4) per
+frequency from the steady in-air points) and target-heated readings are summarised in mm, % FS
+and ppm FS/K. The report reads the same ``calibration_cases``, figures and keys, so both show one
+number per quantity; every figure knows its limits (``quantities.position_error_figure``).
 """
 
 from __future__ import annotations
