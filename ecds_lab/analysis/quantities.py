@@ -146,6 +146,12 @@ def parameter_rows(fit: Any) -> list[dict[str, Any]]:
     return rows
 
 
+def params_json(fit: Any) -> dict[str, dict[str, Any]]:
+    """name -> {value, stderr, unit, status, status_reason, shown}: a fit's parameters as every JSON output
+    carries them (``parameter_rows`` keyed by name)."""
+    return {row["name"]: {k: v for k, v in row.items() if k != "name"} for row in parameter_rows(fit)}
+
+
 def parameter_text(fit: Any, name: str) -> str:
     """``name = value ± error unit`` and, unless fitted, its status: one parameter as every text output shows it
     (e.g. ``moist_dC = 18.14 ± 0.50 pF``, ``p3 = 0 ± 190 (at bound: on its upper bound 5, ± 190)``)."""

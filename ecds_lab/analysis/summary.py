@@ -34,7 +34,7 @@ from ecds_lab.analysis.quantities import (
     PositionErrorFigure,
     format_quantity,
     model_fails,
-    parameter_rows,
+    params_json,
     position_error_figure,
 )
 from ecds_lab.data.measurements import Measurements
@@ -66,7 +66,7 @@ def fit_summary(data: Measurements, effects: Sequence[str] = (), sensor: SensorC
         "converged": result.success,
         "fit_time_s": result.time_s,
         "model": _model_status(result),
-        "params": _params(result),
+        "params": params_json(result),
         "fixed": dict(result.fixed),
     }
     coil = CoilInputs.of(data, model.sensor.reference_temperature_c)
@@ -240,7 +240,7 @@ def _calibration_summary(data: Measurements, model: SensorModel, result: FitResu
             "positions_mm": (cal.positions_m * 1e3).tolist(),
             "fs_mm": cal.fs_m * 1e3,
             "rmse_ppm": cal.fit.rms_ppm,
-            "params": {k: v for k, v in _params(cal.fit).items() if k in _CALIBRATED},
+            "params": {k: v for k, v in params_json(cal.fit).items() if k in _CALIBRATED},
             "room_temperature": _errors(case.room, fit=cal.fit),
         }
         if case.coil_compensated is not None and case.coil_uncompensated is not None:
@@ -261,11 +261,6 @@ def _model_status(fit: FitResult) -> dict[str, str]:
     """``{"status": "valid"}``, or ``model fails here`` with the reason (residual far above the noise)."""
     failure = model_fails(fit.rms_ppm, fit.noise.ppm)
     return {"status": MODEL_FAILS, "reason": failure} if failure else {"status": VALID}
-
-
-def _params(fit: FitResult) -> dict[str, dict[str, Any]]:
-    """name -> {value, stderr (SI; None when fixed or unconstrained), unit, status, shown}: one entry per parameter."""
-    return {row["name"]: {k: v for k, v in row.items() if k != "name"} for row in parameter_rows(fit)}
 
 
 def quantity_key(kind: str, material: str, freq_hz: float, label: str) -> str:
