@@ -270,8 +270,8 @@ def quantity_key(kind: str, material: str, freq_hz: float, label: str) -> str:
 
 
 def in_range(errors: PositionErrors) -> np.ndarray:
-    """Readings the calibration speaks for: not clamped by the inversion, error below the full scale."""
-    return ~errors.out_of_range & (np.abs(errors.error_mm) < errors.fs_m * 1e3)
+    """Readings the calibration speaks for (``PositionErrors.in_range``)."""
+    return errors.in_range
 
 
 def heated_figure(heated: HeatedErrors, calibration: Calibration) -> PositionErrorFigure:

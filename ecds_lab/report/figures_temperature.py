@@ -31,12 +31,14 @@ def calibration_label(case: CalibrationCase) -> str:
 
 
 def _error_lines(ax: Axes, case: CalibrationCase, heated: HeatedErrors, norm: Normalize, cmap: Colormap) -> None:
-    """One line per temperature step: the mean error at each reference position, coloured by the rise."""
+    """One line per temperature step: the mean error at each reference position over the readings in range
+    (a reading out of range has no error to draw), coloured by the rise."""
     line, marker = CALIBRATION_STYLE.get(case.label, ("-", "o"))
     errors = heated.errors
     steps = np.round(heated.rise_k / STATE_BIN_K)
-    for step in np.unique(steps):
-        sel = steps == step
+    inside = errors.in_range
+    for step in np.unique(steps[inside]):
+        sel = (steps == step) & inside
         x, index = np.unique(np.round(errors.x_ref_m[sel] * 1e3, 4), return_inverse=True)
         mean = np.bincount(index, errors.error_mm[sel]) / np.bincount(index)
         colour = cmap(norm(float(np.mean(heated.rise_k[sel]))))
