@@ -214,7 +214,7 @@ def model_fails(rms_ppm: float | None, noise_ppm: float | None) -> str:
     ratio = rms_ppm / noise_ppm
     if ratio <= MODEL_FAILS_FACTOR:
         return ""
-    return f"the model leaves {rms_ppm:.4g} ppm, {ratio:.0f}x the {noise_ppm:.3g} ppm noise"
+    return f"the model leaves {_significant(rms_ppm, 4)} ppm, {ratio:.0f}x the {_significant(noise_ppm, 3)} ppm noise"
 
 
 def position_error_figure(error_mm: Sequence[float] | np.ndarray, fs_mm: float,

@@ -89,3 +89,10 @@ def test_parameter_text_says_value_error_unit_and_a_status_other_than_fitted():
     tau = Parameter("tau_x_20mm", -2.0, -2.0, 2.0, "1", prior_scale=0.1)
     text = parameter_text(_fit(tau, 0.3), "tau_x_20mm")
     assert text.startswith("tau_x_20mm = -2.00 ± 0.30 (at bound: on its lower bound -2") and " 1 " not in text
+
+
+def test_a_failing_model_is_described_without_exponents():
+    from ecds_lab.analysis.quantities import model_fails
+
+    assert model_fails(15450.5, 161.49) == "the model leaves 15450 ppm, 96x the 161 ppm noise"
+    assert model_fails(300.0, 31.9) == ""
