@@ -1,7 +1,8 @@
 """Calibration (paper Section 5): fit Eq. (5) on a room-temperature sweep, invert L to a position.
 
 Position error e_pos = x_est - x_ref (mm, % of full scale FS = the calibrated span) and
-temperature stability TS = e_pos / (FS dT) in ppm FS/K.
+temperature stability TS = e_pos / (FS dT) in ppm FS/K. A reading whose estimate the inversion
+clamped to the search range, or whose error reaches FS, is out of range: it gives no error figure.
 """
 
 from __future__ import annotations
@@ -67,8 +68,15 @@ class PositionErrors:
     def error_fs_percent(self) -> np.ndarray:
         return self.error_m / self.fs_m * 100
 
+    @property
+    def in_range(self) -> np.ndarray:
+        """Readings the calibration speaks for: not clamped by the inversion, error below the full scale."""
+        return ~self.out_of_range & (np.abs(self.error_m) < self.fs_m)
+
     def max_abs_mm(self) -> float:
-        return float(np.max(np.abs(self.error_mm))) if len(self.x_ref_m) else float("nan")
+        """Max |e_pos| over the readings in range (nan when none is): a clamped estimate is no error."""
+        inside = self.in_range
+        return float(np.max(np.abs(self.error_mm[inside]))) if inside.any() else float("nan")
 
     def rms_by_position_mm(self) -> tuple[np.ndarray, np.ndarray]:
         """Distinct reference positions (mm) and the RMS error at each (mm)."""

@@ -153,3 +153,50 @@ def heated_coil_sweep(room_sweep: Measurements, air: Measurements, min_rise_k: f
     if not parts:
         return sweep.select(np.zeros(len(sweep), bool))
     return Measurements.concatenate(parts)
+
+
+#: The method the paper used for Eq. (4) (Section 4.1-4.3), named wherever its coefficients are shown.
+STEADY_EQ4_METHOD = "Eq. (4) fitted per frequency to the steady coil temperatures in air (the paper's procedure)"
+#: Steady steps up to this many kelvin above room enter the paper's Eq. (4) fit (its 20-130 °C range).
+STEADY_EQ4_SPAN_K = 110.0
+
+
+@dataclass
+class SteadyEq4:
+    """Eq. (4) at one frequency the paper's way: L_air(T) = L0 (1 + alpha dT + beta dT^2), dT = T - reference,
+    a quadratic through the mean L of each steady coil temperature in air."""
+
+    freq_hz: float
+    reference_c: float
+    t_coil_c: np.ndarray
+    ls_h: np.ndarray
+    l0_h: float
+    alpha_per_k: float
+    beta_per_k2: float
+    method: str = STEADY_EQ4_METHOD
+
+    def factor(self, t_coil_c: np.ndarray | float) -> np.ndarray:
+        d = np.asarray(t_coil_c, float) - self.reference_c
+        return 1 + self.alpha_per_k * d + self.beta_per_k2 * d**2
+
+    @property
+    def span_k(self) -> float:
+        return float(np.ptp(self.t_coil_c))
+
+
+def fit_steady_eq4(air: Measurements, freq_hz: float, reference_c: float) -> SteadyEq4 | None:
+    """The paper's Eq. (4) at one frequency from the steady coil temperatures of coil-in-air readings.
+
+    ``reference_c`` is the model's reference temperature, so alpha and beta are the model's own and
+    can be held in a calibration. None with fewer than three steady temperatures (a quadratic needs them).
+    """
+    at_f = air.select((air.freq_hz == freq_hz) & air.in_air)
+    steps = steady_coil_steps(at_f)
+    t = np.array([at_f.t_coil_c[s].mean() for s in steps])
+    ls = np.array([at_f.ls_h[s].mean() for s in steps])
+    keep = t <= (t.min() + STEADY_EQ4_SPAN_K if len(t) else 0.0)
+    t, ls = t[keep], ls[keep]
+    if len(t) < 3:
+        return None
+    c2, c1, c0 = np.polyfit(t - reference_c, ls, 2)
+    return SteadyEq4(float(freq_hz), reference_c, t, ls, float(c0), float(c1 / c0), float(c2 / c0))

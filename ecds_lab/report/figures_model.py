@@ -261,11 +261,64 @@ def candidate_ranking(effects: Sequence[str], rms_ppm: Sequence[float], delta_bi
     return to_png(fig, "Diagnosis: candidate effects ranked by residual RMS and delta BIC")
 
 
+#: Panels of a before/after figure.
+STEP_PANELS = 3
+#: A variable with at most this many distinct values is binned by value, else into this many quantile bins.
+SIGNATURE_BINS = 48
+
+
+def explained_share(values: np.ndarray, change: np.ndarray, groups: np.ndarray) -> float:
+    """Share of the variance of ``change`` (about its mean in each group) that the means over bins of
+    ``values`` explain, less the share bins explain by chance ((bins - 1) / readings). Readings where the
+    variable has no value (x of the coil in air) explain nothing: variables are compared on every reading."""
+    total = explained = 0.0
+    for g in np.unique(groups):
+        rows = (groups == g) & np.isfinite(change)
+        if rows.sum() < 3:
+            continue
+        c = change[rows] - np.mean(change[rows])
+        v = values[rows]
+        known = np.isfinite(v)
+        total += float(c @ c)
+        if known.sum() < 3:
+            continue
+        v, ck = v[known], c[known]
+        distinct = np.unique(v)
+        if len(distinct) <= SIGNATURE_BINS:
+            index = np.searchsorted(distinct, v)
+        else:
+            edges = np.quantile(v, np.linspace(0, 1, SIGNATURE_BINS + 1)[1:-1])
+            index = np.searchsorted(edges, v)
+        counts = np.bincount(index)
+        means = np.bincount(index, ck) / np.where(counts > 0, counts, 1)
+        between = float(np.sum(counts * means**2))
+        bins = int((counts > 0).sum())
+        explained += max(0.0, between - (bins - 1) / len(c) * float(c @ c))
+    return explained / total if total > 0 else 0.0
+
+
+def signature_variables(data: Measurements, before_ppm: np.ndarray, after_ppm: np.ndarray,
+                        telling: Sequence[str] = (), panels: int = STEP_PANELS) -> list[str]:
+    """The variables a before/after figure shows: first the two where the added effect's signature lives
+    (the variables whose bins, within each frequency, explain most of the residual's change), then the
+    ``telling`` ones (e.g. where the final residual lives), up to ``panels``."""
+    change = np.asarray(before_ppm, float) - np.asarray(after_ppm, float)
+    scores = {name: explained_share(variable.values(data), change, data.freq_hz)
+              for name, variable in VARIABLES.items() if name != "freq_hz"}
+    ranked = sorted(scores, key=lambda name: -scores[name])
+    chosen = ranked[:2] if panels > 2 else ranked[:1]
+    for name in [*telling, *ranked]:
+        if name in VARIABLES and name not in chosen:
+            chosen.append(name)
+    return chosen[:panels]
+
+
 @styled
 def before_after(data: Measurements, before_ppm: np.ndarray, after_ppm: np.ndarray, effect: str,
-                 variables: Sequence[str], noise_ppm: float | None) -> Png:
-    """Residuals of the baseline and of the baseline plus the best effect against the most telling variables."""
-    names = [v for v in variables if v in VARIABLES][:3] or ["x_mm"]
+                 variables: Sequence[str], noise_ppm: float | None, previous: str = "baseline") -> Png:
+    """Residuals of the previous model (named ``previous``) and of it plus ``effect`` against ``variables``
+    (the first is where the effect's signature lives, see ``signature_variables``)."""
+    names = [v for v in variables if v in VARIABLES][:STEP_PANELS] or ["x_mm"]
     fig, axes = subplots(4.0 * len(names), 3.4, 1, len(names), sharey=True)
     jitter = np.random.default_rng(1).uniform(-0.18, 0.18, len(data))
     for ax, name in zip(axes[0], names, strict=True):
@@ -273,7 +326,7 @@ def before_after(data: Measurements, before_ppm: np.ndarray, after_ppm: np.ndarr
         x = variable.display(data) + (jitter if variable.categorical else 0.0)
         if noise_ppm:
             ax.axhspan(-noise_ppm, noise_ppm, color="0.88", zorder=0, lw=0, label="± noise")
-        ax.scatter(x, before_ppm, s=5, color="tab:red", alpha=0.45, lw=0, label="baseline")
+        ax.scatter(x, before_ppm, s=5, color="tab:red", alpha=0.45, lw=0, label=previous)
         ax.scatter(x, after_ppm, s=5, color="tab:blue", alpha=0.7, lw=0, label=f"+ {effect}")
         ax.axhline(0.0, color="0.4", lw=0.6)
         ax.set_xlabel(variable.label)

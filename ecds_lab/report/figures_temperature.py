@@ -3,13 +3,13 @@ the coil's heating characterisation with Eq. (4) (Fig. 17/19), and spectroscopy 
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.colors import Colormap, Normalize
 
-from ecds_lab.analysis.compensation import TemperatureCompensation
+from ecds_lab.analysis.compensation import SteadyEq4, TemperatureCompensation
 from ecds_lab.analysis.spectroscopy import RlcFit
 from ecds_lab.analysis.summary import CalibrationCase, HeatedErrors
 from ecds_lab.data.measurements import Measurements
@@ -31,12 +31,14 @@ def calibration_label(case: CalibrationCase) -> str:
 
 
 def _error_lines(ax: Axes, case: CalibrationCase, heated: HeatedErrors, norm: Normalize, cmap: Colormap) -> None:
-    """One line per temperature step: the mean error at each reference position, coloured by the rise."""
+    """One line per temperature step: the mean error at each reference position over the readings in range
+    (a reading out of range has no error to draw), coloured by the rise."""
     line, marker = CALIBRATION_STYLE.get(case.label, ("-", "o"))
     errors = heated.errors
     steps = np.round(heated.rise_k / STATE_BIN_K)
-    for step in np.unique(steps):
-        sel = steps == step
+    inside = errors.in_range
+    for step in np.unique(steps[inside]):
+        sel = (steps == step) & inside
         x, index = np.unique(np.round(errors.x_ref_m[sel] * 1e3, 4), return_inverse=True)
         mean = np.bincount(index, errors.error_mm[sel]) / np.bincount(index)
         colour = cmap(norm(float(np.mean(heated.rise_k[sel]))))
@@ -119,8 +121,10 @@ def _air_grid(freq_hz: float, t_coil_c: np.ndarray) -> Measurements:
 
 
 @styled
-def coil_heating(air: Measurements, compensation: TemperatureCompensation) -> Png:
-    """Fig. 17/19: change of the air coil's inductance with temperature, the Eq. (4) fit, and its residual."""
+def coil_heating(air: Measurements, compensation: TemperatureCompensation,
+                 steady: Mapping[float, SteadyEq4] | None = None) -> Png:
+    """Fig. 17/19: change of the air coil's inductance with temperature, the joint Eq. (4) fit and its residual,
+    and the paper's Eq. (4) per frequency through the steady points (``steady``), each labelled by its method."""
     freqs = air.frequencies_hz
     fig, axes = subplots(4.6 * len(freqs), 5.6, 2, len(freqs), sharex="col", height_ratios=(2.2, 1.0))
     rate = air.coil_temperature_rate_k_per_s() * 60.0
@@ -139,12 +143,17 @@ def coil_heating(air: Measurements, compensation: TemperatureCompensation) -> Pn
             top.plot(air.t_coil_c[rows], (air.ls_h[rows] - l_ref) * 1e6, "o", ms=3, mfc="none", color=colour,
                      label=f"measured, {label}")
             bottom.plot(air.t_coil_c[rows], residual[rows], "o", ms=3, mfc="none", color=colour)
-        top.plot(grid_t, (model - l_ref) * 1e6, "-", color="tab:green", lw=1.5, label="Eq. (4) fit")
+        top.plot(grid_t, (model - l_ref) * 1e6, "-", color="tab:green", lw=1.5, label="Eq. (4), joint model fit")
+        eq4 = (steady or {}).get(float(freq))
+        if eq4 is not None:
+            top.plot(eq4.t_coil_c, (eq4.ls_h - l_ref) * 1e6, "s", ms=6, color="tab:purple", label="steady points")
+            top.plot(grid_t, (eq4.l0_h * eq4.factor(grid_t) - l_ref) * 1e6, "--", color="tab:purple", lw=1.5,
+                     label="Eq. (4) through them (the paper's)")
         top.set_title(f"coil in air, {freq:g} Hz")
         top.set_ylabel(f"ΔL_coil (µH) vs fit at {ref:g} °C")
         top.legend(frameon=False)
         bottom.axhline(0.0, color="0.4", lw=0.6)
-        bottom.set_ylabel("residual of Eq. (4) (ppm)")
+        bottom.set_ylabel("residual of the joint fit (ppm)")
         bottom.set_xlabel("coil temperature ϑ_coil (°C)")
     return to_png(fig, "Change of the coil inductance in air with temperature and the fit of Eq. (4)")
 

@@ -16,11 +16,12 @@ from typing import Any
 import numpy as np
 
 from ecds_lab.analysis.calibration import room_temperature_rows
-from ecds_lab.analysis.compensation import TemperatureCompensation, fit_coil_temperature, heated_coil_sweep
+from ecds_lab.analysis.compensation import SteadyEq4, TemperatureCompensation, fit_coil_temperature, fit_steady_eq4
 from ecds_lab.analysis.fitting import FitResult, fit_model
 from ecds_lab.analysis.noise import REPEATED
+from ecds_lab.analysis.quantities import full_scale_mm
 from ecds_lab.analysis.spectroscopy import RlcFit, fit_parallel_rlc
-from ecds_lab.analysis.summary import CalibrationCase, HeatedRows, calibration_cases
+from ecds_lab.analysis.summary import CalibrationCase, CoilInputs, calibration_cases
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.model.sensor_model import SensorModel
@@ -54,6 +55,8 @@ class TargetGroup:
     coil_from_air: bool = False
     #: frequency -> why it was not calibrated
     skipped: dict[float, str] = field(default_factory=dict)
+    #: frequency -> the paper's Eq. (4) from the steady coil temperatures in air
+    eq4: dict[float, SteadyEq4] = field(default_factory=dict)
 
     @property
     def has_target(self) -> bool:
@@ -66,6 +69,8 @@ class CoilHeating:
 
     data: Measurements
     compensation: TemperatureCompensation
+    #: frequency -> the paper's Eq. (4) from the steady coil temperatures at that frequency
+    eq4: dict[float, SteadyEq4] = field(default_factory=dict)
 
 
 @dataclass
@@ -85,6 +90,8 @@ class Findings:
     diagnosis: Any
     heating: CoilHeating | Omitted
     spectra: list[Spectrum] | Omitted
+    #: material -> a Diagnosis or Omitted, for every target group after the main one (``diagnose`` sets them)
+    others: dict[str, Any] = field(default_factory=dict)
 
     @property
     def main(self) -> TargetGroup | None:
@@ -103,7 +110,8 @@ def find(inputs: list[ReportInput]) -> Findings:
 
 
 def diagnose(findings: Findings, given: Any = None) -> None:
-    """Set ``findings.diagnosis``: ``given`` (a Diagnosis of the main group's readings), else run one."""
+    """Set ``findings.diagnosis``: ``given`` (a Diagnosis of the main group's readings), else run one; and
+    diagnose every other target group like it (``findings.others``): a target whose model fails is diagnosed too."""
     main = findings.main
     if given is not None:
         findings.diagnosis = given
@@ -112,6 +120,9 @@ def diagnose(findings: Findings, given: Any = None) -> None:
         findings.diagnosis = Omitted(reason)
     else:
         findings.diagnosis = run_diagnosis_of(main)
+    groups = findings.groups if isinstance(findings.groups, list) else []
+    findings.others = {g.material: run_diagnosis_of(g) if g.has_target else
+                       Omitted(f"no readings with the {g.material} target present") for g in groups[1:]}
 
 
 def target_groups(inputs: list[ReportInput]) -> list[TargetGroup] | Omitted:
@@ -132,29 +143,28 @@ def target_groups(inputs: list[ReportInput]) -> list[TargetGroup] | Omitted:
 
 
 def calibrations(group: TargetGroup, heating: CoilHeating | Omitted) -> None:
-    """Paper-style calibrations per frequency (n = all and n = 4) into ``group.cases``, with heated-coil
-    readings built from the coil-in-air recording when the group has no sweep with the coil heated."""
+    """Paper-style calibrations per frequency (n = all and n = 4) into ``group.cases``: the same
+    ``summary.calibration_cases`` (and ``CoilInputs``) as ``ecds-lab fit``, so both show one number."""
     data = group.data
     if not group.has_target:
         return
     sweep = data.select(room_temperature_rows(data) & np.isfinite(data.x_m))
-    synthetic = None
-    if not HeatedRows.of(data).coil.any() and isinstance(heating, CoilHeating):
-        built = heated_coil_sweep(sweep, heating.data)
-        synthetic = built if len(built) else None
+    coil = CoilInputs.of(data, group.fit.model.sensor.reference_temperature_c)
+    group.eq4 = coil.eq4
     for freq in data.frequencies_hz:
         at_f = sweep.select(sweep.freq_hz == freq)
-        fs_mm = float(np.ptp(at_f.x_mm)) if len(at_f) else 0.0
+        fs_mm = full_scale_mm(at_f.x_mm)
         error_mm = noise_limited_error_mm(group.fit, at_f) if fs_mm > 0 else 0.0
         if fs_mm > 0 and error_mm > MAX_NOISE_ERROR_FS * fs_mm:
             group.skipped[float(freq)] = (f"{group.material} target at {freq:g} Hz not calibrated: L hardly depends "
                                           f"on x there (bridge noise alone would mean a {error_mm:.3g} mm position "
                                           f"error at a typical position, {error_mm / fs_mm:.0%} of FS)")
             continue
-        found = calibration_cases(data, group.fit.model, group.fit, float(freq), coil_heated=synthetic)
+        found = calibration_cases(data, group.fit.model, group.fit, float(freq), coil=coil)
         if found:
             group.cases[float(freq)] = found
-    group.coil_from_air = synthetic is not None and any(c.coil_compensated for cs in group.cases.values() for c in cs)
+    group.coil_from_air = coil.heated is not None and any(c.coil_compensated for cs in group.cases.values()
+                                                           for c in cs)
 
 
 def noise_limited_error_mm(fit: FitResult, sweep: Measurements) -> float:
@@ -178,7 +188,10 @@ def coil_heating(inputs: list[ReportInput]) -> CoilHeating | Omitted:
     if span < MIN_HEATING_SPAN_K:
         return Omitted(f"no coil-heating data: the coil-in-air readings span {span:.1f} K of coil temperature "
                        f"(at least {MIN_HEATING_SPAN_K:.0f} K needed)")
-    return CoilHeating(air, fit_coil_temperature(air))
+    joint = fit_coil_temperature(air)
+    eq4 = {float(f): e for f in air.frequencies_hz
+           if (e := fit_steady_eq4(air, float(f), joint.reference_c)) is not None}
+    return CoilHeating(air, joint, eq4)
 
 
 def spectra_of(inputs: list[ReportInput]) -> list[Spectrum] | Omitted:
@@ -213,7 +226,7 @@ def split_spectra(data: Measurements) -> list[np.ndarray]:
 
 
 def run_diagnosis_of(group: TargetGroup) -> Any:
-    """The diagnosis of the main group, or Omitted saying why there is none."""
+    """The diagnosis of a target group's readings, or Omitted saying why there is none."""
     try:
         from ecds_lab.analysis.diagnosis import run_diagnosis
     except ImportError as exc:

@@ -77,14 +77,24 @@ def number(value: float | None, digits: int = 3, unit: str = "") -> str:
 
 
 def value_error(value: float, stderr: float | None, scale: float = 1.0, unit: str = "") -> str:
-    """value ± standard error in a given scale, with the error's two significant digits setting the precision."""
-    v = value * scale
-    if stderr is None or not math.isfinite(stderr) or stderr <= 0:
-        return f"{v:.6g}" + (f" {unit}" if unit else "")
-    e = stderr * abs(scale)
-    decimals = max(0, 1 - math.floor(math.log10(e)))
-    return f"{v:.{decimals}f} ± {e:.{decimals}f}" + (f" {unit}" if unit else "")
+    """value ± standard error in a given scale (the unit in a table's header), by ``quantities.format_quantity``:
+    the error's two significant digits set the precision, as everywhere else."""
+    from ecds_lab.analysis.quantities import format_quantity
+
+    error = None if stderr is None or not math.isfinite(stderr) or stderr <= 0 else stderr * abs(scale)
+    shown = format_quantity(value * scale, "", error)
+    return f"{shown} {unit}" if unit else shown
 
 
 def badge(content: str, css: str) -> Html:
     return Html(f'<span class="badge {html.escape(css)}">{text(content)}</span>')
+
+
+def quantity_span(key: str, value: float | None, unit: str = "", text_shown: str | None = None) -> Html:
+    """A reported quantity, shown with ``quantities.format_quantity`` and marked with its key and SI value
+    (``data-q``, ``data-v``), so every place that shows one quantity can be checked to show one value."""
+    from ecds_lab.analysis.quantities import format_quantity
+
+    shown = text_shown if text_shown is not None else format_quantity(value, unit)
+    raw = "" if value is None or not math.isfinite(value) else f"{value:.6g}"
+    return Html(f'<span data-q="{html.escape(key)}" data-v="{raw}">{text(shown)}</span>')

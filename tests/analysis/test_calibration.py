@@ -87,3 +87,15 @@ def test_inversion_recovers_the_distance_of_model_readings_and_flags_out_of_rang
 def test_temperature_stability_is_error_per_full_scale_per_kelvin():
     ts = temperature_stability_ppm_fs_per_k(np.array([80e-6, -16e-6]), 0.08, np.array([100.0, 20.0]))
     np.testing.assert_allclose(ts, [10.0, -10.0])
+
+
+def test_a_clamped_estimate_or_an_error_of_full_scale_is_no_position_error():
+    from ecds_lab.analysis.calibration import PositionErrors
+
+    x_ref = np.array([0.020, 0.030, 0.040, 0.020])
+    x_est = np.array([0.02003, 0.02998, 0.100, 0.100])  # the last two: clamped to the far end
+    errors = PositionErrors(x_ref, x_est, 0.080, np.array([False, False, True, False]))
+    assert errors.in_range.tolist() == [True, True, False, False]
+    assert errors.max_abs_mm() == pytest.approx(0.03)
+    nothing = PositionErrors(x_ref[2:], x_est[2:], 0.080, np.array([True, False]))
+    assert np.isnan(nothing.max_abs_mm())

@@ -15,7 +15,7 @@ KEYS = {"quantity", "paper", "ecds_lab", "unit", "agrees", "how"}
 def test_a_row_that_differs_says_why_and_one_that_agrees_does_not():
     differs = _row("q", "≈10", 100.0, "ratio", False, "how it was computed", "the reason")
     agrees = _row("q", "≈10", 9.0, "ratio", True, "how it was computed", "the reason")
-    assert set(differs) == KEYS and differs["how"].endswith("Differs because the reason")
+    assert set(differs) == KEYS and differs["how"].endswith("Differs: the reason")
     assert agrees["how"] == "how it was computed"
 
 

@@ -66,3 +66,42 @@ def test_unknown_effect_names_fail_listing_the_known_ones(monkeypatch):
     with pytest.raises(ValueError, match="demo_effect"):
         fit_summary(data, ["no_such_effect"])
     assert fit_summary(data, ["demo_effect"])["effects"] == ["demo_effect"]
+
+
+@pytest.fixture(scope="module")
+def steel_summary(shipped_run):
+    from ecds_lab.storage.data_file import open_data
+
+    opened = open_data(shipped_run("target_heating_steel.yaml", "stations/simulated_lab_steel.yaml").path)
+    return fit_summary(opened.data, [], opened.sensor)
+
+
+def test_text_flags_the_out_of_range_readings_the_json_flags(steel_summary):
+    text = format_fit_summary(steel_summary)
+    flagged = [(cal["freq_hz"], label, entry) for cal in steel_summary["calibration"]
+               for label in ("all_points", "n4") for entry in [cal[label]["room_temperature"]] if entry["out_of_range"]]
+    assert flagged, "the steel run at 500 Hz has readings outside the calibrated range"
+    for _, _, entry in flagged:
+        # no figure counts a clamped reading as a length
+        assert entry["max_abs_mm"] is None or entry["max_abs_mm"] < entry["fs_mm"]
+    assert "out of range" in text
+    for line in text.splitlines():
+        if "max |e|" in line and "out of range" not in line:
+            value = float(line.split("max |e| ")[1].split()[0])
+            assert value < 80.0 or "µm" in line
+
+
+def test_parameters_carry_their_status_in_json_and_text(steel_summary):
+    params = steel_summary["params"]
+    assert {p["status"] for p in params.values()} >= {"fixed", "undetermined"}
+    assert params["R_p"]["status"] == "fixed" and params["R_p"]["status_reason"]
+    text = format_fit_summary(steel_summary)
+    for name, p in params.items():
+        line = next(li for li in text.splitlines() if li.strip().startswith(name + " "))
+        assert p["status"] in line and "0.0000" not in line
+
+
+def test_a_model_far_above_the_noise_is_flagged_in_json_and_text(steel_summary, summary):
+    assert steel_summary["model"]["status"] == "model fails here" and "x the" in steel_summary["model"]["reason"]
+    assert "model fails here" in format_fit_summary(steel_summary).splitlines()[2]
+    assert summary["model"] == {"status": "valid"}
