@@ -52,8 +52,11 @@ def analyse_campaign(run_files: list[Path], output: Path) -> None:
     print(f"paper comparison: {sum(r['agrees'] for r in rows)} of {len(rows)} quantities agree "
           f"({output / 'paper_comparison.json'})")
 
-    copper = [p for p in run_files if "steel" not in p.name and "spectroscopy" not in p.name]
-    data = Measurements.concatenate([open_data(p).data for p in copper])
+    # The copper campaign: every recording with the copper target or the coil in air, spectroscopy aside;
+    # chosen by what each file holds (its run kind and sensor), not by its name.
+    opened = [open_data(p) for p in run_files]
+    copper = [f.data for f in opened if f.sensor.target == "copper" and (f.run is None or f.run.kind != "spectroscopy")]
+    data = Measurements.concatenate(copper)
     fit = fit_summary(data, [])
     (output / "fit.json").write_text(json.dumps(fit, indent=2))
     diagnosis = run_diagnosis(data)
