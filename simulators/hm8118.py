@@ -1,36 +1,79 @@
 """HM8118 LCR bridge emulator: the bridge's serial protocol over the simulated lab's coil.
 
-Written from the instrument's manual, not from the driver (its tables are the emulator's own):
-  [M32]  HM8118 manual (English), ch. 10 "Command Reference", 10.1 "Setting Up the Command
-         Structure" and 10.2 "Supported Command and Data Formats", p. 32: four-letter mnemonics,
-         ``(?)`` marks a command that can also be queried; every command ends with CR or CR+LF,
-         "no individual LF"; the bridge "does not support parallel processing of commands";
-         *IDN? format, *RST to factory settings, *OPC? answers 1 once the measurement is complete
-  [M23]  HM8118 manual (German), "Befehlsliste", p. 23: XMAJ?, XMIN?, XDLT?, XDMT? (the deviation
-         from the PREL reference), an error message when nothing can be read (AUTO function, a
-         zero reference); the binning commands (BCLR, BING, BLIH, ...) exist only with the HO118
-         binning interface fitted
-  [M50]  HM8118 manual, s. 7.3.2, p. 50 (compensation over the 69 test frequencies)
+Written from the instrument's manual, not from any driver or client (its tables are the emulator's own).
+Manual pages found in the stored public copies (each fact below names the page it comes from):
+  [M68]  R&S HM8118 user manual (English), ch. 10 "Command Reference", 10.1 "Setting Up the Command
+         Structure", 10.2 "Supported Command and Data Formats", p. 68 of the bilingual manual:
+         https://www.manualslib.de/manual/6643/Hameg-Rands-Hm8118.html?page=68 (the same text in the
+         HAMEG edition: https://manualshive.com/ru/manual/hameg/hm8118/3433174?page=32)
+  [D11]  HM8118 Handbuch (German), "Inbetriebnahme", p. 11 (setup memories, the nine functions):
+         https://manualshive.com/en/manual/hameg/hm8118/3435322?page=11
+  [D12]  same, p. 12, "Messgeschwindigkeit", "Triggerquelle / Triggerbetriebsart":
+         https://manualshive.com/en/manual/hameg/hm8118/3435322?page=12
+  [D23]  same, p. 23, "Befehlsliste" (XDLT?, XDMT?, XMAJ?, XMIN?) and "Befehlsliste Binning":
+         https://manualshive.com/en/manual/hameg/hm8118/3435322?page=23
+  [E51]  HM8118 manual (English), 6.3 "Reference Value", 6.4 "Selecting the Measurement Range", p. 51:
+         https://manualshive.com/ru/manual/hameg/hm8118/3433174?page=15
+  [M50]  HM8118 manual, 7.3.2, p. 50 (compensation over the 69 test frequencies)
   [SPEC] HM8118 data sheet: test frequencies 20 Hz-200 kHz, test signal 50 mV-1.5 V rms
-  [SWM]  SweepMe! instrument-drivers, LCRmeter-Hameg_HM8118 (a third-party client whose set commands
-         the bridge accepts silently): LOCK 0|1, RNGH 0 (auto range), OUTP 0 (plain values), BIAS
-         0|1|2 (off, internal, external bias), VBIA 0-5 V and VBIA?, $STL trigger delay in ms (0-40 s),
-         AVGM 1 + NAVG 2-99, MMOD 0|1|2, "*TRG; *OPC?" in one line, 0.15 s between commands
-  [KAK]  kaktus85/Hameg8118: CROP / CRSH answer 0 (done) or -1 (failed) after the compensation
-Set commands are silent when accepted; anything refused is answered ``ERROR`` [M23].
-``XALL?`` -> ``main,secondary,bin``.
+The command list's remaining pages (the alphabetical list from *TRG to VOLT, before XDLT? [D23]) and
+the interface chapter were not among the stored copies; what they would have said is marked ASSUMED.
 
-Timing (assumptions where no source gives figures): fast 70 ms, medium 190 ms, slow 600 ms per
-reading; the bridge needs ``COMMAND_TIME_S`` to take in one command line, and a line that arrives
-sooner after the previous one is lost (it "does not support parallel processing" [M32]); 0.1 s is
-below the 0.15 s [SWM] and 0.2 s (R&S example) that clients use successfully.
+| What                              | Emulator                                           | Source            |
+|-----------------------------------|----------------------------------------------------|-------------------|
+| command syntax                    | 4-letter mnemonic, ``?`` queries, ``,`` separates  | [M68] 10.1        |
+| terminator                        | CR or CR+LF ends a command, a lone LF does not     | [M68] 10.1        |
+| one command at a time             | a reply waits for the measurement in progress      | [M68] 10.2        |
+| ``;``-joined command strings      | accepted, each part in turn (the manual only       | [M68] 10.1 note;  |
+|                                   | recommends avoiding them)                          | rest ASSUMED      |
+| *IDN?                             | ``HAMEG Instruments, HM8118,<serial>,<firmware>``  | [M68] 10.2        |
+| *RST                              | factory settings (values: ASSUMED, see SETTINGS)   | [M68] 10.2        |
+| *OPC?                             | ``1`` once the measurement is complete             | [M68] 10.2        |
+| XMAJ?, XMIN?                      | ERROR in AUTO function, and in the percent display | [D23]             |
+|                                   | when its reference is zero (the manual says        |                   |
+|                                   | "Messwert 0"; read as the reference: ASSUMED)      |                   |
+| XDLT?, XDMT?                      | ERROR when the PREL reference is zero or in AUTO   | [D23]             |
+|                                   | (which one is percent: ASSUMED XDMT)               |                   |
+| binning (BCLR, BING, BLIH, ...)   | ERROR: only with the HO118 interface fitted        | [D23]             |
+| PREL                              | five decimals (reference entered with up to five   | [E51] 6.3         |
+|                                   | digits after the point)                            |                   |
+| ∆ABS / ∆% display (OUTP)          | deviation from the reference, absolute or percent  | [E51] 6.3; codes  |
+|                                   |                                                    | 0/1/2 ASSUMED     |
+| RNGE                              | ranges 1-6, auto ranging on every reading          | [E51] 6.4; limits |
+|                                   |                                                    | per range ASSUMED |
+| RNGH                              | range hold; choosing a range holds it              | [E51] 6.4 (AUTO/  |
+|                                   |                                                    | HOLD); codes      |
+|                                   |                                                    | ASSUMED           |
+| RATE speeds                       | fast 1/14 s, medium 1/8 s, slow 0.6 s per reading  | [D12] (see below) |
+| MMOD trigger modes                | continuous, manual (*TRG), external                | [D12]; codes      |
+|                                   |                                                    | ASSUMED           |
+| PMOD functions                    | L-Q, L-R, C-D, C-R, R-Q, Z-θ, Y-θ, N-θ, M          | [D11]; codes, and |
+|                                   | (and R-X, G-B)                                     | R-X, G-B ASSUMED  |
+| FREQ                              | the 69 frequencies, 20 Hz-200 kHz                  | [SPEC, M50]       |
+| VOLT                              | 0.05-1.5 V rms                                     | [SPEC]            |
+| AVGM, NAVG                        | off / average of NAVG 2-99 / median of three       | ASSUMED           |
+| BIAS, VBIA                        | off/internal/external; internal 0-5 V              | ASSUMED           |
+| LOCK                              | front panel locked out (the manual names a local   | [M68] 10 (lockout |
+|                                   | lockout via the interface, not its command)        | exists); ASSUMED  |
+| $STL                              | trigger delay 0-40,000 ms added to a measurement   | ASSUMED           |
+| CONV, CALL                        | constant voltage on/off; compensate one or all     | ASSUMED; [M50]    |
+|                                   | frequencies                                        | for "all 69"      |
+| CROP, CRSH                        | reply ``0`` (done) or ``-1`` (failed) after 1.5 s  | ASSUMED           |
+|                                   | per frequency                                      |                   |
+| set commands                      | silent when accepted, ``ERROR`` when refused       | [D23] names the   |
+|                                   |                                                    | "Fehlermeldung";  |
+|                                   |                                                    | text ASSUMED      |
+| ``XALL?``                         | ``main,secondary,bin`` in NR3 with five decimals   | ASSUMED           |
 
-Assumptions, not confirmed from the manual pages at hand: the range codes of RNGE (1-6, auto-ranging
-chooses by |Z|), AVGM 2 = median of three readings (the front panel's MED averaging), the OUTP codes
-0 value, 1 absolute deviation, 2 percent deviation from PREL (the XDLT?/XDMT? pair [M23]; XMAJ? and
-XALL? show the main value that way, and a percent display with a zero reference is an error [M23]),
-CONV 0|1. Bias,
-constant-voltage mode and the range setting are held and read back but do not change the lab's
+Timing. The manual gives readings per second under continuous trigger: "about 1.5 at SLOW, 8 at MED,
+14 at FAST" [D12], i.e. 1/14 s and 1/8 s per reading, used as given; SLOW would be about 0.67 s, but the
+emulator keeps 0.6 s because the run readings pinned in tests/simulators/test_pinned_readings.py were
+taken with it (0.6 s is 1.7 readings per second, within "about 1.5"). The manual adds that the speed is
+reduced automatically at very low test frequencies [D12] without saying by how much; not modelled.
+The bridge "does not support parallel processing of commands" [M68] but names no time to take in a
+command: ASSUMED ``COMMAND_TIME_S`` = 0.1 s, a line that arrives sooner after the previous one being lost.
+
+Bias, constant-voltage mode and the range setting are held and read back but do not change the lab's
 coil: the lab's noise model is given the set test level in every mode.
 """
 
@@ -53,34 +96,37 @@ FREQUENCIES_HZ: frozenset[int] = frozenset(
     step * 10 ** decade for decade in range(6) for step in _STEPS_PER_DECADE if 20 <= step * 10 ** decade <= 200_000)
 #: ``VOLT``: test signal level in V rms [SPEC].
 VOLTAGE_RANGE_V = (0.05, 1.5)
-#: ``VBIA``: internal DC bias in V [SWM].
+#: ``VBIA``: internal DC bias in V (ASSUMED: no stored manual page gives it).
 BIAS_VOLTAGE_RANGE_V = (0.0, 5.0)
-#: ``$STL``: trigger delay in ms [SWM: 0-40 s, sent in ms].
+#: ``$STL``: trigger delay in ms (ASSUMED: 0-40 s, sent in ms).
 TRIGGER_DELAY_RANGE_MS = (0, 40_000)
-#: ``PMOD`` codes [M32]: the main-secondary display pair (10 and 11 need the HZ186 fixture).
+#: ``PMOD`` codes: the main-secondary display pairs; the nine of [D11] (N-theta and M for transformers, with
+#: the HZ186 fixture) plus R-X and G-B; the code numbers are ASSUMED.
 FUNCTION_CODES = {0: "AUTO", 1: "L-Q", 2: "L-R", 3: "C-D", 4: "C-R", 5: "R-Q", 6: "Z-theta", 7: "Y-theta",
                   8: "R-X", 9: "G-B", 10: "N-theta", 11: "M"}
-#: ``CIRC`` codes [M32].
+#: ``CIRC`` codes (ASSUMED).
 CIRCUIT_CODES = {0: "series", 1: "parallel", 2: "auto"}
-#: ``RATE`` codes [M32], named as the lab's noise model names them.
+#: ``RATE`` codes: the three speeds of [D12] (codes ASSUMED), named as the lab's noise model names them.
 SPEED_CODES = {0: "fast", 1: "medium", 2: "slow"}
-#: ``MMOD`` codes [M32, SWM].
+#: ``MMOD`` codes: the trigger modes CONT, MAN, EXT of [D12] (codes ASSUMED).
 TRIGGER_CODES = {0: "continuous", 1: "manual", 2: "external"}
-#: ``AVGM`` codes: off, average over NAVG readings [SWM], median (assumption, see above).
+#: ``AVGM`` codes: off, average over NAVG readings, median of three (all ASSUMED).
 AVERAGING_CODES = {0: "off", 1: "average", 2: "median"}
 MEDIAN_READINGS = 3
-#: ``NAVG``: readings averaged when ``AVGM 1`` [SWM].
+#: ``NAVG``: readings averaged when ``AVGM 1`` (ASSUMED).
 AVERAGES_RANGE = (2, 99)
-#: ``BIAS`` codes [SWM].
+#: ``BIAS`` codes (ASSUMED).
 BIAS_CODES = {0: "off", 1: "internal", 2: "external"}
-#: ``OUTP`` codes (assumption, see above).
+#: ``OUTP`` codes: the value, or its deviation from the reference as ∆ABS or ∆% [E51] (codes ASSUMED).
 OUTPUT_CODES = {0: "value", 1: "deviation", 2: "percent"}
-#: ``RNGE`` codes and the upper |Z| each range serves when auto-ranging (assumption, see above).
+#: ``RNGE`` codes 1-6 [E51] and the upper |Z| each range serves when auto-ranging (limits ASSUMED).
 RANGE_LIMITS_OHM = {1: 3.0, 2: 25.0, 3: 400.0, 4: 6.4e3, 5: 100e3, 6: math.inf}
 _RANGES = tuple(RANGE_LIMITS_OHM.items())  # (code, limit) in ascending order, walked on every reading
-MEASUREMENT_TIME_S = {0: 0.07, 1: 0.19, 2: 0.6}
-COMPENSATION_TIME_S = 1.5  # per frequency
-#: Time the bridge needs to take in one command line; a line arriving sooner is lost (see above).
+#: Time of one reading per ``RATE`` code: 14 and 8 readings per second at FAST and MED [D12]; SLOW kept at
+#: 0.6 s (the manual's "about 1.5 per second" would be 0.67 s; see the module docstring).
+MEASUREMENT_TIME_S = {0: 1 / 14, 1: 1 / 8, 2: 0.6}
+COMPENSATION_TIME_S = 1.5  # per frequency (ASSUMED)
+#: Time the bridge needs to take in one command line; a line arriving sooner is lost (ASSUMED, see above).
 COMMAND_TIME_S = 0.1
 
 
@@ -101,8 +147,8 @@ def _within(low: float, high: float, whole: bool = False) -> Callable[[float], b
     return lambda value: low <= value <= high and (value.is_integer() or not whole)
 
 
-#: The remote command list's settings: ``NAME value`` sets, ``NAME?`` reads back [M32, SWM]. Defaults are
-#: the *RST state (assumption: 1 kHz, 1 V, auto function/circuit, medium speed, everything else off).
+#: The remote command list's settings: ``NAME value`` sets, ``NAME?`` reads back [M68 10.1]. Defaults are
+#: the *RST state (ASSUMED: 1 kHz, 1 V, auto function/circuit, medium speed, everything else off).
 SETTINGS: dict[str, Setting] = {
     "FREQ": Setting(lambda value: value in FREQUENCIES_HZ, 1000),
     "VOLT": Setting(_within(*VOLTAGE_RANGE_V), 1.0, decimals=3),
@@ -127,7 +173,7 @@ SETTINGS: dict[str, Setting] = {
 
 class HM8118Emulator(LineEmulator):
     name = "hm8118"
-    #: CR ends a command; the LF of a CR+LF is dropped, a lone LF ends nothing [M32].
+    #: CR ends a command; the LF of a CR+LF is dropped, a lone LF ends nothing [M68 10.1].
     line_endings = b"\r"
     reply_termination = b"\r"
 
@@ -176,12 +222,12 @@ class HM8118Emulator(LineEmulator):
                 self._handle(command)
 
     def _answer(self, text: str) -> None:
-        """Replies wait until the measurement in progress is done (one command at a time; reply() takes a
-        finished measurement's negative delay as none)."""
+        """Replies wait until the measurement in progress is done (no parallel processing [M68 10.2]; reply()
+        takes a finished measurement's negative delay as none)."""
         self.reply_at(text, self.busy_until)
 
     def _handle(self, command: str) -> None:
-        if "\n" in command:  # a lone LF is no terminator: the line is garbled [M32]
+        if "\n" in command:  # a lone LF is no terminator: the line is garbled [M68 10.1]
             self._answer("ERROR")
             return
         mnemonic, _, argument = command.partition(" ")
@@ -250,7 +296,7 @@ class HM8118Emulator(LineEmulator):
     def _displayed(self) -> tuple[float, float] | None:
         """The displayed pair: the main value as OUTP shows it (value, deviation from PREL, or percent).
 
-        A percent display with a zero reference has nothing to show: an error [M23 XMAJ?]."""
+        A percent display with a zero reference has nothing to show: an error [D23 XMAJ?]."""
         values = self._fresh_values()
         if values is None:
             return None
@@ -274,7 +320,7 @@ class HM8118Emulator(LineEmulator):
         self._answer("ERROR" if values is None else f"{values[index]:.5E}")
 
     def _read_deviation(self, percent: bool) -> None:
-        """XDLT? / XDMT?: main value minus the PREL reference; an error when the reference is zero [M23]."""
+        """XDLT? / XDMT?: main value minus the PREL reference; an error when the reference is zero [D23]."""
         values = self._fresh_values()
         reference = self.settings["PREL"]
         if values is None or reference == 0:
@@ -294,7 +340,7 @@ class HM8118Emulator(LineEmulator):
         """Main and secondary value of the active function from the lab's coil impedance (``readings`` averaged)."""
         settings = self.settings
         function = self._code("PMOD")
-        if function in (0, 10, 11):  # AUTO display and transformer modes: nothing to read
+        if function in (0, 10, 11):  # AUTO: an error [D23]; transformer modes need the HZ186: nothing to read
             return None
         frequency = float(settings["FREQ"])
         omega = 2 * math.pi * frequency
