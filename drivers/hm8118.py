@@ -52,7 +52,9 @@ SERIAL_SETTINGS: dict[str, Any] = {
 XALL_REPLY = ReplyFormat((Field("main", NR3, -1e9, 1e9), Field("secondary", NR3, -1e9, 1e9),
                           Field("bin", INTEGER, 0, 99)))
 
-#: Upper bound of one reading at the slowest speed, to wait for averaged readings (an assumption).
+#: Upper bound of one reading at the slowest speed, to wait for averaged readings: the manual gives about
+#: 1.5 readings per second at SLOW and a speed "reduced automatically" at very low test frequencies
+#: (HM8118 Handbuch, "Messgeschwindigkeit", p. 12); 1.0 s leaves that reduction a margin (an assumption).
 SLOWEST_READING_S = 1.0
 #: A compensation over all 69 frequencies takes up to ~2 minutes without answering [KAK].
 COMPENSATION_TIMEOUT_S = 180.0
