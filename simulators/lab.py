@@ -190,7 +190,7 @@ class SimulatedLab:
 
     def _wider_state(self) -> tuple[float, ...]:
         """What the wider world's imperfections add to the state a field impedance depends on."""
-        return (self.carriage_distance_m(), self._play.temperature_c if self._play is not None else 0.0)
+        return (self.distance_m(without_target=True), self._play.temperature_c if self._play is not None else 0.0)
 
     def _expansion_temperature_c(self) -> float:
         """The temperature that sets the winding's thermal strain: the winding's own, or the play's behind it."""
@@ -315,15 +315,11 @@ class SimulatedLab:
         self.slide.motor_mm = self.slide.move_from_mm = self.slide.move_to_mm = here
         self.slide.move_duration_s = 0.0
 
-    def distance_m(self) -> float:
-        """True coil-target distance of the carriage (backlash and repeatability included), in m."""
-        if not self.config.target_present:
+    def distance_m(self, without_target: bool = False) -> float:
+        """True coil-target distance of the carriage (backlash and repeatability included), in m; inf when the
+        target is removed, unless ``without_target`` asks where the carriage is all the same."""
+        if not (self.config.target_present or without_target):
             return math.inf
-        return self.carriage_distance_m()
-
-    def carriage_distance_m(self) -> float:
-        """Where the carriage really is, as the coil-target distance it gives with the target in place (m); the
-        carriage is there whether or not the target is."""
         motor = self.slide.position(self.clock.now())
         if self.field:
             return (self.config.slide_origin_mm + motor) * 1e-3 + self._carriage_error_m(motor)
@@ -387,7 +383,7 @@ class SimulatedLab:
             branch = sum(self.sensor.series_branch(omega, gap, self.t_winding_c, t_plate, ambient, strain)
                          for gap in gaps) / len(gaps)
         if self._metal is not None:
-            branch += 1j * omega * self._metal.inductance_h(omega, self.carriage_distance_m())
+            branch += 1j * omega * self._metal.inductance_h(omega, self.distance_m(without_target=True))
         capacitance, conductance = self.former.parallel_elements(omega / (2 * math.pi))
         return ecm.with_parallel(branch, omega, capacitance, conductance)
 
@@ -419,7 +415,7 @@ class SimulatedLab:
         conductance = 1 / sensor.parallel_resistance_ohm + wet.moist_extra_conductance_s * moisture
         branch = ecm.series_branch(l_coil, r_coil, k2, omega, tau)
         if self._metal is not None:
-            branch += 1j * omega * self._metal.inductance_h(omega, self.carriage_distance_m())
+            branch += 1j * omega * self._metal.inductance_h(omega, self.distance_m(without_target=True))
         return ecm.with_parallel(branch, omega, capacitance, conductance)
 
     def measured_impedance(self, frequency_hz: float, speed: str = "slow", voltage_v: float = 1.5,
@@ -433,28 +429,33 @@ class SimulatedLab:
         pickup (``imperfections.bridge_heater_pickup``) when on.
         """
         z = self.coil_impedance(frequency_hz)
-        extra = 0.0
         if self._outside_the_bridge:
-            z, extra = self._from_outside_the_bridge(z, speed, voltage_v, averages)
+            return self._read_with_outside_effects(z, frequency_hz, speed, voltage_v, averages)
         if self.field:
-            return self.bridge_model.read(z, frequency_hz, speed, voltage_v, averages, self.rng, extra)
+            return self.bridge_model.read(z, frequency_hz, speed, voltage_v, averages, self.rng)
         sigma = self.config.noise.bridge_relative[speed] * 1.5 / voltage_v / math.sqrt(max(1, averages))
-        if extra:
-            sigma = math.hypot(sigma, extra)
         if sigma <= 0:
             return z
         real, imag = self.rng.standard_normal(2).tolist()
         return z + abs(z) * sigma * complex(real, imag)
 
-    def _from_outside_the_bridge(self, z: complex, speed: str, voltage_v: float,
-                                 averages: int) -> tuple[complex, float]:
-        """The impedance as the drifting bridge scales it, and the relative noise the heater current adds."""
+    def _read_with_outside_effects(self, z: complex, frequency_hz: float, speed: str, voltage_v: float,
+                                   averages: int) -> complex:
+        """``measured_impedance`` with the bridge's gain drift and the heater current's pickup (either or both on):
+        the impedance scaled by the gain, the pickup's noise in quadrature with the bridge's own (same draws)."""
         if self._gain_drift is not None:
             z = z * self._gain_drift.gain(self.clock.now())
         extra = 0.0
         if self._pickup is not None:
             extra = self._pickup.relative(self.heater_currents_a(), speed, voltage_v, averages)
-        return z, extra
+        if self.field:
+            return self.bridge_model.read(z, frequency_hz, speed, voltage_v, averages, self.rng, extra)
+        sigma = math.hypot(self.config.noise.bridge_relative[speed] * 1.5 / voltage_v / math.sqrt(max(1, averages)),
+                           extra)
+        if sigma <= 0:
+            return z
+        real, imag = self.rng.standard_normal(2).tolist()
+        return z + abs(z) * sigma * complex(real, imag)
 
     # -- thermocouples ------------------------------------------------------------------------
     def temperature_c(self, quantity: str) -> float:
