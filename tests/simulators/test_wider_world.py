@@ -63,7 +63,7 @@ def test_gain_drift_acts_in_air_and_at_every_frequency():
 
 def test_gain_wander_has_its_rms_and_is_slow():
     lab = lab_with("ecm", bridge_gain_drift={"ppm_per_hour": 0.0, "wander_ppm": 30.0, "wander_time_s": 600.0})
-    drift = lab._gain_drift
+    drift = lab.wider.gain_drift
     assert drift is not None
     g = np.array([drift.gain(t) - 1 for t in np.arange(0.0, 400 * 600.0, 60.0)])
     assert 20e-6 < g.std() < 40e-6
