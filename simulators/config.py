@@ -6,7 +6,9 @@ materials and bending, carriage mechanics, bridge imperfections), each a named, 
 switchable block here. ``physics: ecm`` computes them with the paper's equivalent circuit model
 from ``sensor`` and switches on the model library's named effects from ``effects`` one by one, so tests can
 have the analysis model exact or with one hidden effect. The default is ``ecm``; the shipped
-simulated stations choose ``field``.
+simulated stations choose ``field``. ``imperfections`` holds the wider world's physics (bridge gain drift and
+heater pickup, a metal object beside the slide, a tilting target, a hysteresis of the former's expansion,
+re-absorption of humidity), each off by default and acting with either physics.
 """
 
 from __future__ import annotations

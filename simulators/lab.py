@@ -22,18 +22,13 @@ import numpy as np
 from ecds_lab.clock import SimulatedClock
 from ecds_lab.simulators.config import LabConfig, Thermal
 from ecds_lab.simulators.physics import ecm
-from ecds_lab.simulators.physics.bridge_gain import GainDrift
 from ecds_lab.simulators.physics.bridge_model import BridgeModel
-from ecds_lab.simulators.physics.expansion_hysteresis import ExpansionPlay
 from ecds_lab.simulators.physics.field_sensor import FieldSensor
 from ecds_lab.simulators.physics.field_solution import Winding
 from ecds_lab.simulators.physics.former import FormerState
-from ecds_lab.simulators.physics.heater_pickup import HeaterPickup
-from ecds_lab.simulators.physics.humidity_uptake import HumidityUptake
-from ecds_lab.simulators.physics.metal_object import MetalObjectNearby
 from ecds_lab.simulators.physics.plate import Plate
 from ecds_lab.simulators.physics.slide_mechanics import carriage_error_m, draw_scatter_m
-from ecds_lab.simulators.physics.target_tilt import Tilt
+from ecds_lab.simulators.wider_world import WiderWorld
 
 #: Longest step of the thermal/moisture integration (s); inputs are constant within a step.
 _MAX_STEP_S = 5.0
@@ -132,13 +127,13 @@ class SimulatedLab:
         cfg = self.config
         ambient = cfg.thermal.ambient_c
         self.field = cfg.physics == "field"
+        #: The wider world's imperfections (``imperfections``), each None while off.
+        self.wider = WiderWorld.of(cfg.imperfections, self._winding(), ambient, cfg.seed, self.clock.now())
         if self.field:
             plate = Plate(cfg.plate, cfg.plate_material)
             self.sensor = FieldSensor(cfg.coil, plate)
             self.plate = plate
-            uptake = (HumidityUptake(cfg.imperfections.reabsorption, ambient)
-                      if cfg.imperfections.reabsorption.enabled else None)
-            self.former = FormerState(cfg.former, cfg.former_material, ambient, uptake)
+            self.former = FormerState(cfg.former, cfg.former_material, ambient, self.wider.uptake)
             self.bridge_model = BridgeModel(cfg.bridge, cfg.seed)
         else:
             sensor = cfg.sensor
@@ -160,23 +155,9 @@ class SimulatedLab:
         self.thermal = ThermalConstants.of(cfg.thermal)
         # Read on every reading, held directly (the same object: changes to its fields still count).
         self._drift = cfg.effects.bridge_drift
-        # The wider world's imperfections: None when off, so a reading pays one comparison for each.
-        wider = cfg.imperfections
-        self._gain_drift = (GainDrift(wider.bridge_gain_drift, cfg.seed, self.clock.now())
-                            if wider.bridge_gain_drift.enabled else None)
-        self._pickup = HeaterPickup(wider.bridge_heater_pickup) if wider.bridge_heater_pickup.enabled else None
-        self._outside_the_bridge = self._gain_drift is not None or self._pickup is not None
-        #: ECM physics: the room air's re-absorption replacing the moisture effect's absorption rate, when on.
-        self._ecm_uptake = (HumidityUptake(wider.reabsorption, ambient)
-                            if wider.reabsorption.enabled and not self.field else None)
-        winding = self._winding()
-        self._metal = MetalObjectNearby(wider.metal_object, winding) if wider.metal_object.enabled else None
-        self._tilt = (Tilt(wider.target_tilt, 0.5 * (winding.inner_radius_m + winding.outer_radius_m), ambient)
-                      if wider.target_tilt.enabled else None)
-        self._play = (ExpansionPlay(wider.expansion_hysteresis, ambient)
-                      if wider.expansion_hysteresis.enabled else None)
+        self._outside_the_bridge = self.wider.at_the_bridge
         #: State beyond the memo key's own that the field impedance depends on (None: nothing beyond it).
-        self._extra_state = self._wider_state if self._metal is not None or self._play is not None else None
+        self._extra_state = self._wider_state if self.wider.beyond_the_memo_key else None
         self._carriage_key: tuple[float, int, float] = (math.nan, 0, math.nan)
         self._carriage_error = 0.0
         self._field_memo: dict[tuple[float, ...], complex] = {}
@@ -193,11 +174,13 @@ class SimulatedLab:
 
     def _wider_state(self) -> tuple[float, ...]:
         """What the wider world's imperfections add to the state a field impedance depends on."""
-        return (self.carriage_distance_m(), self._play.temperature_c if self._play is not None else 0.0)
+        play = self.wider.play
+        return (self.distance_m(without_target=True), play.temperature_c if play is not None else 0.0)
 
     def _expansion_temperature_c(self) -> float:
         """The temperature that sets the winding's thermal strain: the winding's own, or the play's behind it."""
-        return self._play.temperature_c if self._play is not None else self.t_winding_c
+        play = self.wider.play
+        return play.temperature_c if play is not None else self.t_winding_c
 
     # -- time ---------------------------------------------------------------------------------
     def update(self) -> None:
@@ -218,11 +201,11 @@ class SimulatedLab:
         wet = None  # the ECM physics' moisture, when that effect is on
         if not self.field and self.config.effects.parasitic_capacitance.enabled:
             wet = self.config.effects.parasitic_capacitance
-            uptake = self._ecm_uptake
+            uptake = self.wider.uptake
         # The nodes as locals while stepping (stored back below): the same arithmetic, less attribute traffic.
         t_target, t_surface, t_box = self.t_target_c, self.t_plate_surface_c, self.t_box_c
         t_former, t_winding = self.t_former_c, self.t_winding_c
-        play = self._play
+        play = self.wider.play
         for _ in range(steps):
             t_target = target_goal + (t_target - target_goal) * decay_target
             t_surface = t_target + (t_surface - t_target) * decay_surface
@@ -318,15 +301,11 @@ class SimulatedLab:
         self.slide.motor_mm = self.slide.move_from_mm = self.slide.move_to_mm = here
         self.slide.move_duration_s = 0.0
 
-    def distance_m(self) -> float:
-        """True coil-target distance of the carriage (backlash and repeatability included), in m."""
-        if not self.config.target_present:
+    def distance_m(self, without_target: bool = False) -> float:
+        """True coil-target distance of the carriage (backlash and repeatability included), in m; inf when the
+        target is removed, unless ``without_target`` asks where the carriage is all the same."""
+        if not (self.config.target_present or without_target):
             return math.inf
-        return self.carriage_distance_m()
-
-    def carriage_distance_m(self) -> float:
-        """Where the carriage really is, as the coil-target distance it gives with the target in place (m); the
-        carriage is there whether or not the target is."""
         motor = self.slide.position(self.clock.now())
         if self.field:
             return (self.config.slide_origin_mm + motor) * 1e-3 + self._carriage_error_m(motor)
@@ -382,15 +361,16 @@ class SimulatedLab:
     def _field_impedance_at(self, omega: float, x_m: float) -> complex:
         ambient = self.thermal.ambient_c
         t_plate = self.plate.field_temperature_c(self.t_plate_surface_c, ambient)
+        wider = self.wider
         strain = self.former.strain(self._expansion_temperature_c())
-        gaps = self._tilt.gaps_m(x_m, self.t_plate_surface_c) if self._tilt is not None else None
+        gaps = wider.tilt.gaps_m(x_m, self.t_plate_surface_c) if wider.tilt is not None else None
         if gaps is None:
             branch = self.sensor.series_branch(omega, x_m, self.t_winding_c, t_plate, ambient, strain)
         else:  # a tilted plate: the coupling averaged over the coil's face
             branch = sum(self.sensor.series_branch(omega, gap, self.t_winding_c, t_plate, ambient, strain)
                          for gap in gaps) / len(gaps)
-        if self._metal is not None:
-            branch += 1j * omega * self._metal.inductance_h(omega, self.carriage_distance_m())
+        if wider.metal is not None:
+            branch += 1j * omega * wider.metal.inductance_h(omega, self.distance_m(without_target=True))
         capacitance, conductance = self.former.parallel_elements(omega / (2 * math.pi))
         return ecm.with_parallel(branch, omega, capacitance, conductance)
 
@@ -399,7 +379,8 @@ class SimulatedLab:
         cfg, sensor, effects = self.config, self.config.sensor, self.config.effects
         t_ref = sensor.reference_temperature_c
         d_coil = self.t_winding_c - t_ref
-        d_expansion = d_coil if self._play is None else self._play.temperature_c - t_ref
+        wider = self.wider
+        d_expansion = d_coil if wider.play is None else wider.play.temperature_c - t_ref
         l_coil = sensor.inductance_h * (1 + cfg.alpha * d_expansion + cfg.beta_per_k2 * d_coil**2)
         r_coil = sensor.resistance_ohm * (1 + sensor.resistance_tempco_per_k * d_coil)
         x = self.distance_m()
@@ -408,7 +389,7 @@ class SimulatedLab:
             d_target = self.t_target_c - t_ref
             if effects.target_bending.enabled:
                 x -= effects.target_bending.shift_um_per_k * 1e-6 * d_target
-            gaps = self._tilt.gaps_m(x, self.t_target_c) if self._tilt is not None else None
+            gaps = wider.tilt.gaps_m(x, self.t_target_c) if wider.tilt is not None else None
             k2 = self.coupling.k2(x) if gaps is None else sum(self.coupling.k2(gap) for gap in gaps) / len(gaps)
             if effects.target_tau_temperature.enabled:
                 tempco = effects.target_tau_temperature.tempco_per_k
@@ -421,8 +402,8 @@ class SimulatedLab:
         capacitance = sensor.capacitance_f + wet.moist_extra_capacitance_f * moisture
         conductance = 1 / sensor.parallel_resistance_ohm + wet.moist_extra_conductance_s * moisture
         branch = ecm.series_branch(l_coil, r_coil, k2, omega, tau)
-        if self._metal is not None:
-            branch += 1j * omega * self._metal.inductance_h(omega, self.carriage_distance_m())
+        if wider.metal is not None:
+            branch += 1j * omega * wider.metal.inductance_h(omega, self.distance_m(without_target=True))
         return ecm.with_parallel(branch, omega, capacitance, conductance)
 
     def measured_impedance(self, frequency_hz: float, speed: str = "slow", voltage_v: float = 1.5,
@@ -436,28 +417,34 @@ class SimulatedLab:
         pickup (``imperfections.bridge_heater_pickup``) when on.
         """
         z = self.coil_impedance(frequency_hz)
-        extra = 0.0
         if self._outside_the_bridge:
-            z, extra = self._from_outside_the_bridge(z, speed, voltage_v, averages)
+            return self._read_with_outside_effects(z, frequency_hz, speed, voltage_v, averages)
         if self.field:
-            return self.bridge_model.read(z, frequency_hz, speed, voltage_v, averages, self.rng, extra)
+            return self.bridge_model.read(z, frequency_hz, speed, voltage_v, averages, self.rng)
         sigma = self.config.noise.bridge_relative[speed] * 1.5 / voltage_v / math.sqrt(max(1, averages))
-        if extra:
-            sigma = math.hypot(sigma, extra)
         if sigma <= 0:
             return z
         real, imag = self.rng.standard_normal(2).tolist()
         return z + abs(z) * sigma * complex(real, imag)
 
-    def _from_outside_the_bridge(self, z: complex, speed: str, voltage_v: float,
-                                 averages: int) -> tuple[complex, float]:
-        """The impedance as the drifting bridge scales it, and the relative noise the heater current adds."""
-        if self._gain_drift is not None:
-            z = z * self._gain_drift.gain(self.clock.now())
+    def _read_with_outside_effects(self, z: complex, frequency_hz: float, speed: str, voltage_v: float,
+                                   averages: int) -> complex:
+        """``measured_impedance`` with the bridge's gain drift and the heater current's pickup (either or both on):
+        the impedance scaled by the gain, the pickup's noise in quadrature with the bridge's own (same draws)."""
+        wider = self.wider
+        if wider.gain_drift is not None:
+            z = z * wider.gain_drift.gain(self.clock.now())
         extra = 0.0
-        if self._pickup is not None:
-            extra = self._pickup.relative(self.heater_currents_a(), speed, voltage_v, averages)
-        return z, extra
+        if wider.pickup is not None:
+            extra = wider.pickup.relative(self.heater_currents_a(), speed, voltage_v, averages)
+        if self.field:
+            return self.bridge_model.read(z, frequency_hz, speed, voltage_v, averages, self.rng, extra)
+        sigma = math.hypot(self.config.noise.bridge_relative[speed] * 1.5 / voltage_v / math.sqrt(max(1, averages)),
+                           extra)
+        if sigma <= 0:
+            return z
+        real, imag = self.rng.standard_normal(2).tolist()
+        return z + abs(z) * sigma * complex(real, imag)
 
     # -- thermocouples ------------------------------------------------------------------------
     def temperature_c(self, quantity: str) -> float:

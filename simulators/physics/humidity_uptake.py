@@ -15,7 +15,7 @@ at the time constant
 tau_pool the pool's uptake time at room temperature and 50 % RH: the groove clay (open to the air) in tens of
 minutes to hours, the bulk slower. This replaces the former's slow room-temperature re-absorption (3 days)
 while the former is below its equilibrium moisture; drying is unchanged. With 50 % RH at 22 C a former at
-40 C sees 19 % (uptake 2.8 times slower than when cool), at 80 C 2 %.
+40 C sees 18 % (uptake 2.8 times slower than when cool), at 80 C 2.8 % (18 times slower).
 """
 
 from __future__ import annotations

@@ -63,7 +63,7 @@ def test_gain_drift_acts_in_air_and_at_every_frequency():
 
 def test_gain_wander_has_its_rms_and_is_slow():
     lab = lab_with("ecm", bridge_gain_drift={"ppm_per_hour": 0.0, "wander_ppm": 30.0, "wander_time_s": 600.0})
-    drift = lab._gain_drift
+    drift = lab.wider.gain_drift
     assert drift is not None
     g = np.array([drift.gain(t) - 1 for t in np.arange(0.0, 400 * 600.0, 60.0)])
     assert 20e-6 < g.std() < 40e-6
@@ -560,3 +560,21 @@ def test_reabsorption_reaches_the_bridge_emulator(open_sim_station):
     # the moist former's 15 pF raise the apparent L by 0.7 % at 15 kHz; most of it is back after 3 h cool
     assert cooled_reading_h(wet) / cooled_reading_h(plain) - 1 > 0.004
     assert true == pytest.approx(0.0, abs=1e-12)  # read before: both still moist
+
+
+# -- all of them at once -----------------------------------------------------------------------------------------
+ALL_ON: dict[str, Any] = {name: {"enabled": True} for name in LabConfig().imperfections.model_dump()}
+
+
+@pytest.mark.parametrize("physics", ["ecm", "field"])
+def test_all_imperfections_together_make_a_reproducible_campaign(physics):
+    def run(imperfections: dict[str, Any]) -> Any:
+        return campaign.paper_campaign(LabConfig(physics=physics, imperfections=imperfections), seed=7,
+                                       positions_mm=(30.0, 45.0, 60.0), target_setpoints_c=(100,),
+                                       coil_setpoints_c=(80,))
+
+    first, again, plain = run(ALL_ON), run(ALL_ON), run({})
+    assert sorted(LabConfig(imperfections=ALL_ON).imperfections.enabled()) == sorted(ALL_ON)
+    assert np.array_equal(first.ls_h, again.ls_h) and np.array_equal(first.rs_ohm, again.rs_ohm)
+    assert np.array_equal(first.time_s, plain.time_s)
+    assert np.abs(first.ls_h / plain.ls_h - 1).max() > 100e-6
