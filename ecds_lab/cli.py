@@ -31,6 +31,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
     result = run_experiment(args.experiment, args.station, args.output, resume=args.resume,
                             overwrite=args.overwrite, progress=not args.quiet)
     print(f"{result.status}: {result.points} points in {result.path} ({result.wall_s:.1f} s)")
+    for note in result.notes:
+        print(note, file=sys.stderr if note.startswith("WARNING") else sys.stdout)
     if result.error:
         print(f"error: {result.error}", file=sys.stderr)
     if args.watch:

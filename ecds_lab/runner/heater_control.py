@@ -5,6 +5,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from ecds_lab.config.station import LoopGains
+
 
 @dataclass
 class HeaterGoal:
@@ -19,21 +21,26 @@ class HeaterGoal:
 
 
 class PowerLoop:
-    """PI control of heater power with anti-windup; gains suit plates and boxes of minutes' time constant."""
+    """PI control of heater power with anti-windup (the integral stops while the output is saturated)."""
 
-    def __init__(self, max_power_w: float, kp_w_per_k: float = 3.0, ti_s: float = 400.0) -> None:
+    def __init__(self, max_power_w: float, gains: LoopGains) -> None:
         self.max_power_w = max_power_w
-        self.kp = kp_w_per_k
-        self.ti = ti_s
+        self.kp = gains.kp_w_per_k
+        self.ti = gains.ti_s
         self.integral_w = 0.0
 
     def update(self, setpoint_c: float, measured_c: float, dt_s: float) -> float:
+        """The power for this period. The integral moves with the error but only as far as the output stays
+        within [0, max] (clamping anti-windup): a large integral step near saturation is cut to the headroom,
+        never refused whole, so a loop near full power still reaches its setpoint."""
         error = setpoint_c - measured_c
         proportional = self.kp * error
         candidate = self.integral_w + self.kp * error * dt_s / self.ti
-        power = proportional + candidate
-        if 0.0 < power < self.max_power_w or (power >= self.max_power_w and error < 0) or (power <= 0 and error > 0):
-            self.integral_w = candidate
+        if error > 0:
+            candidate = min(candidate, max(self.integral_w, self.max_power_w - proportional))
+        elif error < 0:
+            candidate = max(candidate, min(self.integral_w, -proportional))
+        self.integral_w = candidate
         return min(max(proportional + self.integral_w, 0.0), self.max_power_w)
 
 

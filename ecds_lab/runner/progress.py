@@ -23,6 +23,7 @@ from ecds_lab.runner.steps import (
     ConfigureBridge,
     CoolDown,
     Home,
+    IdentifyPlant,
     MeasurePoint,
     Park,
     SetHeater,
@@ -80,6 +81,10 @@ def estimate_plan(plan: Plan) -> list[StepEstimate]:
             seconds = step.steady.window_s + abs(step.setpoint_c - temperature) / HEATING_K_PER_S
             temperature = step.setpoint_c
             out.append(StepEstimate(seconds, _logged_rows(step, seconds, reading_s), "heat"))
+        elif isinstance(step, IdentifyPlant):  # baseline, the pulse to +rise_k, the record until it turns
+            seconds = 4 * step.check_interval_s + 3.0 * step.rise_k / HEATING_K_PER_S
+            temperature += step.rise_k
+            out.append(StepEstimate(seconds, 0, "heat"))
         elif isinstance(step, CoolDown):
             seconds = max(temperature - step.below_c, 0.0) / COOLING_K_PER_S
             temperature = min(temperature, step.below_c)

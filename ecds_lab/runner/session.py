@@ -23,9 +23,11 @@ from ecds_lab.config.station import StationConfig
 from ecds_lab.data.columns import INDEX
 from ecds_lab.data.run_metadata import SENSOR_ATTRIBUTE, sensor_attribute
 from ecds_lab.errors import ConfigError, RunFileError
+from ecds_lab.runner.context import RunContext
 from ecds_lab.runner.plan import Plan, build_plan
 from ecds_lab.runner.runner import Runner
 from ecds_lab.runner.safe_state import ctrl_c_deferred, stop_signals_raise
+from ecds_lab.runner.temperature_hold import HOLD_UNITS
 from ecds_lab.station import DEFAULT_STATION, open_station
 from ecds_lab.storage.reader import RunFile, read_run
 from ecds_lab.storage.run_file import RunWriter, metadata_for
@@ -42,6 +44,8 @@ class RunResult:
     wall_s: float
     #: The signal that stopped the run (SIGINT for Ctrl-C, SIGTERM, SIGHUP), or None.
     stopped_by: int | None = None
+    #: What the operator should read: identified heater gains, holds out of tolerance (also in the run file).
+    notes: tuple[str, ...] = ()
 
 
 def load_experiment(path: Path | str, text: str | None = None) -> ExperimentConfig:
@@ -58,7 +62,7 @@ def prepare(experiment_path: Path, station_path: Path | None) -> tuple[object, s
     station_text = read_text(Path(station_path))
     station = validate(str(station_path), parse_yaml(station_text, str(station_path)), StationConfig)
     check_experiment_fits_station(experiment, station, str(experiment_path), str(station_path))
-    return experiment, experiment_text, station, station_text, build_plan(experiment)
+    return experiment, experiment_text, station, station_text, build_plan(experiment, station.regulation)
 
 
 def default_output(experiment_path: Path, resume: Path | None) -> Path:
@@ -117,12 +121,24 @@ def _run_experiment(experiment_path: Path, station_path: Path | None, output: Pa
         runner = Runner(station, plan, writer, done=done, time_offset_s=offset, progress=progress)
         status, error = runner.run()
         with ctrl_c_deferred():
-            writer.close(status, error)
+            writer.close(status, error, extra=regulation_attributes(runner.context))
     finally:
         station.close()
-    result = RunResult(output, status, error, writer.rows, time.monotonic() - started, runner.stopped_by)
+    result = RunResult(output, status, error, writer.rows, time.monotonic() - started, runner.stopped_by,
+                       tuple(runner.context.notes) if runner.context is not None else ())
     log.info("run %s: %d points in %s (%.1f s)", status, result.points, output, result.wall_s)
     return result
+
+
+def regulation_attributes(context: RunContext | None) -> dict[str, str]:
+    """The run file's record of the heater regulation (JSON attributes of /entry): each hold at a setpoint with
+    its drift and verdict (``temperature_holds``, units in ``temperature_holds_units``) and each identified
+    heater's plant and gains (``heater_identification``)."""
+    if context is None or not (context.holds or context.identified):
+        return {}
+    return {"temperature_holds": json.dumps([hold.as_dict() for hold in context.holds]),
+            "temperature_holds_units": json.dumps(HOLD_UNITS),
+            "heater_identification": json.dumps(context.identified)}
 
 
 def check_same_station(previous: RunFile, config: StationConfig, identities: dict[str, str] | None,

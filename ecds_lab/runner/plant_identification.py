@@ -1,0 +1,88 @@
+"""A heater plant identified from a small power pulse: a first-order-plus-dead-time (FOPDT) fit, and the PI
+gains it proposes by Skogestad's SIMC rules (S. Skogestad, "Simple analytic rules for model reduction and PID
+controller tuning", J. Process Control 13 (2003) 291-309, Eq. (34)-(35) for a PI controller).
+
+The pulse: ``power_w`` from ``on_s`` to ``off_s``, the thermocouple recorded from before ``on_s`` (its drift
+before the pulse is taken as linear and removed) until after ``off_s``. The FOPDT response to it is the
+difference of two step responses, fitted by least squares (scipy). Gain and time constant come from the rise
+and the fall; a short record determines their ratio (the initial slope) best, which is also what the gains
+depend on most for a lag-dominated plant.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from ecds_lab.config.station import LoopGains
+from ecds_lab.errors import EcdsLabError
+
+
+@dataclass(frozen=True)
+class Fopdt:
+    """A first-order-plus-dead-time plant: steady rise per heater watt, time constant, dead time."""
+
+    gain_k_per_w: float
+    tau_s: float
+    dead_time_s: float
+
+    def step_rise_k(self, t_s: np.ndarray) -> np.ndarray:
+        """Rise after a 1 W step at t = 0 (K)."""
+        late = np.clip(t_s - self.dead_time_s, 0.0, None)
+        return self.gain_k_per_w * (1.0 - np.exp(-late / self.tau_s))
+
+
+def _baseline(times_s: np.ndarray, temps_c: np.ndarray, on_s: float) -> tuple[float, float]:
+    """Level at ``on_s`` and drift (K/s) of the readings before the pulse (one reading: no drift)."""
+    before = times_s <= on_s
+    if before.sum() >= 3 and np.ptp(times_s[before]) > 0:
+        slope, level = np.polyfit(times_s[before] - on_s, temps_c[before], 1)
+        return float(level), float(slope)
+    return float(temps_c[before][-1] if before.any() else temps_c[0]), 0.0
+
+
+def fit_pulse(times_s: np.ndarray, temps_c: np.ndarray, *, on_s: float, off_s: float, power_w: float) -> Fopdt:
+    """The FOPDT plant whose response to the pulse best fits the readings; EcdsLabError if it did not heat."""
+    times_s, temps_c = np.asarray(times_s, float), np.asarray(temps_c, float)
+    level, drift = _baseline(times_s, temps_c, on_s)
+    after = times_s > on_s
+    t = times_s[after] - on_s
+    rise = temps_c[after] - (level + drift * t)
+    if t.size < 4 or not np.isfinite(rise).all() or rise.max() <= 0.0:
+        raise EcdsLabError("heater identification: the thermocouple did not rise during the step "
+                           "(heater not wired to this thermocouple, or the step too small)")
+    length = off_s - on_s
+    peak = float(rise.max())
+    slope = max(float(np.max(np.gradient(rise, t))), peak / max(float(t[-1]), 1.0))
+
+    def response(p: np.ndarray) -> np.ndarray:
+        plant = Fopdt(math.exp(p[0]), math.exp(p[1]), p[2])
+        return power_w * (plant.step_rise_k(t) - plant.step_rise_k(t - length))
+
+    tau0 = max(2.0 * float(t[-1]), 60.0)
+    k0 = slope * tau0 / power_w
+    lags = [0.0, 0.1 * length, 0.3 * length, 0.6 * length]
+    best = None
+    for lag in lags:
+        start = np.array([math.log(k0), math.log(tau0), lag])
+        fit = least_squares(lambda p: response(p) - rise, start, method="trf",
+                            bounds=([-20.0, math.log(1.0), 0.0], [20.0, math.log(1e6), float(t[-1])]))
+        if best is None or fit.cost < best.cost:
+            best = fit
+    assert best is not None
+    return Fopdt(math.exp(best.x[0]), math.exp(best.x[1]), float(best.x[2]))
+
+
+def simc_gains(plant: Fopdt, *, period_s: float, max_power_w: float) -> LoopGains:
+    """PI gains for the plant by SIMC: effective dead time theta = its dead time plus half the control period,
+    closed-loop time constant tc = 2 theta (at least one period; SIMC's "tight" tc = theta overshot on the
+    simulated coil, whose two lags a FOPDT only approximates), Kc = tau / (K (tc + theta)),
+    Ti = min(tau, 4 (tc + theta)). Kc is kept where one kelvin of error asks at most the heater's full power."""
+    theta = plant.dead_time_s + 0.5 * period_s
+    tc = max(2.0 * theta, period_s)
+    kp = plant.tau_s / (plant.gain_k_per_w * (tc + theta))
+    ti = min(plant.tau_s, 4.0 * (tc + theta))
+    return LoopGains(kp_w_per_k=min(kp, max_power_w, 1000.0), ti_s=min(max(ti, 1.0), 100_000.0))
