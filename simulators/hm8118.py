@@ -25,6 +25,12 @@ reading; the bridge needs ``COMMAND_TIME_S`` to take in one command line, and a 
 sooner after the previous one is lost (it "does not support parallel processing" [M32]); 0.1 s is
 below the 0.15 s [SWM] and 0.2 s (R&S example) that clients use successfully.
 
+Re-sourcing (issue 24 point 10): of the manual's chapter 10 the stored public pages hold only its first page
+(p. 32: 10.1 and 10.2, cited above as [M32]); searches for the command list that follows it (queries on XALL?,
+CROP, CRSH, LOCK, RNGH, BIAS, VBIA, AVGM, NAVG, *TRG) found no further page. So LOCK, RNGH, OUTP, BIAS, VBIA,
+$STL and AVGM/NAVG, their ranges, and the 0.1 s command time stay as given by [SWM] and the assumptions
+below, and are marked so wherever they are used; they are not confirmed by the manual.
+
 Assumptions, not confirmed from the manual pages at hand: the range codes of RNGE (1-6, auto-ranging
 chooses by |Z|), AVGM 2 = median of three readings (the front panel's MED averaging), the OUTP codes
 0 value, 1 absolute deviation, 2 percent deviation from PREL (the XDLT?/XDMT? pair [M23]; XMAJ? and
