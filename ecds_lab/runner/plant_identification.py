@@ -1,9 +1,10 @@
-"""A heater plant identified from a small power pulse: a first-order-plus-dead-time (FOPDT) fit, and the PI
-gains it proposes by Skogestad's SIMC rules (S. Skogestad, "Simple analytic rules for model reduction and PID
-controller tuning", J. Process Control 13 (2003) 291-309, Eq. (34)-(35) for a PI controller).
+"""A heater plant identified from a small power pulse: a fit of two lags and a dead time, reduced to first order
+plus dead time (FOPDT), and the PI gains it proposes by Skogestad's SIMC rules (S. Skogestad, "Simple analytic
+rules for model reduction and PID controller tuning", J. Process Control 13 (2003) 291-309: the half rule, and
+Eq. (34)-(35) for a PI controller).
 
 The pulse: ``power_w`` from ``on_s`` to ``off_s``, the thermocouple recorded from before ``on_s`` (its drift
-before the pulse is taken as linear and removed) until after ``off_s``. The FOPDT response to it is the
+before the pulse is taken as linear and removed) until after ``off_s``. The response to it is the
 difference of two step responses, fitted by least squares (scipy). Gain and time constant come from the rise
 and the fall; a short record determines their ratio (the initial slope) best, which is also what the gains
 depend on most for a lag-dominated plant.
@@ -44,8 +45,18 @@ def _baseline(times_s: np.ndarray, temps_c: np.ndarray, on_s: float) -> tuple[fl
     return float(temps_c[before][-1] if before.any() else temps_c[0]), 0.0
 
 
+def _two_lag_step(t_s: np.ndarray, tau1_s: float, tau2_s: float) -> np.ndarray:
+    """Unit step response of two first-order lags in series (tau2 < tau1), zero before t = 0."""
+    t = np.clip(t_s, 0.0, None)
+    return 1.0 - (tau1_s * np.exp(-t / tau1_s) - tau2_s * np.exp(-t / tau2_s)) / (tau1_s - tau2_s)
+
+
 def fit_pulse(times_s: np.ndarray, temps_c: np.ndarray, *, on_s: float, off_s: float, power_w: float) -> Fopdt:
-    """The FOPDT plant whose response to the pulse best fits the readings; EcdsLabError if it did not heat."""
+    """The plant whose response to the pulse best fits the readings, as a FOPDT; EcdsLabError if it did not heat.
+
+    The fit is of two lags and a dead time (a heater warming a body that warms the thermocouple: the shipped
+    coil's box and former), reduced to one lag by Skogestad's half rule (half the smaller lag goes to the time
+    constant, half to the dead time), which is what the SIMC rules take."""
     times_s, temps_c = np.asarray(times_s, float), np.asarray(temps_c, float)
     level, drift = _baseline(times_s, temps_c, on_s)
     after = times_s > on_s
@@ -59,21 +70,24 @@ def fit_pulse(times_s: np.ndarray, temps_c: np.ndarray, *, on_s: float, off_s: f
     slope = max(float(np.max(np.gradient(rise, t))), peak / max(float(t[-1]), 1.0))
 
     def response(p: np.ndarray) -> np.ndarray:
-        plant = Fopdt(math.exp(p[0]), math.exp(p[1]), p[2])
-        return power_w * (plant.step_rise_k(t) - plant.step_rise_k(t - length))
+        gain, tau1, ratio, lag = math.exp(p[0]), math.exp(p[1]), p[2], p[3]
+        tau2 = ratio * tau1
+        return power_w * gain * (_two_lag_step(t - lag, tau1, tau2) - _two_lag_step(t - lag - length, tau1, tau2))
 
-    tau0 = max(2.0 * float(t[-1]), 60.0)
-    k0 = slope * tau0 / power_w
-    lags = [0.0, 0.1 * length, 0.3 * length, 0.6 * length]
     best = None
-    for lag in lags:
-        start = np.array([math.log(k0), math.log(tau0), lag])
-        fit = least_squares(lambda p: response(p) - rise, start, method="trf",
-                            bounds=([-20.0, math.log(1.0), 0.0], [20.0, math.log(1e6), float(t[-1])]))
-        if best is None or fit.cost < best.cost:
-            best = fit
+    for tau0 in (max(float(t[-1]), 60.0), 4.0 * max(float(t[-1]), 60.0)):
+        for ratio in (0.01, 0.1, 0.3):
+            for lag in (0.0, 0.2 * length):
+                k0 = slope * tau0 / power_w
+                start = np.array([math.log(max(k0, 1e-6)), math.log(tau0), ratio, lag])
+                bounds = ([-20.0, math.log(1.0), 0.001, 0.0], [20.0, math.log(1e6), 0.9, float(t[-1])])
+                fit = least_squares(lambda p: response(p) - rise, start, method="trf", bounds=bounds)
+                if best is None or fit.cost < best.cost:
+                    best = fit
     assert best is not None
-    return Fopdt(math.exp(best.x[0]), math.exp(best.x[1]), float(best.x[2]))
+    gain, tau1, ratio, lag = math.exp(best.x[0]), math.exp(best.x[1]), float(best.x[2]), float(best.x[3])
+    tau2 = ratio * tau1
+    return Fopdt(gain, tau1 + 0.5 * tau2, lag + 0.5 * tau2)
 
 
 def simc_gains(plant: Fopdt, *, period_s: float, max_power_w: float) -> LoopGains:

@@ -19,14 +19,16 @@ def pulse_record(plant: Fopdt, power_w: float, on_s: float, off_s: float, end_s:
 
 
 @pytest.mark.parametrize("plant", [Fopdt(1.0, 600.0, 30.0), Fopdt(3.0, 120.0, 20.0), Fopdt(1.0, 3000.0, 60.0)])
-def test_the_fit_recovers_the_initial_slope_and_dead_time_of_a_pulse(plant):
+def test_the_fit_recovers_the_initial_slope_and_the_gains_of_a_pulse(plant):
     on, power = 40.0, 22.0
     off = on + plant.dead_time_s + 3.0 * plant.tau_s / (plant.gain_k_per_w * power)  # about a 3 K rise
     t, temps = pulse_record(plant, power, on, off, off + 2 * (off - on))
     fitted = fit_pulse(t, temps, on_s=on, off_s=off, power_w=power)
     slope, fitted_slope = plant.gain_k_per_w / plant.tau_s, fitted.gain_k_per_w / fitted.tau_s
     assert fitted_slope == pytest.approx(slope, rel=0.2)
-    assert fitted.dead_time_s == pytest.approx(plant.dead_time_s, abs=15.0)
+    proposed, ideal = (simc_gains(p, period_s=10.0, max_power_w=1000.0) for p in (fitted, plant))
+    assert proposed.kp_w_per_k == pytest.approx(ideal.kp_w_per_k, rel=0.35)
+    assert proposed.ti_s == pytest.approx(ideal.ti_s, rel=0.35)
 
 
 def test_a_heater_that_does_not_heat_its_thermocouple_is_named():
