@@ -93,12 +93,14 @@ class HeaterWiring(_Strict):
 
 
 class LoopGains(_Strict):
-    """PI gains of one heater's temperature loop: heater watts per kelvin below the setpoint, and the integral
-    time. The defaults suit plates and boxes of minutes' time constant and about 1 K/W; another plant should be
-    identified (``regulation.identify``) or given its own gains."""
+    """PI(D) gains of one heater's temperature loop: heater watts per kelvin below the setpoint, the integral
+    time and the derivative time. The defaults suit plates and boxes of minutes' time constant and about 1 K/W;
+    another plant should be identified (``regulation.identify``) or given its own gains."""
 
     kp_w_per_k: float = Field(3.0, gt=0, le=1000.0, allow_inf_nan=False)
     ti_s: float = Field(400.0, ge=1.0, le=100_000.0, allow_inf_nan=False)
+    td_s: float = Field(0.0, ge=0.0, le=100_000.0, allow_inf_nan=False,
+                        description="derivative time (on the measurement, filtered); 0: PI")
 
 
 class IdentificationConfig(_Strict):

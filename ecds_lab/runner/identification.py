@@ -83,10 +83,12 @@ def identify(run: RunContext, step: IdentifyPlant) -> None:
         heaters.plant_gain_k_per_w[heater] = plant.gain_k_per_w
     run.identified[heater] = {"step_w": power_w, "baseline_c": baseline_c, "peak_c": max(temps),
                               "gain_k_per_w": plant.gain_k_per_w, "tau_s": plant.tau_s,
-                              "dead_time_s": plant.dead_time_s, "kp_w_per_k": gains.kp_w_per_k, "ti_s": gains.ti_s}
+                              "lag_s": plant.lag_s, "dead_time_s": plant.dead_time_s, "kp_w_per_k": gains.kp_w_per_k,
+                              "ti_s": gains.ti_s, "td_s": gains.td_s}
     station_gains = getattr(run.station.config.regulation, heater)
-    note = (f"{heater} heater identified: {plant.gain_k_per_w:.3g} K/W, time constant {plant.tau_s:.0f} s, dead time "
-            f"{plant.dead_time_s:.0f} s -> PI gains Kp {gains.kp_w_per_k:.3g} W/K, Ti {gains.ti_s:.0f} s "
-            f"(station: Kp {station_gains.kp_w_per_k:g} W/K, Ti {station_gains.ti_s:g} s)")
+    note = (f"{heater} heater identified: {plant.gain_k_per_w:.3g} K/W, time constants {plant.tau_s:.0f} s and "
+            f"{plant.lag_s:.0f} s, dead time {plant.dead_time_s:.0f} s -> gains Kp {gains.kp_w_per_k:.3g} W/K, "
+            f"Ti {gains.ti_s:.0f} s, Td {gains.td_s:.0f} s (station: Kp {station_gains.kp_w_per_k:g} W/K, "
+            f"Ti {station_gains.ti_s:g} s, Td {station_gains.td_s:g} s)")
     log.info("%s", note)
     run.notes.append(note)

@@ -1,7 +1,7 @@
-"""A heater plant identified from a small power pulse: a fit of two lags and a dead time, reduced to first order
-plus dead time (FOPDT), and the PI gains it proposes by Skogestad's SIMC rules (S. Skogestad, "Simple analytic
-rules for model reduction and PID controller tuning", J. Process Control 13 (2003) 291-309: the half rule, and
-Eq. (34)-(35) for a PI controller).
+"""A heater plant identified from a small power pulse: a fit of two lags and a dead time, and the PI(D) gains it
+proposes by Skogestad's SIMC rules (S. Skogestad, "Simple analytic
+rules for model reduction and PID controller tuning", J. Process Control 13 (2003) 291-309: the half rule,
+Eq. (34)-(35) for a PI controller, Eq. (36)-(38) for a PID on a plant of two lags).
 
 The pulse: ``power_w`` from ``on_s`` to ``off_s``, the thermocouple recorded from before ``on_s`` (its drift
 before the pulse is taken as linear and removed) until after ``off_s``. The response to it is the
@@ -23,17 +23,21 @@ from ecds_lab.errors import EcdsLabError
 
 
 @dataclass(frozen=True)
-class Fopdt:
-    """A first-order-plus-dead-time plant: steady rise per heater watt, time constant, dead time."""
+class HeaterPlant:
+    """A heater plant: steady rise per heater watt, its time constant, a second smaller lag (0: first order) and a
+    dead time."""
 
     gain_k_per_w: float
     tau_s: float
     dead_time_s: float
+    lag_s: float = 0.0
 
     def step_rise_k(self, t_s: np.ndarray) -> np.ndarray:
         """Rise after a 1 W step at t = 0 (K)."""
-        late = np.clip(t_s - self.dead_time_s, 0.0, None)
-        return self.gain_k_per_w * (1.0 - np.exp(-late / self.tau_s))
+        late = np.asarray(t_s, float) - self.dead_time_s
+        if self.lag_s <= 0.0:
+            return self.gain_k_per_w * (1.0 - np.exp(-np.clip(late, 0.0, None) / self.tau_s))
+        return self.gain_k_per_w * _two_lag_step(late, self.tau_s, self.lag_s)
 
 
 def _baseline(times_s: np.ndarray, temps_c: np.ndarray, on_s: float) -> tuple[float, float]:
@@ -51,12 +55,10 @@ def _two_lag_step(t_s: np.ndarray, tau1_s: float, tau2_s: float) -> np.ndarray:
     return 1.0 - (tau1_s * np.exp(-t / tau1_s) - tau2_s * np.exp(-t / tau2_s)) / (tau1_s - tau2_s)
 
 
-def fit_pulse(times_s: np.ndarray, temps_c: np.ndarray, *, on_s: float, off_s: float, power_w: float) -> Fopdt:
-    """The plant whose response to the pulse best fits the readings, as a FOPDT; EcdsLabError if it did not heat.
-
-    The fit is of two lags and a dead time (a heater warming a body that warms the thermocouple: the shipped
-    coil's box and former), reduced to one lag by Skogestad's half rule (half the smaller lag goes to the time
-    constant, half to the dead time), which is what the SIMC rules take."""
+def fit_pulse(times_s: np.ndarray, temps_c: np.ndarray, *, on_s: float, off_s: float,
+              power_w: float) -> HeaterPlant:
+    """The plant of two lags and a dead time (a heater warming a body that warms the thermocouple: the shipped
+    coil's box and former) whose response to the pulse best fits the readings; EcdsLabError if it did not heat."""
     times_s, temps_c = np.asarray(times_s, float), np.asarray(temps_c, float)
     level, drift = _baseline(times_s, temps_c, on_s)
     after = times_s > on_s
@@ -86,17 +88,25 @@ def fit_pulse(times_s: np.ndarray, temps_c: np.ndarray, *, on_s: float, off_s: f
                     best = fit
     assert best is not None
     gain, tau1, ratio, lag = math.exp(best.x[0]), math.exp(best.x[1]), float(best.x[2]), float(best.x[3])
-    tau2 = ratio * tau1
-    return Fopdt(gain, tau1 + 0.5 * tau2, lag + 0.5 * tau2)
+    return HeaterPlant(gain, tau1, lag, ratio * tau1)
 
 
-def simc_gains(plant: Fopdt, *, period_s: float, max_power_w: float) -> LoopGains:
-    """PI gains for the plant by SIMC: effective dead time theta = its dead time plus half the control period,
-    closed-loop time constant tc = 2 theta (at least one period; SIMC's "tight" tc = theta overshot on the
-    simulated coil, whose two lags a FOPDT only approximates), Kc = tau / (K (tc + theta)),
-    Ti = min(tau, 4 (tc + theta)). Kc is kept where one kelvin of error asks at most the heater's full power."""
-    theta = plant.dead_time_s + 0.5 * period_s
-    tc = max(2.0 * theta, period_s)
-    kp = plant.tau_s / (plant.gain_k_per_w * (tc + theta))
-    ti = min(plant.tau_s, 4.0 * (tc + theta))
-    return LoopGains(kp_w_per_k=min(kp, max_power_w, 1000.0), ti_s=min(max(ti, 1.0), 100_000.0))
+def simc_gains(plant: HeaterPlant, *, period_s: float, max_power_w: float) -> LoopGains:
+    """Gains for the plant by SIMC, with effective dead time theta = its dead time plus half the control period and
+    closed-loop time constant tc = 2 theta (at least one period; SIMC's "tight" tc = theta overshot on the simulated
+    coil): Kc = tau / (K (tc + theta)), Ti = min(tau, 4 (tc + theta)). A second lag longer than theta is cancelled by
+    a derivative, Td = that lag (SIMC's PID, Eq. (36)-(38), converted from its series form to the loop's parallel
+    one); a shorter one is folded into tau and theta by the half rule (PI). Kc is kept where one kelvin of error
+    asks at most the heater's full power."""
+    theta = plant.dead_time_s + period_s
+    tau, td = plant.tau_s, 0.0
+    if plant.lag_s > theta:
+        td = plant.lag_s
+    else:
+        tau, theta = tau + 0.5 * plant.lag_s, theta + 0.5 * plant.lag_s
+    tc = max(2.0 * theta, 3.0 * period_s)
+    kc = tau / (plant.gain_k_per_w * (tc + theta))
+    ti = min(tau, 4.0 * (tc + theta))
+    kp, ti_parallel, td_parallel = kc * (1.0 + td / ti), ti + td, ti * td / (ti + td)
+    return LoopGains(kp_w_per_k=min(kp, max_power_w, 1000.0), ti_s=min(max(ti_parallel, 1.0), 100_000.0),
+                     td_s=min(td_parallel, 100_000.0))
