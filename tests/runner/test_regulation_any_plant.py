@@ -6,10 +6,12 @@ from __future__ import annotations
 
 import itertools
 import json
+from pathlib import Path
 
 import h5py
 import pytest
 
+from ecds_lab.cli import main
 from ecds_lab.config.experiment import EXPERIMENT_ADAPTER
 from ecds_lab.config.station import RegulationConfig, SimulationConfig, StationConfig
 from ecds_lab.data.columns import PLANNED_POINT
@@ -140,3 +142,21 @@ def test_the_run_file_records_each_hold_with_units(tmp_path, experiments_dir):
     assert units["drift_k"] == "K" and units["t_min_c"] == "degC"
     assert all(hold["samples"] > 3 and abs(hold["drift_k"]) <= hold["t_max_c"] - hold["t_min_c"] + 1e-12
                for hold in holds)
+
+
+def test_a_new_station_identifies_its_heater_in_the_dry_run_the_run_file_and_the_cli(tmp_path, yaml_copy, capsys):
+    """A station that leaves identification on (as any new station does) shows the step in --dry-run, and the run
+    prints and records the identified plant and gains."""
+    station_path = yaml_copy("stations/simulated_lab.yaml", lambda d: d.pop("regulation"), name="new_lab.yaml")
+    experiment_path = Path(__file__).parents[1] / "data" / "sessions" / "heating.yaml"
+    assert main(["run", str(experiment_path), "--station", str(station_path), "--dry-run"]) == 0
+    plan_text = capsys.readouterr().out
+    assert "identify the target heater" in plan_text and "1 IdentifyPlant" in plan_text
+    out = tmp_path / "run.h5"
+    assert main(["run", str(experiment_path), "--station", str(station_path), "-o", str(out), "-q"]) == 0
+    printed = capsys.readouterr().out
+    assert "target heater identified:" in printed and "Kp" in printed
+    with h5py.File(out, "r") as f:
+        identified = json.loads(f["entry"].attrs["heater_identification"])
+    assert set(identified) == {"target"} and identified["target"]["kp_w_per_k"] > 0
+    assert identified["target"]["peak_c"] < 140.0
