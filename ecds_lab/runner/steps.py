@@ -198,7 +198,7 @@ class IdentifyPlant(HeaterStep):
     def describe(self) -> str:
         return (f"identify the {self.heater} heater: {self.step_fraction:.0%} of its power until it rises "
                 f"{self.rise_k:g} K (stopping {self.margin_k:g} K below its over-temperature limit), then off until "
-                f"it turns; the response proposes its PI gains (checked every {self.check_interval_s:g} s, give up "
+                f"it turns; the response proposes its PID gains (checked every {self.check_interval_s:g} s, give up "
                 f"after {self.timeout_s:g} s)")
 
 
