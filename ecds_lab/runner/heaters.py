@@ -50,10 +50,9 @@ class Heaters:
     def set_goal(self, heater: str, goal: HeaterGoal, temperatures: Callable[[], dict[str, float]]) -> None:
         """Adopt a new goal with a fresh PI loop; off disables the output, otherwise it is set and enabled.
 
-        ``temperatures`` (the thermocouples by name) is asked only when the goal is a setpoint. A setpoint's loop
-        starts from the power expected to hold it (:meth:`holding_power_w`), so it need not integrate up to it.
+        ``temperatures`` (the thermocouples by name) is asked only when the goal is a setpoint. An identified
+        heater's loop starts from the power expected to hold the setpoint (:meth:`holding_power_w`).
         """
-        previous_goal, previous_loop = self.goals[heater], self.loops[heater]
         self.goals[heater] = goal
         self.loops[heater] = PowerLoop(self.max_power_w[heater], self.gains[heater])
         self._controlled_at[heater] = self.clock.now()
@@ -67,26 +66,19 @@ class Heaters:
             assert goal.setpoint_c is not None
             measured = temperatures()
             loop = self.loops[heater]
-            loop.integral_w = self.holding_power_w(heater, goal.setpoint_c, measured.get("ambient", math.nan),
-                                                   previous_goal.setpoint_c, previous_loop.integral_w)
+            loop.integral_w = self.holding_power_w(heater, goal.setpoint_c, measured.get("ambient", math.nan))
             power = loop.update(goal.setpoint_c, measured[heater], 0.0)
         self.apply_power(heater, power)
         self.supply.enable(output, True)
 
-    def holding_power_w(self, heater: str, setpoint_c: float, ambient_c: float, previous_setpoint_c: float | None,
-                        previous_integral_w: float) -> float:
-        """The power expected to hold ``setpoint_c`` (0 when nothing is known): the previous setpoint's settled
-        loop output scaled by the rise over ambient (a heated plant loses heat in proportion to its rise), else the
-        identified plant's rise per watt; within [0, max]."""
-        if not math.isfinite(ambient_c) or setpoint_c <= ambient_c:
+    def holding_power_w(self, heater: str, setpoint_c: float, ambient_c: float) -> float:
+        """The power expected to hold ``setpoint_c``, from the identified plant's rise per watt over the ambient
+        thermocouple (a feed-forward the loop starts from); 0 when the plant was not identified, so the loop
+        integrates up to it as with the station's fixed gains. Within [0, max]."""
+        gain = self.plant_gain_k_per_w.get(heater)
+        if gain is None or not math.isfinite(ambient_c) or setpoint_c <= ambient_c:
             return 0.0
-        if previous_setpoint_c is not None and previous_setpoint_c - ambient_c > 1.0 and previous_integral_w > 0:
-            power = previous_integral_w * (setpoint_c - ambient_c) / (previous_setpoint_c - ambient_c)
-        elif self.plant_gain_k_per_w.get(heater, math.inf) < math.inf:
-            power = (setpoint_c - ambient_c) / self.plant_gain_k_per_w[heater]
-        else:
-            return 0.0
-        return min(max(power, 0.0), self.max_power_w[heater])
+        return min(max((setpoint_c - ambient_c) / gain, 0.0), self.max_power_w[heater])
 
     def apply_power(self, heater: str, power_w: float) -> None:
         volts = volts_for_power(min(power_w, self.max_power_w[heater]), self.heater_ohm[heater],

@@ -164,10 +164,10 @@ def test_a_new_station_identifies_its_heater_in_the_dry_run_the_run_file_and_the
 
 def test_a_hotter_faster_plant_trips_the_interlock_with_fixed_gains_and_holds_once_identified(rows_in_memory):
     """The issue's other failure: fixed gains drove an unknown plant into the over-temperature interlock. A target
-    of 3 K/W (three times the shipped lab's) with 5x faster time constants, heated to 130 C: the shipped gains
-    overshoot past the 140 C limit; identified gains hold every setpoint."""
+    of 5 K/W (five times the shipped lab's) with 5x faster time constants, heated to 130 C: the station's fixed
+    gains overshoot past the 140 C limit (before this branch too: 140.9 C); identified gains hold every setpoint."""
     setpoints = [45.0, 90.0, 130.0]
-    thermal = Thermal(**{name: tau * 0.2 for name, tau in TODAY.items()}, target_k_per_w=3.0)
+    thermal = Thermal(**{name: tau * 0.2 for name, tau in TODAY.items()}, target_k_per_w=5.0)
     spec = experiment("target")
     spec["heating"]["setpoints_c"] = setpoints
     results = {}
