@@ -34,7 +34,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     if result.error:
         print(f"error: {result.error}", file=sys.stderr)
     for note in result.notes:
-        print(f"note: {note}", file=sys.stderr)
+        print(note if note.startswith("WARNING") else f"note: {note}", file=sys.stderr)
     if args.watch:
         _keep_watching()
     return _run_exit_code(result.status, result.stopped_by)

@@ -109,6 +109,37 @@ class ThermalConfig(_Strict):
     coil: HeatedPart = HeatedPart()
     target: HeatedPart = HeatedPart(cooling_time_constant_s=600.0)
     ambient_c: float = Field(22.0, ge=-40.0, le=60.0, description="the lab's temperature, where parts cool to")
+class LoopGains(_Strict):
+    """PI(D) gains of one heater's temperature loop: heater watts per kelvin below the setpoint, the integral
+    time and the derivative time. The defaults suit plates and boxes of minutes' time constant and about 1 K/W;
+    another plant should be identified (``regulation.identify``) or given its own gains."""
+
+    kp_w_per_k: float = Field(3.0, gt=0, le=1000.0, allow_inf_nan=False)
+    ti_s: float = Field(400.0, ge=1.0, le=100_000.0, allow_inf_nan=False)
+    td_s: float = Field(0.0, ge=0.0, le=100_000.0, allow_inf_nan=False,
+                        description="derivative time (on the measurement, filtered); 0: PI")
+
+
+class IdentificationConfig(_Strict):
+    """A small heater step before the first setpoint, whose response proposes the loop's gains (docs/safety.md)."""
+
+    enabled: bool = Field(True, description="identify each closed-loop heater before its first setpoint")
+    step_fraction: float = Field(0.2, gt=0, le=0.5, allow_inf_nan=False,
+                                 description="the step's power as a fraction of the heater's maximum power")
+    rise_k: float = Field(3.0, ge=0.5, le=20.0, allow_inf_nan=False,
+                          description="the step ends once the thermocouple has risen this much")
+    timeout_s: float = Field(4 * 3600.0, ge=60.0, le=86400.0, allow_inf_nan=False,
+                             description="give up (run failed) if the plant has not answered by then")
+    margin_k: float = Field(10.0, ge=0.0, le=100.0, allow_inf_nan=False,
+                            description="the step ends this far below the heater's over-temperature limit")
+
+
+class RegulationConfig(_Strict):
+    """How the heaters are regulated: PI gains per heater, and whether a step response proposes them."""
+
+    target: LoopGains = LoopGains()
+    coil: LoopGains = LoopGains()
+    identify: IdentificationConfig = IdentificationConfig()
 
 
 class SimulationConfig(_Strict):
@@ -131,6 +162,8 @@ class StationConfig(_Strict):
     heaters: HeaterWiring = HeaterWiring()
     safety: SafetyConfig = SafetyConfig()
     thermal: ThermalConfig = ThermalConfig()
+    regulation: RegulationConfig = Field(RegulationConfig(), description="the heaters' PI gains and their "
+                                         "identification by a step response before the first setpoint")
     sensor: SensorConfig | None = Field(None, description="the sensor on the slide, recorded in every run file: a "
                                         "shipped name (steel_target), a sensor YAML path, or the description inline; "
                                         "a simulated station without one uses its simulated lab's sensor")

@@ -9,6 +9,8 @@ handlers        one function per step class, registered in a table
 context         what handlers work with: station, run file, tracked slide/heater/thermocouple state
 regulation      waiting on a heater (control, bridge logging, timeout)
 heaters         the supply driven towards each heater's goal; heater_control: the PI loop
+identification  the IdentifyPlant step: a small heater pulse whose response proposes the loop's gains;
+                plant_identification: the FOPDT fit and SIMC gains; temperature_hold: a hold's drift and verdict
 interlocks      thermocouple readings under over-temperature and lost-thermocouple interlocks
 slide_position  where the slide was put; rows: one run-file row; progress: the operator's bar
 safe_state      heater off, slide stopped, no Ctrl-C meanwhile

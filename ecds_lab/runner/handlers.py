@@ -6,6 +6,7 @@ decorated with ``@handles(ThatStep)``.
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable
 from typing import Any, TypeVar
 
@@ -14,19 +15,25 @@ from ecds_lab.errors import EcdsLabError
 from ecds_lab.instruments.interfaces import BridgeSettings
 from ecds_lab.runner.context import RunContext
 from ecds_lab.runner.heater_control import HeaterGoal
+from ecds_lab.runner.identification import identify
 from ecds_lab.runner.regulation import regulate
 from ecds_lab.runner.steady_state import SteadinessWindow
 from ecds_lab.runner.steps import (
+    CheckHold,
     ConfigureBridge,
     ConfigureScanner,
     CoolDown,
     Home,
+    IdentifyPlant,
     MeasurePoint,
     Park,
     PlanStep,
     SetHeater,
     WaitSteady,
 )
+from ecds_lab.runner.temperature_hold import HoldTracker
+
+log = logging.getLogger("ecds_lab.runner")
 
 S = TypeVar("S", bound=PlanStep)
 Handler = Callable[[RunContext, Any], None]
@@ -72,14 +79,19 @@ def home(run: RunContext, step: Home) -> None:
 
 @handles(Park)
 def park(run: RunContext, step: Park) -> None:
+    run.tend_heaters()
     run.position.move_to(step.x_mm)
+    run.tend_heaters()
 
 
 @handles(MeasurePoint)
 def measure_point(run: RunContext, step: MeasurePoint) -> None:
-    """Move and settle if the point is elsewhere, then record it."""
+    """Move and settle if the point is elsewhere, then record it; a heater holding a setpoint is regulated
+    before and after the move, through the settling and between readings."""
+    run.tend_heaters()
     if step.x_mm is not None and run.position.move_to(step.x_mm):
-        run.clock.sleep(step.settle_s)
+        run.tend_heaters()
+        run.sleep(step.settle_s)
     run.record(step.freq_hz, PLANNED_POINT, step)
     run.progress.point_measured()
 
@@ -87,7 +99,7 @@ def measure_point(run: RunContext, step: MeasurePoint) -> None:
 @handles(SetHeater)
 def set_heater(run: RunContext, step: SetHeater) -> None:
     run.heaters.set_goal(step.heater, HeaterGoal(step.setpoint_c, step.power_w),
-                         measured_c=lambda: run.thermocouples.read(fresh=True)[step.heater])
+                         temperatures=lambda: run.thermocouples.read(fresh=True))
 
 
 @handles(WaitSteady)
@@ -99,8 +111,31 @@ def wait_steady(run: RunContext, step: WaitSteady) -> None:
         run.progress.note(f"{step.heater} {value:.1f} C -> {step.setpoint_c:g} C")
         return window.add(now, value)
 
+    run.heaters.period_s = step.steady.check_interval_s
     regulate(run, step.heater, check_interval_s=step.steady.check_interval_s, timeout_s=step.steady.timeout_s,
              bridge_log=step.log, finished=steady, failure=f"not steady at {step.setpoint_c:g} C")
+    tracker = HoldTracker(step.heater, step.setpoint_c, step.steady.tolerance_k)
+    tracker.observe(run.clock.now() - run.t0, run.thermocouples.latest)
+    run.holding[step.heater] = tracker
+
+
+@handles(IdentifyPlant)
+def identify_plant(run: RunContext, step: IdentifyPlant) -> None:
+    identify(run, step)
+
+
+@handles(CheckHold)
+def check_hold(run: RunContext, step: CheckHold) -> None:
+    """Close the heater's hold at this setpoint (if one is open: a resumed run may have none) and judge it."""
+    tracker = run.holding.get(step.heater)
+    if tracker is None or tracker.setpoint_c != step.setpoint_c:
+        return
+    del run.holding[step.heater]
+    record = tracker.close()
+    run.holds.append(record)
+    log.info("%s", record.describe())
+    if not record.within_tolerance:
+        run.notes.append(f"WARNING: {record.describe()}; the readings are kept, each with its measured temperatures")
 
 
 @handles(CoolDown)

@@ -18,15 +18,17 @@ from ecds_lab.config.experiment import (
     TargetHeating,
 )
 from ecds_lab.config.experiment import SteadyState as SteadyStateConfig
-from ecds_lab.config.station import ThermalConfig
+from ecds_lab.config.station import RegulationConfig, ThermalConfig
 from ecds_lab.runner.steady_state import SteadyState
 from ecds_lab.runner.steps import (
     BridgeLog,
+    CheckHold,
     ConfigureBridge,
     ConfigureScanner,
     CoolDown,
     Heater,
     Home,
+    IdentifyPlant,
     MeasurePoint,
     Park,
     PlanStep,
@@ -74,10 +76,12 @@ def _bridge_log(heating: HeatingConfig, default_frequencies_hz: list[float]) -> 
 class _Builder:
     """Accumulates steps and numbers the measured points."""
 
-    def __init__(self) -> None:
+    def __init__(self, regulation: RegulationConfig | None) -> None:
         self.steps: list[PlanStep] = []
         self.next_point = 0
         self.next_sweep = 0
+        self.identify = regulation.identify if regulation is not None and regulation.identify.enabled else None
+        self.identified: set[Heater] = set()
 
     def add(self, step: PlanStep) -> None:
         self.steps.append(step)
@@ -107,11 +111,25 @@ class _Builder:
             for reading in range(readings):
                 self.point(x_mm=None, freq_hz=f, reading=reading, label=label, in_air=in_air)
 
+    def to_setpoint(self, heater: Heater, setpoint_c: float, steady: SteadyStateConfig) -> None:
+        """The heater to a closed-loop setpoint, identified first if the station asks and it is the first."""
+        if self.identify is not None and heater not in self.identified:
+            i = self.identify
+            self.add(IdentifyPlant(heater, i.step_fraction, i.rise_k, i.margin_k, steady.interval_s, i.timeout_s))
+            self.identified.add(heater)
+        self.add(SetHeater(heater, setpoint_c=setpoint_c))
+
     def heat(self, heater: Heater, heating: HeatingConfig, index: int, default_log: list[float]) -> None:
         setpoint = heating.setpoints_c[index]
         power = heating.powers_w[index] if heating.control == "power" and heating.powers_w else None
-        self.add(SetHeater(heater, setpoint_c=None if power is not None else setpoint, power_w=power))
+        if power is None:
+            self.to_setpoint(heater, setpoint, heating.steady)
+        else:
+            self.add(SetHeater(heater, power_w=power))
         self.add(WaitSteady(heater, setpoint, steady_state(heating.steady), _bridge_log(heating, default_log)))
+
+    def check_hold(self, heater: Heater, setpoint_c: float, steady: SteadyStateConfig) -> None:
+        self.add(CheckHold(heater, setpoint_c, steady.tolerance_k))
 
     def cool(self, heater: Heater, heating: HeatingConfig, default_log: list[float]) -> None:
         self.add(SetHeater(heater))
@@ -122,9 +140,11 @@ class _Builder:
 
 
 def build_plan(experiment: DisplacementSweep | CoilHeating | TargetHeating | Spectroscopy,
-               thermal: ThermalConfig | None = None) -> Plan:
-    """Turn a validated experiment into its plan; ``thermal``: the station's figures for its time estimate."""
-    b = _Builder()
+               thermal: ThermalConfig | None = None, regulation: RegulationConfig | None = None) -> Plan:
+    """Turn a validated experiment into its plan; ``thermal``: the station's figures for its time estimate; with
+    the station's ``regulation`` whose identification is enabled, each closed-loop heater is identified before
+    its first setpoint."""
+    b = _Builder(regulation)
     b.add(ConfigureBridge(experiment.bridge))
     b.add(ConfigureScanner())
     if experiment.home_first:
@@ -138,26 +158,31 @@ def build_plan(experiment: DisplacementSweep | CoilHeating | TargetHeating | Spe
             b.heat("coil", experiment.heating, i, experiment.frequencies_hz)
             if experiment.sweep is not None:
                 b.sweep(experiment.sweep, label=f"coil {setpoint:g} C")
+                b.check_hold("coil", setpoint, experiment.heating.steady)
                 if experiment.park_mm is not None:
                     b.add(Park(experiment.park_mm))
             else:
                 b.readings_in_place(experiment.frequencies_hz, experiment.readings, f"coil {setpoint:g} C",
                                     experiment.coil_in_air)
+                b.check_hold("coil", setpoint, experiment.heating.steady)
         b.cool("coil", experiment.heating, experiment.frequencies_hz)
     elif isinstance(experiment, TargetHeating):
         for i, setpoint in enumerate(experiment.heating.setpoints_c):
             b.heat("target", experiment.heating, i, experiment.sweep.frequencies_hz)
             b.sweep(experiment.sweep, label=f"target {setpoint:g} C")
+            b.check_hold("target", setpoint, experiment.heating.steady)
         b.cool("target", experiment.heating, experiment.sweep.frequencies_hz)
     elif isinstance(experiment, Spectroscopy):
         if experiment.park_mm is not None:
             b.add(Park(experiment.park_mm))
         for temperature in [None, *(experiment.coil_temperatures_c or [])]:
             if temperature is not None:
-                b.add(SetHeater("coil", setpoint_c=temperature))
+                b.to_setpoint("coil", temperature, experiment.heating)
                 b.add(WaitSteady("coil", temperature, steady_state(experiment.heating)))
             label = "ambient" if temperature is None else f"coil {temperature:g} C"
             b.readings_in_place(experiment.frequencies_hz, 1, label, experiment.coil_in_air)
+            if temperature is not None:
+                b.check_hold("coil", temperature, experiment.heating)
         if experiment.coil_temperatures_c:
             b.add(SetHeater("coil"))
     return Plan(experiment.name, experiment.kind, tuple(b.steps), thermal or ThermalConfig())

@@ -24,6 +24,7 @@ from ecds_lab.runner.steps import (
     ConfigureBridge,
     CoolDown,
     Home,
+    IdentifyPlant,
     MeasurePoint,
     Park,
     SetHeater,
@@ -79,6 +80,11 @@ def estimate_plan(plan: Plan) -> list[StepEstimate]:
             seconds = heating_wait_s(step.steady, step.setpoint_c - temperature[step.heater], part)
             temperature[step.heater] = step.setpoint_c
             out.append(StepEstimate(seconds, _logged_rows(step, seconds, reading_s), "heat"))
+        elif isinstance(step, IdentifyPlant):  # baseline, the pulse to +rise_k, the record until it turns
+            part = getattr(thermal, step.heater)
+            seconds = 4 * step.check_interval_s + part.settling_time_constant_s
+            temperature[step.heater] += step.rise_k
+            out.append(StepEstimate(seconds, 0, "heat"))
         elif isinstance(step, CoolDown):
             seconds = cooling_s(temperature[step.heater], step.below_c, thermal.ambient_c,
                                 getattr(thermal, step.heater), step.timeout_s)

@@ -22,7 +22,8 @@ def regulate(run: RunContext, heater: str, *, check_interval_s: float, timeout_s
     while True:
         now = run.clock.now()
         temperatures = run.thermocouples.read(fresh=True)
-        run.heaters.control(check_interval_s, temperatures)
+        run.heaters.control(temperatures)
+        run.observe_holds(temperatures)
         done = finished(now, temperatures)
         if bridge_log is not None and now - last_log >= bridge_log.interval_s:
             run.log_readings(bridge_log.frequencies_hz)

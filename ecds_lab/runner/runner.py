@@ -40,6 +40,8 @@ class Runner:
         self.progress = progress
         #: The signal that stopped the run (SIGINT for Ctrl-C), or None.
         self.stopped_by: int | None = None
+        #: What the run tracked besides its rows (holds, identified gains, notes), once it ran.
+        self.context: RunContext | None = None
 
     def run(self) -> tuple[str, str]:
         """Execute every step; returns (status, error message). The lab is left safe whatever happens."""
@@ -48,6 +50,7 @@ class Runner:
         context = RunContext(self.station, self.writer, progress, t0=self.t0,
                              heats=any(isinstance(s, SetHeater) for s in plan.steps),
                              coil_in_air=bool(plan.points) and all(p.in_air for p in plan.points))
+        self.context = context
         status, error = "completed", ""
         try:
             with _startup_objects_frozen():

@@ -26,10 +26,12 @@ from ecds_lab.config.station import StationConfig
 from ecds_lab.data.columns import INDEX
 from ecds_lab.data.run_metadata import LINK_NOTES_ATTRIBUTE, SENSOR_ATTRIBUTE, sensor_attribute
 from ecds_lab.errors import ConfigError, RunFileError
+from ecds_lab.runner.context import RunContext
 from ecds_lab.runner.plan import Plan, build_plan
 from ecds_lab.runner.runner import Runner
 from ecds_lab.runner.safe_state import ctrl_c_deferred, stop_signals_raise
 from ecds_lab.runner.steps import CoolDown, WaitSteady
+from ecds_lab.runner.temperature_hold import HOLD_UNITS
 from ecds_lab.station import open_station
 from ecds_lab.storage.reader import RunFile, read_run
 from ecds_lab.storage.run_file import RunWriter, metadata_for
@@ -47,7 +49,8 @@ class RunResult:
     wall_s: float
     #: The signal that stopped the run (SIGINT for Ctrl-C, SIGTERM, SIGHUP), or None.
     stopped_by: int | None = None
-    #: What the operator should know beyond the status: one line per link that discarded stale lines.
+    #: What the operator should know beyond the status: links that discarded stale lines, identified heater
+    #: gains, holds out of tolerance (each also in the run file).
     notes: list[str] = field(default_factory=list)
     #: Readings the plan schedules one by one (its MeasurePoint steps)
     planned: int = 0
@@ -79,7 +82,8 @@ def prepare(experiment_path: Path, station_path: Path | None) -> tuple[object, s
     station_text = read_text(station_path)
     station = validate(str(station_path), parse_yaml(station_text, str(station_path)), StationConfig)
     check_experiment_fits_station(experiment, station, str(experiment_path), str(station_path))
-    return experiment, experiment_text, station, station_text, build_plan(experiment, station.thermal)
+    return experiment, experiment_text, station, station_text, build_plan(experiment, station.thermal,
+                                                                           station.regulation)
 
 
 def default_output(experiment_path: Path, resume: Path | None) -> Path:
@@ -139,7 +143,10 @@ def _run_experiment(experiment_path: Path, station_path: Path | None, output: Pa
         status, error = runner.run()
         notes = link_notes(station.transports.values())
         with ctrl_c_deferred():
-            writer.close(status, error, {LINK_NOTES_ATTRIBUTE: json.dumps(notes)} if notes else None)
+            writer.close(status, error, {**({LINK_NOTES_ATTRIBUTE: json.dumps(notes)} if notes else {}),
+                                         **regulation_attributes(runner.context)})
+        if runner.context is not None:
+            notes += runner.context.notes
     finally:
         station.close()
     result = RunResult(output, status, error, writer.rows, time.monotonic() - started, runner.stopped_by, notes,
@@ -156,6 +163,17 @@ def link_notes(transports: Iterable[Transport]) -> list[str]:
     for note in notes:
         log.warning("%s", note)
     return notes
+
+
+def regulation_attributes(context: RunContext | None) -> dict[str, str]:
+    """The run file's record of the heater regulation (JSON attributes of /entry): each hold at a setpoint with
+    its drift and verdict (``temperature_holds``, units in ``temperature_holds_units``) and each identified
+    heater's plant and gains (``heater_identification``)."""
+    if context is None or not (context.holds or context.identified):
+        return {}
+    return {"temperature_holds": json.dumps([hold.as_dict() for hold in context.holds]),
+            "temperature_holds_units": json.dumps(HOLD_UNITS),
+            "heater_identification": json.dumps(context.identified)}
 
 
 def check_same_station(previous: RunFile, config: StationConfig, identities: dict[str, str] | None,

@@ -183,3 +183,34 @@ class CoolDown(HeaterStep):
 
     def describe(self) -> str:
         return f"cool down: {self.heater} heater off, wait until below {self.below_c:g} C; {_logging(self.log)}"
+
+
+@dataclass(frozen=True)
+class IdentifyPlant(HeaterStep):
+    """A small power step of one heater, before its first setpoint: the response proposes its loop's gains
+    (:mod:`ecds_lab.runner.identification`). The heater is off again at the end."""
+
+    step_fraction: float
+    rise_k: float
+    margin_k: float
+    check_interval_s: float
+    timeout_s: float
+
+    def describe(self) -> str:
+        return (f"identify the {self.heater} heater: {self.step_fraction:.0%} of its power until it rises "
+                f"{self.rise_k:g} K (stopping {self.margin_k:g} K below its over-temperature limit), then off until "
+                f"it turns; the response proposes its PID gains (checked every {self.check_interval_s:g} s, give up "
+                f"after {self.timeout_s:g} s)")
+
+
+@dataclass(frozen=True)
+class CheckHold(HeaterStep):
+    """Close the record of how the heater held its setpoint since it was steady: range and drift of its
+    thermocouple, judged against ``tolerance_k`` (out of tolerance: a warning and a note in the run file)."""
+
+    setpoint_c: float
+    tolerance_k: float
+
+    def describe(self) -> str:
+        return (f"check that {self.heater} stayed within {self.tolerance_k:g} K of {self.setpoint_c:g} C "
+                "while the readings were taken (drift recorded)")
