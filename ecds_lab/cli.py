@@ -33,8 +33,10 @@ def _cmd_run(args: argparse.Namespace) -> int:
     print(f"{result.status}: {result.points} rows in {result.path} ({result.wall_s:.1f} s); {result.rows_are()}")
     if result.error:
         print(f"error: {result.error}", file=sys.stderr)
+    for note in result.heater_notes:
+        print(note, file=sys.stderr if note.startswith("WARNING") else sys.stdout)
     for note in result.notes:
-        print(note if note.startswith("WARNING") else f"note: {note}", file=sys.stderr)
+        print(f"note: {note}", file=sys.stderr)
     if args.watch:
         _keep_watching()
     return _run_exit_code(result.status, result.stopped_by)

@@ -49,9 +49,10 @@ class RunResult:
     wall_s: float
     #: The signal that stopped the run (SIGINT for Ctrl-C, SIGTERM, SIGHUP), or None.
     stopped_by: int | None = None
-    #: What the operator should know beyond the status: links that discarded stale lines, identified heater
-    #: gains, holds out of tolerance (each also in the run file).
+    #: What the operator should know beyond the status: one line per link that discarded stale lines.
     notes: list[str] = field(default_factory=list)
+    #: The heater regulation's lines: identified heater gains, holds out of tolerance (also in the run file).
+    heater_notes: tuple[str, ...] = ()
     #: Readings the plan schedules one by one (its MeasurePoint steps)
     planned: int = 0
     #: Whether the plan waits on heaters, logging readings meanwhile
@@ -145,12 +146,10 @@ def _run_experiment(experiment_path: Path, station_path: Path | None, output: Pa
         with ctrl_c_deferred():
             writer.close(status, error, {**({LINK_NOTES_ATTRIBUTE: json.dumps(notes)} if notes else {}),
                                          **regulation_attributes(runner.context)})
-        if runner.context is not None:
-            notes += runner.context.notes
     finally:
         station.close()
     result = RunResult(output, status, error, writer.rows, time.monotonic() - started, runner.stopped_by, notes,
-                       planned=len(plan.points), logs_while_heating=any(
+                       tuple(runner.context.notes) if runner.context is not None else (), planned=len(plan.points), logs_while_heating=any(
                            isinstance(step, WaitSteady | CoolDown) and step.log is not None
                            and bool(step.log.frequencies_hz) for step in plan.steps))
     log.info("run %s: %d rows in %s (%.1f s)", status, result.points, output, result.wall_s)

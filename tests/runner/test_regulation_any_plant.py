@@ -60,7 +60,7 @@ def run_plan(config: StationConfig, plan: Plan, rows_in_memory) -> tuple[str, st
 def test_plants_5x_faster_and_slower_hold_every_setpoint_through_the_sweep(factor, heater, rows_in_memory):
     regulation = RegulationConfig()  # identification on, as for any new station
     config = station(factor, regulation)
-    plan = build_plan(EXPERIMENT_ADAPTER.validate_python(experiment(heater)), regulation)
+    plan = build_plan(EXPERIMENT_ADAPTER.validate_python(experiment(heater)), regulation=regulation)
     status, error, runner = run_plan(config, plan, rows_in_memory)
 
     assert status == "completed", error
@@ -81,7 +81,7 @@ def test_plants_5x_faster_and_slower_hold_every_setpoint_through_the_sweep(facto
 def test_the_heater_loop_runs_between_the_readings_of_a_sweep(rows_in_memory):
     """Before: the supply kept its last output from the end of the wait to the end of the sweep."""
     regulation = RegulationConfig(identify={"enabled": False})
-    plan = build_plan(EXPERIMENT_ADAPTER.validate_python(experiment("target")), regulation)
+    plan = build_plan(EXPERIMENT_ADAPTER.validate_python(experiment("target")), regulation=regulation)
     opened = open_station(station(1.0, regulation))
     try:
         runner = Runner(opened, plan, rows_in_memory, progress=False)
@@ -99,14 +99,14 @@ def test_the_heater_loop_runs_between_the_readings_of_a_sweep(rows_in_memory):
 
 
 def test_the_identification_is_a_plan_step_before_the_first_setpoint_and_shown_in_the_dry_run():
-    plan = build_plan(EXPERIMENT_ADAPTER.validate_python(experiment("target")), RegulationConfig())
+    plan = build_plan(EXPERIMENT_ADAPTER.validate_python(experiment("target")), regulation=RegulationConfig())
     kinds = [type(step) for step in plan.steps]
     first_setpoint = next(i for i, s in enumerate(plan.steps) if isinstance(s, SetHeater) and s.setpoint_c)
     assert kinds.index(IdentifyPlant) == first_setpoint - 1 and kinds.count(IdentifyPlant) == 1
     assert "identify the target heater: 20% of its power until it rises 3 K" in plan.describe()
     assert kinds.count(CheckHold) == len(SETPOINTS_C)
     off = build_plan(EXPERIMENT_ADAPTER.validate_python(experiment("target")),
-                     RegulationConfig(identify={"enabled": False}))
+                     regulation=RegulationConfig(identify={"enabled": False}))
     assert IdentifyPlant not in [type(step) for step in off.steps]
 
 
@@ -176,8 +176,8 @@ def test_a_hotter_faster_plant_trips_the_interlock_with_fixed_gains_and_holds_on
         lab = LabConfig(thermal=thermal, physics="field")
         config = StationConfig(simulated=SimulationConfig(lab=lab, pacing=False), regulation=regulation)
         rows_in_memory.rows.clear()
-        status, error, runner = run_plan(config, build_plan(EXPERIMENT_ADAPTER.validate_python(spec), regulation),
-                                         rows_in_memory)
+        plan = build_plan(EXPERIMENT_ADAPTER.validate_python(spec), regulation=regulation)
+        status, error, runner = run_plan(config, plan, rows_in_memory)
         results[identify] = (status, error, runner, max(row["t_target_c"] for row in rows_in_memory.rows))
     status, error, _, _ = results[False]
     assert status == "failed" and "SafetyInterlock: target thermocouple reads" in error
