@@ -149,7 +149,8 @@ def _run_experiment(experiment_path: Path, station_path: Path | None, output: Pa
     finally:
         station.close()
     result = RunResult(output, status, error, writer.rows, time.monotonic() - started, runner.stopped_by, notes,
-                       tuple(runner.context.notes) if runner.context is not None else (), planned=len(plan.points), logs_while_heating=any(
+                       tuple(runner.context.notes) if runner.context is not None else (),
+                       planned=len(plan.points), logs_while_heating=any(
                            isinstance(step, WaitSteady | CoolDown) and step.log is not None
                            and bool(step.log.frequencies_hz) for step in plan.steps))
     log.info("run %s: %d rows in %s (%.1f s)", status, result.points, output, result.wall_s)
