@@ -20,6 +20,7 @@ from ecds_lab.model.baseline import baseline_parameters, baseline_unidentifiable
 from ecds_lab.model.coupling import Coupling, image_method_coupling, table_coupling
 from ecds_lab.model.effects import Effect, Inputs, make_effect
 from ecds_lab.model.parameters import Parameter, check_unique
+from ecds_lab.model.tangents import InputTangents, Tangent, chained, plus, scaled
 
 #: Half-step (m) of the central difference for dL/dx: small against the coil (~0.1 m), large
 #: against rounding (L changes ~1e-7 relative over it).
@@ -101,6 +102,89 @@ class SensorModel:
             capacitance = effect.coil_capacitance(capacitance, inputs, data, p)
             conductance = effect.parallel_conductance(conductance, inputs, data, p)
         return 1.0 / (1.0 / (r_true + 1j * omega * l_true) + 1j * omega * capacitance + conductance)
+
+    @property
+    def has_derivatives(self) -> bool:
+        """True when every effect gives its derivatives (``Effect.has_derivatives``): then
+        ``prediction_and_jacobian`` is exact; otherwise fits take finite differences."""
+        return all(effect.has_derivatives() for effect in self.effects)
+
+    def coupling_hat_tangent(self, x_m: np.ndarray, dx: Tangent, p: Mapping[str, float]) -> tuple[np.ndarray, Tangent]:
+        """Eq. (5) and its tangent: d k^ = p3 k'(s) (dx - dp1 - s dp2) / p2 + k(s) dp3 + dp4, s = (x - p1)/p2;
+        zero for the coil in air, and k' zero where k is held constant (below the table, beyond it)."""
+        x = np.asarray(x_m, float)
+        finite = np.isfinite(x)
+        scaled_x = np.where(finite, (x - p["p1"]) / p["p2"], np.inf)
+        k = self.coupling(scaled_x)
+        inside = finite & (scaled_x >= self.coupling.x_m[0])
+        slope = np.where(inside, p["p3"] * self.coupling.derivative(np.where(inside, scaled_x, 1.0)) / p["p2"], 0.0)
+        with np.errstate(invalid="ignore"):
+            tangent = {name: np.where(finite, slope * values, 0.0) for name, values in dx.items()}
+        own = {"p1": -slope, "p2": -slope * np.where(finite, scaled_x, 0.0), "p3": np.where(finite, k, 0.0),
+               "p4": finite.astype(float)}
+        return np.where(finite, p["p3"] * k + p["p4"], 0.0), plus(tangent, own)
+
+    def prediction_and_jacobian(self, data: Measurements, p: Mapping[str, float]) -> tuple[np.ndarray, Tangent]:
+        """Ls (as ``predict``) and its exact derivative with respect to every parameter (name -> dLs/dp per row).
+
+        The same pipeline as ``impedance``, each quantity carried with its tangent (forward mode); every
+        effect's ``d_<hook>`` gives its part. Needs ``has_derivatives``.
+        """
+        sensor, n = self.sensor, len(data)
+        x, t_winding, t_target = np.asarray(data.x_m, float), data.t_coil_c, data.t_target_c
+        dx: Tangent = {}
+        dtw: Tangent = {}
+        dtt: Tangent = {}
+        for effect in self.effects:
+            x, dx = effect.d_effective_distance(x, dx, data, p)
+            t_winding, dtw = effect.d_winding_temperature(t_winding, dtw, data, p)
+            t_target, dtt = effect.d_target_temperature(t_target, dtt, data, p)
+        inputs, d_inputs = Inputs(x, t_winding, t_target), InputTangents(dx, dtw, dtt)
+        tau = np.full(n, p["tau_t"])
+        dtau: Tangent = {"tau_t": np.ones(n)}
+        for effect in self.effects:
+            tau, dtau = effect.d_target_tau(tau, dtau, inputs, d_inputs, data, p)
+        omega = 2 * np.pi * data.freq_hz
+        d_coil = inputs.t_winding_c - sensor.reference_temperature_c
+        shape = 1.0 + p["alpha"] * d_coil + p["beta"] * d_coil**2
+        l_coil = p["L0"] * shape
+        dl_coil = chained(dtw, p["L0"] * (p["alpha"] + 2 * p["beta"] * d_coil),
+                          {"L0": shape, "alpha": p["L0"] * d_coil, "beta": p["L0"] * d_coil**2})
+        k_hat, dk_hat = self.coupling_hat_tangent(inputs.x_m, dx, p)
+        k2, dk2 = k_hat**2, scaled(dk_hat, 2 * k_hat)
+        wt2 = (omega * tau) ** 2
+        f_t = wt2 / (1.0 + wt2)
+        df_t = scaled(dtau, 2 * omega**2 * tau / (1.0 + wt2) ** 2)
+        l_true = l_coil * (1.0 - k2 * f_t)
+        dl_true = plus(scaled(dl_coil, 1.0 - k2 * f_t), scaled(dk2, -l_coil * f_t), scaled(df_t, -l_coil * k2))
+        for effect in self.effects:
+            l_true, dl_true = effect.d_series_inductance(l_true, dl_true, inputs, d_inputs, data, p)
+        r_coil = sensor.resistance_ohm * (1 + sensor.resistance_tempco_per_k * d_coil)
+        g = omega**2 * tau / (1.0 + wt2)
+        dg = scaled(dtau, omega**2 * (1.0 - wt2) / (1.0 + wt2) ** 2)
+        r_true = r_coil + k2 * g * l_coil
+        dr_true = plus(scaled(dtw, sensor.resistance_ohm * sensor.resistance_tempco_per_k), scaled(dk2, g * l_coil),
+                       scaled(dg, k2 * l_coil), scaled(dl_coil, k2 * g))
+        capacitance = np.full(n, p["C_p"])
+        dcap: Tangent = {"C_p": np.ones(n)}
+        conductance = np.full(n, 1.0 / p["R_p"])
+        dcond: Tangent = {"R_p": np.full(n, -1.0 / p["R_p"] ** 2)}
+        for effect in self.effects:
+            capacitance, dcap = effect.d_coil_capacitance(capacitance, dcap, inputs, d_inputs, data, p)
+            conductance, dcond = effect.d_parallel_conductance(conductance, dcond, inputs, d_inputs, data, p)
+        series = r_true + 1j * omega * l_true
+        z = 1.0 / (1.0 / series + 1j * omega * capacitance + conductance)
+        # dZ = -Z^2 dY, dY = -(dR + j w dL) / Zs^2 + j w dC + dG; Ls = Im(Z) / w
+        z2 = z**2
+        via_series, via_c = z2 / series**2, -1j * z2
+        names = set(dr_true) | set(dl_true) | set(dcap) | set(dcond)
+        zero = np.zeros(n)
+        jacobian = {}
+        for name in names:
+            d_z = (via_series * (dr_true.get(name, zero) + 1j * omega * dl_true.get(name, zero))
+                   + via_c * omega * dcap.get(name, zero) - z2 * dcond.get(name, zero))
+            jacobian[name] = d_z.imag / omega
+        return z.imag / omega, jacobian
 
     def predict(self, data: Measurements, p: Mapping[str, float], x_m: np.ndarray | None = None) -> np.ndarray:
         """Apparent series inductance Ls = Im(Z)/w (H) the bridge reports for every row."""

@@ -29,6 +29,21 @@ def first_order_lag(time_s: np.ndarray, u: np.ndarray, tau_s: float) -> np.ndarr
     return linear_recurrence(efolds, b, float(u[0]))
 
 
+def first_order_lag_tau_derivative(time_s: np.ndarray, u: np.ndarray, y: np.ndarray, tau_s: float) -> np.ndarray:
+    """dy/dtau of ``first_order_lag`` (y its result): the recurrence differentiated,
+    dy1 = a dy0 + (da y0 + db), da = a dt/tau^2, db = -s - da (u0 - s tau) + a s, from dy = 0."""
+    u = np.asarray(u, float)
+    if len(u) == 0:
+        return np.empty_like(u)
+    dt = np.maximum(np.diff(time_s), 0.0)
+    efolds = dt / tau_s
+    a = np.exp(-efolds)
+    slope = np.divide(np.diff(u), dt, out=np.zeros_like(dt), where=dt > 0)
+    da = a * dt / tau_s**2
+    db = -slope - da * (u[:-1] - slope * tau_s) + a * slope
+    return linear_recurrence(efolds, da * y[:-1] + db, 0.0)
+
+
 def relaxation(time_s: np.ndarray, rate_per_s: np.ndarray, target: np.ndarray, start: float,
                restart: np.ndarray | None = None) -> np.ndarray:
     """y of dy/dt = -rate (y - target), from y = ``start`` at the first sample.
@@ -43,6 +58,21 @@ def relaxation(time_s: np.ndarray, rate_per_s: np.ndarray, target: np.ndarray, s
     if restart is not None and restart.any():
         efolds[restart], b[restart] = _FORGET_EFOLDS, start
     return linear_recurrence(efolds, b, start)
+
+
+def relaxation_derivative(time_s: np.ndarray, rate_per_s: np.ndarray, target: np.ndarray, y: np.ndarray,
+                          d_rate: np.ndarray, d_target: np.ndarray, restart: np.ndarray | None = None) -> np.ndarray:
+    """The derivative of ``relaxation``'s y (given) along a parameter that changes the rate by ``d_rate`` and
+    the target by ``d_target`` per interval: dy1 = a dy0 + (da y0 + db), da = -a dt d_rate,
+    db = -da target + (1 - a) d_target, from dy = 0 at the first sample and after every restart."""
+    dt = np.maximum(np.diff(time_s), 0.0)
+    efolds = np.asarray(rate_per_s, float) * dt
+    a = np.exp(-efolds)
+    da = -a * dt * d_rate
+    inhomogeneous = da * y[:-1] - da * target + (1.0 - a) * d_target
+    if restart is not None and restart.any():
+        efolds[restart], inhomogeneous[restart] = _FORGET_EFOLDS, 0.0
+    return linear_recurrence(efolds, inhomogeneous, 0.0)
 
 
 def linear_recurrence(efolds: np.ndarray, b: np.ndarray, start: float) -> np.ndarray:

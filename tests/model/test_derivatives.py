@@ -1,0 +1,125 @@
+"""Every analytic derivative of the model (baseline and each library effect) agrees with finite differences."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+import pytest
+
+from ecds_lab import shipped
+from ecds_lab.config.loading import load_yaml_model
+from ecds_lab.config.station import StationConfig
+from ecds_lab.data.measurements import Measurements
+from ecds_lab.data.sensor import load_sensor
+from ecds_lab.model.effects import Effect, library
+from ecds_lab.model.parameters import Parameter, values_of
+from ecds_lab.model.sensor_model import SensorModel
+from ecds_lab.simulators import campaign
+
+#: Agreement asked of every derivative (largest difference over the largest finite-difference value).
+RELATIVE = 1e-5
+
+
+@pytest.fixture(scope="module")
+def station() -> StationConfig:
+    return load_yaml_model(shipped.station("simulated_lab.yaml"), StationConfig)
+
+
+@pytest.fixture(scope="module")
+def data(station: StationConfig) -> Measurements:
+    """The faithful lab's paper campaign on a 2 mm grid (fine enough for the lead screw), heating logged every 5 min:
+    both directions, two frequencies, heated target and coil, ramps, the coil in air; two recordings joined."""
+    assert station.simulated is not None
+    parts = [campaign.paper_campaign(station.simulated.lab, seed=seed, positions_mm=np.linspace(20, 100, 41).tolist(),
+                                     interval_s=300.0) for seed in (1, 2)]
+    return Measurements.concatenate(parts)
+
+
+def moved(parameters: list[Parameter], changes: Mapping[str, float] | None = None) -> dict[str, float]:
+    """Every parameter a third of its prior scale off its start (inside its bounds), so no term vanishes."""
+    p = values_of(parameters)
+    for q in parameters:
+        if q.name != "R_p":
+            p[q.name] = min(max(q.value + 0.3 * q.prior_scale, q.lower), q.upper)
+    p.update(changes or {})
+    return p
+
+
+def finite_difference(model: SensorModel, data: Measurements, p: dict[str, float], name: str,
+                      step: float) -> np.ndarray:
+    up, down = dict(p), dict(p)
+    up[name] += step
+    down[name] -= step
+    return (model.predict(data, up) - model.predict(data, down)) / (2 * step)
+
+
+def check(model: SensorModel, data: Measurements, p: dict[str, float]) -> None:
+    prediction, jacobian = model.prediction_and_jacobian(data, p)
+    np.testing.assert_allclose(prediction, model.predict(data, p), rtol=1e-13)
+    for q in model.parameters():
+        numeric = finite_difference(model, data, p, q.name, 1e-3 * q.prior_scale)
+        analytic = jacobian.get(q.name, np.zeros(len(data)))
+        size = np.max(np.abs(numeric))
+        assert size > 0, f"{q.name}: no effect on the prediction at these values (test data too plain)"
+        error = np.max(np.abs(analytic - numeric)) / size
+        assert error < RELATIVE, f"{q.name}: analytic derivative off by {error:.2g} of its size"
+
+
+def test_baseline_derivatives_match_finite_differences(station: StationConfig, data: Measurements) -> None:
+    model = SensorModel(station.sensor)
+    check(model, data, moved(model.parameters()))
+
+
+@pytest.mark.parametrize("name", sorted(library()))
+def test_each_library_effect_derivatives_match_finite_differences(station: StationConfig, data: Measurements,
+                                                                  name: str) -> None:
+    model = SensorModel(station.sensor, [name])
+    assert model.has_derivatives
+    check(model, data, moved(model.parameters()))
+
+
+@pytest.mark.parametrize("changes", [{"plate_thickness": 8e-3}, {"plate_thickness": 1e-5}])
+def test_skin_recession_derivatives_thick_and_thin_plate(station: StationConfig, data: Measurements,
+                                                         changes: dict[str, float]) -> None:
+    """A thick plate holds coth at 1 (past THICK_GAMMA_D at 15 kHz); a sheet is all tau_T change."""
+    model = SensorModel(station.sensor, ["target_tau_temperature"])
+    check(model, data, moved(model.parameters(), changes))
+
+
+def test_steel_target_tau_temperature_derivatives(data: Measurements) -> None:
+    """A magnetic target: the tau_T change alone (no skin recession, no thickness)."""
+    model = SensorModel(load_sensor("steel_target"), ["target_tau_temperature"])
+    check(model, data, moved(model.parameters()))
+
+
+@pytest.mark.parametrize("changes", [{"drying_order": 1.0}, {"drying_order": 0.0, "drying_onset": 60.0,
+                                                            "drying_width": 1.0, "drying_rate": 3e-4}])
+def test_moisture_derivatives_exponential_and_linear_drying(station: StationConfig, data: Measurements,
+                                                            changes: dict[str, float]) -> None:
+    """Drying in proportion to what is left (n = 1, the limit form) and at a constant pace until dry (n = 0)."""
+    model = SensorModel(station.sensor, ["parasitic_capacitance"])
+    check(model, data, moved(model.parameters(), changes))
+
+
+def test_effects_chain_through_each_other(station: StationConfig, data: Measurements) -> None:
+    """Several effects at once: stage-1 tangents reach tau_T(x), the lag reaches every L term."""
+    model = SensorModel(station.sensor, ["former_expansion", "target_bending", "tau_displacement", "thermal_lag",
+                                         "target_tau_temperature", "parasitic_capacitance", "slide_backlash"])
+    check(model, data, moved(model.parameters()))
+
+
+class _NoDerivative(Effect):
+    name = "test_no_derivative"
+
+    def parameters(self) -> list[Parameter]:
+        return [Parameter("shift_ppm", 0.0, -100.0, 100.0, "ppm", "a change of L", 1.0)]
+
+    def series_inductance(self, l_h, inputs, data, p):  # type: ignore[no-untyped-def]
+        return l_h * (1 + 1e-6 * p["shift_ppm"])
+
+
+def test_an_effect_without_derivatives_is_known_as_such(station: StationConfig) -> None:
+    model = SensorModel(station.sensor, [_NoDerivative(station.sensor)])
+    assert not model.has_derivatives
+    assert SensorModel(station.sensor, ["thermal_lag"]).has_derivatives
