@@ -215,7 +215,7 @@ def _jacobian_function(model: SensorModel, data: Measurements, scaling: Scaling,
     zero = np.zeros(len(data))
 
     def jacobian(theta: np.ndarray, *_: Any) -> np.ndarray:
-        predicted, tangent = model.prediction_and_jacobian(data, scaling.values(theta))
+        predicted, tangent = model.prediction_and_jacobian(data, scaling.values(theta), scaling.names)
         factor = (-1e6 * measured / predicted**2)[keep]
         columns = [tangent.get(name, zero)[keep] * (factor * scale) for name, scale in zip(scaling.names, scaling.scale,
                                                                                            strict=True)]

@@ -43,6 +43,16 @@ def chained(tangent: Mapping[str, np.ndarray], factor: np.ndarray | float,
     return plus(scaled(tangent, factor), own)
 
 
+def add_to(total: Tangent, tangent: Mapping[str, np.ndarray], factor: np.ndarray | float) -> None:
+    """``total += factor * tangent``, in place (the sum a quantity's tangents make in a result)."""
+    for name, values in tangent.items():
+        term = factor * values
+        if name in total:
+            total[name] += term
+        else:
+            total[name] = term
+
+
 @dataclass(frozen=True)
 class InputTangents:
     """The tangents of ``Inputs``: effective distance and the two temperatures."""
