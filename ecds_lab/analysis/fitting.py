@@ -22,6 +22,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from ecds_lab.analysis.blas_threads import one_blas_thread
+from ecds_lab.analysis.heap import retain_freed_memory
 from ecds_lab.analysis.noise import REPEATED, NoiseEstimate, estimate_noise
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.data.sensor import SensorConfig
@@ -238,6 +239,7 @@ def _solve(model: SensorModel, data: Measurements, params: Sequence[Parameter],
     # The exact Jacobian where every effect gives its derivatives (one pass of the model per Jacobian, against one
     # per free parameter for finite differences); otherwise scipy's finite differences.
     jac = _jacobian_function(model, data, scaling, rows) if model.has_derivatives else "2-point"
+    retain_freed_memory()  # the model's arrays are reused between evaluations, not faulted in anew (``heap``)
     # The trust-region step factors the tall n x k Jacobian (cost linear in n); on one BLAS thread,
     # since threads only contend on a matrix this thin (``blas_threads``).
     with one_blas_thread():
