@@ -15,6 +15,7 @@ from ecds_lab.data.sensor import load_sensor
 from ecds_lab.model.effects import Effect, library
 from ecds_lab.model.parameters import Parameter, values_of
 from ecds_lab.model.sensor_model import SensorModel
+from ecds_lab.model.tangents import chained
 from ecds_lab.simulators import campaign
 
 #: Agreement asked of every derivative (largest difference over the largest finite-difference value).
@@ -117,6 +118,41 @@ class _NoDerivative(Effect):
 
     def series_inductance(self, l_h, inputs, data, p):  # type: ignore[no-untyped-def]
         return l_h * (1 + 1e-6 * p["shift_ppm"])
+
+
+class _MetalObjectWithDerivatives(Effect):
+    """docs/user_effects.md's example effect with the derivative hook the page shows (the code as written there)."""
+
+    name = "test_metal_object_with_derivatives"
+
+    def parameters(self) -> list[Parameter]:
+        return [Parameter("object_ppm", -400.0, -1e4, 1e4, "ppm", "change of L at the object", 50.0),
+                Parameter("object_x", 0.047, 0.02, 0.10, "m", "slide position of the object", 2e-3),
+                Parameter("object_width", 0.005, 0.001, 0.03, "m", "width of its influence", 1e-3)]
+
+    def series_inductance(self, l_h, inputs, data, p):  # type: ignore[no-untyped-def]
+        x = np.where(np.isfinite(data.x_m), data.x_m, np.inf)
+        bump = np.exp(-0.5 * ((x - p["object_x"]) / p["object_width"]) ** 2)
+        return l_h * (1 + 1e-6 * p["object_ppm"] * bump)
+
+    def d_series_inductance(self, l_h, dl, inputs, d_inputs, data, p):  # type: ignore[no-untyped-def]
+        near = np.isfinite(data.x_m)          # the coil in air: no bump, and no inf * 0 in the derivatives
+        z = np.where(near, (np.where(near, data.x_m, 0.0) - p["object_x"]) / p["object_width"], 0.0)
+        bump = np.where(near, np.exp(-0.5 * z**2), 0.0)
+        factor = 1 + 1e-6 * p["object_ppm"] * bump
+        own = {"object_ppm": l_h * 1e-6 * bump,                                   # d/d object_ppm
+               "object_x": l_h * 1e-6 * p["object_ppm"] * bump * z / p["object_width"],
+               "object_width": l_h * 1e-6 * p["object_ppm"] * bump * z**2 / p["object_width"]}
+        return l_h * factor, chained(dl, factor, own)   # d(l factor) = factor dl + l d(factor)
+
+
+def test_a_user_effect_on_the_series_inductance_with_its_derivative(station: StationConfig,
+                                                                    data: Measurements) -> None:
+    """The documented example: a hook after Eq. (2), so L_true's tangent is carried through it (the library has
+    none there), chained with stage-1 effects."""
+    model = SensorModel(station.sensor, ["target_bending", _MetalObjectWithDerivatives(station.sensor), "thermal_lag"])
+    assert model.has_derivatives
+    check(model, data, moved(model.parameters()))
 
 
 def test_an_effect_without_derivatives_is_known_as_such(station: StationConfig) -> None:
