@@ -144,13 +144,15 @@ class ParasiticCapacitance(Effect):
         relative = -(mid - line.start_c[1:]) / p["sorption_width"]
         equilibrium = np.exp(np.minimum(relative, 3.0))
         bound = relaxation(line.time_s, rate, equilibrium, 1.0, restart=line.restart)
-        zero = np.zeros(len(mid))
-        d_equilibrium = np.where(relative < 3.0, -equilibrium * relative / p["sorption_width"], 0.0)
-        d_bound = {name: relaxation_derivative(line.time_s, rate, equilibrium, bound, values, zero, line.restart)
-                   for name, values in d_rate.items()}
-        d_bound["sorption_width"] = relaxation_derivative(line.time_s, rate, equilibrium, bound, zero, d_equilibrium,
-                                                          line.restart)
         share = p["bound_share"]
+        d_bound: dict[str, np.ndarray] = {}
+        if share != 0:  # with no bound water (the simpler law) its derivatives count nothing: not computed
+            zero = np.zeros(len(mid))
+            d_equilibrium = np.where(relative < 3.0, -equilibrium * relative / p["sorption_width"], 0.0)
+            d_bound = {name: relaxation_derivative(line.time_s, rate, equilibrium, bound, values, zero, line.restart)
+                       for name, values in d_rate.items()}
+            d_bound["sorption_width"] = relaxation_derivative(line.time_s, rate, equilibrium, bound, zero,
+                                                              d_equilibrium, line.restart)
         in_line = {name: (1.0 - share) * d_free.get(name, 0.0) + share * d_bound.get(name, 0.0)
                    for name in _MOISTURE_PARAMETERS if name != "bound_share"}
         in_line["bound_share"] = bound - free
