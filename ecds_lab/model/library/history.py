@@ -81,8 +81,8 @@ def linear_recurrence(efolds: np.ndarray, b: np.ndarray, start: float) -> np.nda
     With L the running sum of -efolds, y_i = exp(L_i - L_s) (y_s + sum_(s<=j<i) b_j exp(L_s - L_(j+1)))
     from any earlier row s. The rows are cut into chunks of at most _CHUNK_ROWS rows spanning less
     than _BLOCK_EFOLDS (so no exp() overflows); the sums run within every chunk at once (one row of
-    a 2-D array each, so every sum starts from an exact zero), and a scalar recurrence carries y
-    from chunk to chunk.
+    a 2-D array each, so every sum starts from an exact zero), and a recurrence of the same form carries y
+    from chunk to chunk (solved the same way when there are many chunks, so no Python loop per chunk).
     """
     efolds = np.asarray(efolds, float)
     b = np.asarray(b, float)
@@ -100,9 +100,16 @@ def linear_recurrence(efolds: np.ndarray, b: np.ndarray, start: float) -> np.nda
     entering[:, 0] = 0.0  # a chunk's first row gets its value from the chunk before
     within = np.cumsum(entering, axis=1)[owner, pos]
     last = np.append(first[1:] - 1, n - 1)
-    decay = np.exp(log_a[first[1:]] - log_a[first[:-1]]).tolist()
-    carried, into = within[last].tolist(), b[first[1:] - 1].tolist()
-    heads = [float(start)]
-    for g in range(len(first) - 1):
-        heads.append(decay[g] * (heads[g] + carried[g]) + into[g])
-    return np.exp(log_a - ref) * (np.asarray(heads)[owner] + within)
+    chunk_efolds = log_a[first[:-1]] - log_a[first[1:]]
+    decay = np.exp(-chunk_efolds)
+    carried, into = within[last], b[first[1:] - 1]
+    # the heads are a recurrence of the same form, one row per chunk: solved alike when that makes it much shorter
+    # (not where fast decays cut the rows into chunks of one or two)
+    if _CHUNK_ROWS < len(first) <= n // 4:
+        heads = linear_recurrence(chunk_efolds, decay * carried[:-1] + into, start)
+    else:
+        heads_list = [float(start)]
+        for g, (d, c, i) in enumerate(zip(decay.tolist(), carried.tolist(), into.tolist(), strict=False)):
+            heads_list.append(d * (heads_list[g] + c) + i)
+        heads = np.asarray(heads_list)
+    return np.exp(log_a - ref) * (heads[owner] + within)
