@@ -157,9 +157,9 @@ def command_line(ecds_lab: list[str], command: str, data: Path, out: Path) -> li
     return [*ecds_lab, command, str(data), "--json"]
 
 
-def growth(timings: list[Timing]) -> float | None:
-    """Least-squares slope of ln(wall) against ln(n) over the sizes from 10^4 up (None with fewer than two)."""
-    points = [(math.log(t.n), math.log(t.wall_s)) for t in timings if t.n >= 9_000 and t.status == "ok"]
+def growth(timings: list[Timing], cost: str = "wall_s") -> float | None:
+    """Least-squares slope of ln(cost) against ln(n) over the sizes from 10^4 up (None with fewer than two)."""
+    points = [(math.log(t.n), math.log(getattr(t, cost))) for t in timings if t.n >= 9_000 and t.status == "ok"]
     if len(points) < 2:
         return None
     x, y = np.array(points).T
@@ -197,13 +197,14 @@ def main() -> None:
                         mark = "" if target is None else f"  (target < {target:g} s)"
                         print(f"{command:<9} {physics:<6} {kind:<5} {n:>9} {wall:>8.2f} {cpu:>8.2f} {peak:>8.0f}  "
                               f"{status}{mark}; load {os.getloadavg()[0]:.1f}", flush=True)
-    print("growth exponent d ln(wall) / d ln(n) from 10^4 up (1 = linear):")
+    print("growth exponent d ln(cost) / d ln(n) from 10^4 up (1 = linear), of wall and of CPU time:")
     for physics in args.labs.split(","):
         for command in args.commands.split(","):
             for kind in args.inputs.split(","):
-                slope = growth([t for t in timings if (t.command, t.lab, t.kind) == (command, physics, kind)])
-                if slope is not None:
-                    print(f"  {command:<9} {physics:<6} {kind:<5} {slope:.2f}")
+                chosen = [t for t in timings if (t.command, t.lab, t.kind) == (command, physics, kind)]
+                wall, cpu = growth(chosen), growth(chosen, "cpu_s")
+                if wall is not None and cpu is not None:
+                    print(f"  {command:<9} {physics:<6} {kind:<5} wall {wall:.2f}  CPU {cpu:.2f}")
 
 
 if __name__ == "__main__":
