@@ -218,9 +218,10 @@ def _jacobian_function(model: SensorModel, data: Measurements, scaling: Scaling,
     def jacobian(theta: np.ndarray, *_: Any) -> np.ndarray:
         predicted, tangent = model.prediction_and_jacobian(data, scaling.values(theta), scaling.names)
         factor = (-1e6 * measured / predicted**2)[keep]
-        columns = [tangent.get(name, zero)[keep] * (factor * scale) for name, scale in zip(scaling.names, scaling.scale,
-                                                                                           strict=True)]
-        return np.column_stack(columns)
+        out = np.empty((len(factor), len(scaling.names)))  # filled column by column: no list of columns to stack
+        for column, (name, scale) in enumerate(zip(scaling.names, scaling.scale, strict=True)):
+            np.multiply(tangent.get(name, zero)[keep], factor * scale, out=out[:, column])
+        return out
 
     return jacobian
 
