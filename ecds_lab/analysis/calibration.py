@@ -119,11 +119,13 @@ def select_positions(x_m: np.ndarray, n_points: int | None = None, region: float
 
 def calibrate(data: Measurements, sensor: SensorConfig | None = None, *, n_points: int | None = None,
               positions_m: Sequence[float] | None = None, fixed: Mapping[str, float] | None = None,
-              effects: Sequence[str | Effect] = ()) -> Calibration:
+              effects: Sequence[str | Effect] = (), start: Mapping[str, float] | None = None) -> Calibration:
     """Fit the model (Eq. 5's p1..p4 and L0) on a sweep, with all points, n chosen ones or given ones.
 
     Coil-in-air rows in ``data`` are always used (they fix L_coil as in the paper); ``fixed``
-    holds parameters at known values (e.g. alpha, beta from a compensation fit).
+    holds parameters at known values (e.g. alpha, beta from a compensation fit). ``start``: a solution
+    already found on data these are part of (e.g. the full fit's values): the fit starts there and makes
+    no global restarts of its own (that search was made for the solution given).
     """
     finite = np.isfinite(data.x_m)
     if not finite.any():
@@ -134,7 +136,7 @@ def calibrate(data: Measurements, sensor: SensorConfig | None = None, *, n_point
     if not (rows & finite).any():
         raise ValueError(f"none of the positions {chosen * 1e3} mm is in the data")
     model = SensorModel(sensor, effects)
-    result = fit_model(model, data.select(rows), fixed=fixed)
+    result = fit_model(model, data.select(rows), fixed=fixed, start=start, multistart=False if start else None)
     x = data.x_m[finite]
     return Calibration(result, chosen, float(x.min()), float(x.max()))
 

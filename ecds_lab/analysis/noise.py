@@ -30,7 +30,6 @@ from typing import Any
 
 import numpy as np
 from scipy.ndimage import median_filter
-from scipy.signal import savgol_filter
 
 from ecds_lab.data.measurements import Measurements
 
@@ -169,6 +168,9 @@ def _reading_noise(data: Measurements, r: np.ndarray) -> NoiseEstimate:
     if count < MIN_SMOOTH_READINGS:
         spread = float(1.4826 * np.median(np.abs(r - np.median(r)))) if len(r) else math.nan
         return NoiseEstimate(spread, "robust spread of the residual (too few readings)", len(r))
+    from scipy.signal import savgol_filter  # here, not at the top: scipy.signal (and scipy.stats with it) costs
+    # ~0.5 s CPU to import, paid by every command that imports the analysis otherwise
+
     d = np.concatenate([r[rows] - savgol_filter(r[rows], NOISE_WINDOW, 2, mode="interp") for rows in usable])
     sigma = 1.4826 * float(np.median(np.abs(d - np.median(d)))) / NOISE_SMOOTH_FACTOR
     return NoiseEstimate(sigma, "residual about a local quadratic smooth of itself", count)

@@ -196,6 +196,7 @@ def calibration_cases(data: Measurements, model: SensorModel, result: FitResult,
     if len(np.unique(np.round(at_f.x_m[room & finite], 7))) < FEW_POINTS + 1:
         return []
     held = {name: value for name, value in result.values.items() if name not in _CALIBRATED}
+    solved = {name: result.values[name] for name in _CALIBRATED}  # where the calibrations start (shared work)
     sweep = at_f.select(room)
     heated = HeatedRows.of(at_f)
     coil_hot, target_hot, coil_rise, target_rise = heated.coil, heated.target, heated.coil_rise_k, heated.target_rise_k
@@ -208,16 +209,17 @@ def calibration_cases(data: Measurements, model: SensorModel, result: FitResult,
         hot_coil, hot_coil_rise = at_f.select(coil_hot), coil_rise[coil_hot]
     cases = []
     for label, n_points in (("all_points", None), (f"n{FEW_POINTS}", FEW_POINTS)):
-        cal = calibrate(sweep, model.sensor, n_points=n_points, fixed=held, effects=model.effects)
+        cal = calibrate(sweep, model.sensor, n_points=n_points, fixed=held, effects=model.effects, start=solved)
         case = CalibrationCase(label, float(freq_hz), cal, position_errors(cal, at_f.select(room & finite)))
         if target_hot.any():
             case.target_heated = HeatedErrors(position_errors(cal, at_f.select(target_hot)), target_rise[target_hot])
         if len(hot_coil):
             plain = calibrate(sweep, model.sensor, n_points=n_points, fixed={**held, "alpha": 0.0, "beta": 0.0},
-                              effects=model.effects)
+                              effects=model.effects, start=cal.fit.values)
             compensated = cal
             if eq4 is not None:
                 compensated = calibrate(sweep, model.sensor, n_points=n_points, effects=model.effects,
+                                        start=cal.fit.values,
                                         fixed={**held, "alpha": eq4.alpha_per_k, "beta": eq4.beta_per_k2})
                 case.compensation_method = eq4.method
             case.coil_compensated = HeatedErrors(position_errors(compensated, hot_coil), hot_coil_rise)

@@ -135,10 +135,9 @@ class Measurements:
         except OSError as exc:
             raise DataError(f"{path}: cannot read: {exc.strerror}") from exc
         with handle:
-            rows = _csv_rows(path, handle)
-        if not rows:
+            data = _csv_table(path, handle)
+        if not len(data):
             raise DataError(f"{path}: no data rows")
-        data = np.array(rows)
         sidecar = read_sidecar(path, len(data))
         positioned = ~np.isnan(data[:, 1])  # x_mm = nan: a reading before the slide had a position (unused,
         if not positioned.any():            # as in the run file)
@@ -160,6 +159,27 @@ class Measurements:
             writer.writerow(CSV_COLUMNS)
             for row in zip(*columns, strict=True):
                 writer.writerow([repr(float(v)) if math.isfinite(v) else "inf" for v in row])
+
+
+def _csv_table(path: Path, handle: TextIO) -> np.ndarray:
+    """The import-format columns (rows x 7) of every non-empty row: read in one vectorised pass (numpy's
+    parser, no Python per row); a file it cannot take whole, or with a value not allowed, is read again
+    row by row (``_csv_rows``), which names the row and column at fault."""
+    try:
+        header = [h.strip() for h in next(csv.reader([handle.readline()]), [])]
+        if all(c in header for c in CSV_COLUMNS):
+            table = np.loadtxt(handle, delimiter=",", usecols=[header.index(c) for c in CSV_COLUMNS], dtype=float,
+                               comments=None, quotechar='"', ndmin=2)
+            x = CSV_COLUMNS.index("x_mm")
+            others = np.delete(table, x, axis=1)
+            if not np.isfinite(others).all():  # x_mm may be inf (in air) or nan (no position yet)
+                raise ValueError("a value that is not allowed")
+            return table
+    except (ValueError, UnicodeDecodeError):
+        pass
+    handle.seek(0)
+    rows = _csv_rows(path, handle)
+    return np.array(rows, dtype=float).reshape(-1, len(CSV_COLUMNS))
 
 
 def _csv_rows(path: Path, handle: TextIO) -> list[list[float]]:
@@ -192,20 +212,23 @@ def _csv_rows(path: Path, handle: TextIO) -> list[list[float]]:
 
 
 def approach_direction(x_m: np.ndarray, segment: np.ndarray) -> np.ndarray:
-    """+1 / -1: the sign of the last change of commanded x before each row (0 before any move or in air)."""
+    """+1 / -1: the sign of the last change of commanded x before each row (0 before any move or in air).
+
+    Vectorised: the rows with a distance, segment by segment in row order; each takes the sign of the last
+    change at or before it within its segment (a running maximum of the rows where x changed)."""
+    x_m, segment = np.asarray(x_m, float), np.asarray(segment)
     direction = np.zeros(len(x_m), dtype=int)
-    for seg in np.unique(segment):
-        rows = np.flatnonzero(segment == seg)
-        last_x, last_dir = math.nan, 0
-        for i in rows:
-            x = x_m[i]
-            if not math.isfinite(x):
-                direction[i] = 0
-                continue
-            if math.isfinite(last_x) and x != last_x:
-                last_dir = 1 if x > last_x else -1
-            last_x = x
-            direction[i] = last_dir
+    rows = np.flatnonzero(np.isfinite(x_m))
+    rows = rows[np.argsort(segment[rows], kind="stable")]
+    if len(rows):
+        x, seg = x_m[rows], segment[rows]
+        new = np.concatenate([[True], seg[1:] != seg[:-1]])
+        change = np.sign(np.diff(x, prepend=x[0])).astype(int)
+        change[new] = 0
+        index = np.arange(len(rows))
+        last = np.maximum.accumulate(np.where(change != 0, index, -1))
+        start = np.maximum.accumulate(np.where(new, index, 0))
+        direction[rows] = np.where(last >= start, change[np.maximum(last, 0)], 0)
     return _fill_first_direction(direction, x_m, segment)
 
 

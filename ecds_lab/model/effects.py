@@ -29,6 +29,10 @@ What the diagnosis needs to weigh a claim, declared by each effect: ``plausible`
 (low, high) in SI: the physically possible size), ``key_parameters`` (those that must be clearly
 determined for the effect to be named; default: all its parameters) and ``reveal`` (the
 measurement that shows the effect best, suggested when the data cannot separate it from another).
+Derivatives: for each hook it overrides, an effect provides ``d_<hook>``, which returns the hook's result
+and its derivative with respect to every parameter (forward mode, ``ecds_lab.model.tangents``); fits then
+use the exact Jacobian. An effect without them still works: its model's fits take finite differences.
+
 An effect that extends a simpler law declares ``simpler_form`` (parameter -> value giving that law):
 fits solve the simpler law first, then free those parameters from their own start values with the
 rest at that solution, and keep the better: the richer law never ends worse than the simpler one.
@@ -45,6 +49,7 @@ import numpy as np
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.model.parameters import Parameter
+from ecds_lab.model.tangents import InputTangents, Tangent
 
 #: The effect names DESIGN.md fixes (the contract of ``--effects`` and of the diagnosis).
 EFFECT_NAMES = ("target_tau_temperature", "tau_displacement", "target_bending",
@@ -123,6 +128,58 @@ class Effect:
     def parallel_conductance(self, g_s: np.ndarray, inputs: Inputs, data: Measurements,
                              p: Mapping[str, float]) -> np.ndarray:
         return g_s
+
+    # -- derivatives (forward mode, ``ecds_lab.model.tangents``) -----------------------------
+    # Each ``d_<hook>`` returns what ``<hook>`` returns and its tangent: given the tangent of the quantity
+    # it changes (and for stages 2-4 those of ``inputs``), the derivative of its result with respect to every
+    # parameter (the chain rule through the quantity, plus its own partial derivatives). The base versions
+    # are the identity, right for a hook the effect does not override; an effect that overrides a hook
+    # without its ``d_`` version has no derivatives, and its model's fits fall back to finite differences.
+
+    @classmethod
+    def has_derivatives(cls) -> bool:
+        """True when every hook the effect overrides has its derivative hook (``d_<hook>``) too."""
+        return all(getattr(cls, hook) is getattr(Effect, hook) or
+                   getattr(cls, f"d_{hook}") is not getattr(Effect, f"d_{hook}") for hook in HOOKS)
+
+    def _identity(self, hook: str, value: np.ndarray, tangent: Tangent) -> tuple[np.ndarray, Tangent]:
+        if getattr(type(self), hook) is not getattr(Effect, hook):
+            raise NotImplementedError(f"effect {self.name!r} overrides {hook} without d_{hook}: "
+                                      "its derivatives are taken by finite differences")
+        return value, tangent
+
+    def d_effective_distance(self, x_m: np.ndarray, dx: Tangent, data: Measurements,
+                             p: Mapping[str, float]) -> tuple[np.ndarray, Tangent]:
+        return self._identity("effective_distance", x_m, dx)
+
+    def d_winding_temperature(self, t_c: np.ndarray, dt: Tangent, data: Measurements,
+                              p: Mapping[str, float]) -> tuple[np.ndarray, Tangent]:
+        return self._identity("winding_temperature", t_c, dt)
+
+    def d_target_temperature(self, t_c: np.ndarray, dt: Tangent, data: Measurements,
+                             p: Mapping[str, float]) -> tuple[np.ndarray, Tangent]:
+        return self._identity("target_temperature", t_c, dt)
+
+    def d_target_tau(self, tau_s: np.ndarray, dtau: Tangent, inputs: Inputs, d_inputs: InputTangents,
+                     data: Measurements, p: Mapping[str, float]) -> tuple[np.ndarray, Tangent]:
+        return self._identity("target_tau", tau_s, dtau)
+
+    def d_series_inductance(self, l_h: np.ndarray, dl: Tangent, inputs: Inputs, d_inputs: InputTangents,
+                            data: Measurements, p: Mapping[str, float]) -> tuple[np.ndarray, Tangent]:
+        return self._identity("series_inductance", l_h, dl)
+
+    def d_coil_capacitance(self, c_f: np.ndarray, dc: Tangent, inputs: Inputs, d_inputs: InputTangents,
+                           data: Measurements, p: Mapping[str, float]) -> tuple[np.ndarray, Tangent]:
+        return self._identity("coil_capacitance", c_f, dc)
+
+    def d_parallel_conductance(self, g_s: np.ndarray, dg: Tangent, inputs: Inputs, d_inputs: InputTangents,
+                               data: Measurements, p: Mapping[str, float]) -> tuple[np.ndarray, Tangent]:
+        return self._identity("parallel_conductance", g_s, dg)
+
+
+#: The stage hooks an effect may override (each with its derivative hook ``d_<hook>``).
+HOOKS = ("effective_distance", "winding_temperature", "target_temperature", "target_tau", "series_inductance",
+         "coil_capacitance", "parallel_conductance")
 
 
 #: The registry: effect name -> class. Every effect the fit and the diagnosis can use is listed here.

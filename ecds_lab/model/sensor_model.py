@@ -9,7 +9,7 @@ Pipeline (see ``ecds_lab.model.effects`` for the hooks at each stage):
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 
 import numpy as np
 
@@ -20,6 +20,7 @@ from ecds_lab.model.baseline import baseline_parameters, baseline_unidentifiable
 from ecds_lab.model.coupling import Coupling, image_method_coupling, table_coupling
 from ecds_lab.model.effects import Effect, Inputs, make_effect
 from ecds_lab.model.parameters import Parameter, check_unique
+from ecds_lab.model.tangents import InputTangents, Tangent, add_to, plus, scaled
 
 #: Half-step (m) of the central difference for dL/dx: small against the coil (~0.1 m), large
 #: against rounding (L changes ~1e-7 relative over it).
@@ -101,6 +102,116 @@ class SensorModel:
             capacitance = effect.coil_capacitance(capacitance, inputs, data, p)
             conductance = effect.parallel_conductance(conductance, inputs, data, p)
         return 1.0 / (1.0 / (r_true + 1j * omega * l_true) + 1j * omega * capacitance + conductance)
+
+    @property
+    def has_derivatives(self) -> bool:
+        """True when every effect gives its derivatives (``Effect.has_derivatives``): then
+        ``prediction_and_jacobian`` is exact; otherwise fits take finite differences."""
+        return all(effect.has_derivatives() for effect in self.effects)
+
+    def coupling_hat_tangent(self, x_m: np.ndarray, dx: Tangent, p: Mapping[str, float]) -> tuple[np.ndarray, Tangent]:
+        """Eq. (5) and its tangent: d k^ = p3 k'(s) (dx - dp1 - s dp2) / p2 + k(s) dp3 + dp4, s = (x - p1)/p2;
+        zero for the coil in air, and k' zero where k is held constant (below the table, beyond it)."""
+        x = np.asarray(x_m, float)
+        finite = np.isfinite(x)
+        scaled_x = np.where(finite, (x - p["p1"]) / p["p2"], np.inf)
+        k = self.coupling(scaled_x)
+        inside = finite & (scaled_x >= self.coupling.x_m[0])
+        slope = np.where(inside, p["p3"] * self.coupling.derivative(np.where(inside, scaled_x, 1.0)) / p["p2"], 0.0)
+        with np.errstate(invalid="ignore"):
+            tangent = {name: np.where(finite, slope * values, 0.0) for name, values in dx.items()}
+        own = {"p1": -slope, "p2": -slope * np.where(finite, scaled_x, 0.0), "p3": np.where(finite, k, 0.0),
+               "p4": finite.astype(float)}
+        return np.where(finite, p["p3"] * k + p["p4"], 0.0), plus(tangent, own)
+
+    def prediction_and_jacobian(self, data: Measurements, p: Mapping[str, float],
+                                names: Collection[str] | None = None) -> tuple[np.ndarray, Tangent]:
+        """Ls (as ``predict``) and its exact derivative with respect to the parameters ``names`` (default: all):
+        name -> dLs/dp per row (absent: zero).
+
+        The same pipeline as ``impedance``, each quantity carried with its tangent (forward mode); every
+        effect's ``d_<hook>`` gives its part. Needs ``has_derivatives``.
+        """
+        wanted = set(p) if names is None else set(names)
+
+        def only(tangent: Tangent) -> Tangent:
+            return {name: values for name, values in tangent.items() if name in wanted}
+
+        sensor, n = self.sensor, len(data)
+        x, t_winding, t_target = np.asarray(data.x_m, float), data.t_coil_c, data.t_target_c
+        dx: Tangent = {}
+        dtw: Tangent = {}
+        dtt: Tangent = {}
+        for effect in self.effects:
+            x, dx = effect.d_effective_distance(x, dx, data, p)
+            t_winding, dtw = effect.d_winding_temperature(t_winding, dtw, data, p)
+            t_target, dtt = effect.d_target_temperature(t_target, dtt, data, p)
+            dx, dtw, dtt = only(dx), only(dtw), only(dtt)
+        inputs, d_inputs = Inputs(x, t_winding, t_target), InputTangents(dx, dtw, dtt)
+        tau = np.full(n, p["tau_t"])
+        dtau: Tangent = only({"tau_t": np.ones(n)})
+        for effect in self.effects:
+            tau, dtau = effect.d_target_tau(tau, dtau, inputs, d_inputs, data, p)
+            dtau = only(dtau)
+        omega = 2 * np.pi * data.freq_hz
+        d_coil = inputs.t_winding_c - sensor.reference_temperature_c
+        shape = 1.0 + p["alpha"] * d_coil + p["beta"] * d_coil**2
+        l_coil = p["L0"] * shape
+        own_l_coil = only({"L0": shape, "alpha": p["L0"] * d_coil, "beta": p["L0"] * d_coil**2})
+        l_coil_by_t = p["L0"] * (p["alpha"] + 2 * p["beta"] * d_coil)
+        k_hat, dk_hat = self.coupling_hat_tangent(inputs.x_m, dx, p)
+        dk_hat = only(dk_hat)
+        k2 = k_hat**2
+        wt2 = (omega * tau) ** 2
+        f_t = wt2 / (1.0 + wt2)
+        f_t_by_tau = 2 * omega**2 * tau / (1.0 + wt2) ** 2
+        l_true = l_coil * (1.0 - k2 * f_t)
+        # the factors of dL_true on dL_coil, dk^ and dtau (Eq. 2)
+        l_by_l_coil, l_by_k, l_by_tau = 1.0 - k2 * f_t, -l_coil * f_t * 2 * k_hat, -l_coil * k2 * f_t_by_tau
+        hooked = any(type(effect).series_inductance is not Effect.series_inductance for effect in self.effects)
+        if hooked:  # L_true's tangent itself, for the effects that change it
+            dl_coil = plus(scaled(dtw, l_coil_by_t), own_l_coil)
+            dl_true = plus(scaled(dl_coil, l_by_l_coil), scaled(dk_hat, l_by_k), scaled(dtau, l_by_tau))
+            for effect in self.effects:
+                l_true, dl_true = effect.d_series_inductance(l_true, dl_true, inputs, d_inputs, data, p)
+                dl_true = only(dl_true)
+        r_coil = sensor.resistance_ohm * (1 + sensor.resistance_tempco_per_k * d_coil)
+        g = omega**2 * tau / (1.0 + wt2)
+        g_by_tau = omega**2 * (1.0 - wt2) / (1.0 + wt2) ** 2
+        r_true = r_coil + k2 * g * l_coil
+        capacitance = np.full(n, p["C_p"])
+        dcap: Tangent = only({"C_p": np.ones(n)})
+        conductance = np.full(n, 1.0 / p["R_p"])
+        dcond: Tangent = only({"R_p": np.full(n, -1.0 / p["R_p"] ** 2)})
+        for effect in self.effects:
+            capacitance, dcap = effect.d_coil_capacitance(capacitance, dcap, inputs, d_inputs, data, p)
+            conductance, dcond = effect.d_parallel_conductance(conductance, dcond, inputs, d_inputs, data, p)
+            dcap, dcond = only(dcap), only(dcond)
+        series = r_true + 1j * omega * l_true
+        z = 1.0 / (1.0 / series + 1j * omega * capacitance + conductance)
+        # dZ = -Z^2 dY, dY = -(dR + j w dL) / Zs^2 + j w dC + dG, and dLs = Im(dZ) / w, in real arithmetic:
+        # dLs = (Im(A) dR + Re(A) w dL - Re(Z^2) w dC - Im(Z^2) dG) / w with A = Z^2 / Zs^2. Each tangent enters
+        # once, with its factors folded (reverse order over these pointwise steps): R_true = R_coil + k^2 g L_coil.
+        z2 = z**2
+        a = z2 / series**2
+        by_r, by_l = a.imag / omega, a.real
+        jacobian: Tangent = {}
+        by_l_coil = by_r * k2 * g
+        by_k = by_r * g * l_coil * 2 * k_hat
+        by_tau = by_r * k2 * l_coil * g_by_tau
+        if hooked:
+            add_to(jacobian, dl_true, by_l)
+        else:
+            by_l_coil = by_l_coil + by_l * l_by_l_coil
+            by_k = by_k + by_l * l_by_k
+            by_tau = by_tau + by_l * l_by_tau
+        add_to(jacobian, own_l_coil, by_l_coil)
+        add_to(jacobian, dtw, by_l_coil * l_coil_by_t + by_r * sensor.resistance_ohm * sensor.resistance_tempco_per_k)
+        add_to(jacobian, dk_hat, by_k)
+        add_to(jacobian, dtau, by_tau)
+        add_to(jacobian, dcap, -z2.real)
+        add_to(jacobian, dcond, -z2.imag / omega)
+        return z.imag / omega, jacobian
 
     def predict(self, data: Measurements, p: Mapping[str, float], x_m: np.ndarray | None = None) -> np.ndarray:
         """Apparent series inductance Ls = Im(Z)/w (H) the bridge reports for every row."""

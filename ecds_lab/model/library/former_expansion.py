@@ -20,6 +20,7 @@ import numpy as np
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.model.effects import Effect, register
 from ecds_lab.model.parameters import Parameter
+from ecds_lab.model.tangents import Tangent, chained
 
 #: Coil temperature span (K) with the target present, and distinct positions, needed to see a.
 MIN_SPAN_K = 10.0
@@ -51,3 +52,12 @@ class FormerExpansion(Effect):
     def effective_distance(self, x_m: np.ndarray, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
         scale = 1.0 + p["former_alpha"] * (data.t_coil_c - self.sensor.reference_temperature_c)
         return p["p1"] + (x_m - p["p1"]) / scale
+
+    def d_effective_distance(self, x_m: np.ndarray, dx: Tangent, data: Measurements,
+                             p: Mapping[str, float]) -> tuple[np.ndarray, Tangent]:
+        rise = data.t_coil_c - self.sensor.reference_temperature_c
+        scale = 1.0 + p["former_alpha"] * rise
+        finite = np.isfinite(x_m)
+        offset = np.where(finite, x_m - p["p1"], 0.0)
+        own = {"p1": np.where(finite, 1.0 - 1.0 / scale, 0.0), "former_alpha": -offset * rise / scale**2}
+        return p["p1"] + (x_m - p["p1"]) / scale, chained(dx, 1.0 / scale, own)

@@ -29,6 +29,21 @@ def first_order_lag(time_s: np.ndarray, u: np.ndarray, tau_s: float) -> np.ndarr
     return linear_recurrence(efolds, b, float(u[0]))
 
 
+def first_order_lag_tau_derivative(time_s: np.ndarray, u: np.ndarray, y: np.ndarray, tau_s: float) -> np.ndarray:
+    """dy/dtau of ``first_order_lag`` (y its result): the recurrence differentiated,
+    dy1 = a dy0 + (da y0 + db), da = a dt/tau^2, db = -s - da (u0 - s tau) + a s, from dy = 0."""
+    u = np.asarray(u, float)
+    if len(u) == 0:
+        return np.empty_like(u)
+    dt = np.maximum(np.diff(time_s), 0.0)
+    efolds = dt / tau_s
+    a = np.exp(-efolds)
+    slope = np.divide(np.diff(u), dt, out=np.zeros_like(dt), where=dt > 0)
+    da = a * dt / tau_s**2
+    db = -slope - da * (u[:-1] - slope * tau_s) + a * slope
+    return linear_recurrence(efolds, da * y[:-1] + db, 0.0)
+
+
 def relaxation(time_s: np.ndarray, rate_per_s: np.ndarray, target: np.ndarray, start: float,
                restart: np.ndarray | None = None) -> np.ndarray:
     """y of dy/dt = -rate (y - target), from y = ``start`` at the first sample.
@@ -45,14 +60,29 @@ def relaxation(time_s: np.ndarray, rate_per_s: np.ndarray, target: np.ndarray, s
     return linear_recurrence(efolds, b, start)
 
 
+def relaxation_derivative(time_s: np.ndarray, rate_per_s: np.ndarray, target: np.ndarray, y: np.ndarray,
+                          d_rate: np.ndarray, d_target: np.ndarray, restart: np.ndarray | None = None) -> np.ndarray:
+    """The derivative of ``relaxation``'s y (given) along a parameter that changes the rate by ``d_rate`` and
+    the target by ``d_target`` per interval: dy1 = a dy0 + (da y0 + db), da = -a dt d_rate,
+    db = -da target + (1 - a) d_target, from dy = 0 at the first sample and after every restart."""
+    dt = np.maximum(np.diff(time_s), 0.0)
+    efolds = np.asarray(rate_per_s, float) * dt
+    a = np.exp(-efolds)
+    da = -a * dt * d_rate
+    inhomogeneous = da * y[:-1] - da * target + (1.0 - a) * d_target
+    if restart is not None and restart.any():
+        efolds[restart], inhomogeneous[restart] = _FORGET_EFOLDS, 0.0
+    return linear_recurrence(efolds, inhomogeneous, 0.0)
+
+
 def linear_recurrence(efolds: np.ndarray, b: np.ndarray, start: float) -> np.ndarray:
     """y with y[0] = start and y[i+1] = exp(-efolds[i]) y[i] + b[i] (efolds >= 0), vectorised.
 
     With L the running sum of -efolds, y_i = exp(L_i - L_s) (y_s + sum_(s<=j<i) b_j exp(L_s - L_(j+1)))
     from any earlier row s. The rows are cut into chunks of at most _CHUNK_ROWS rows spanning less
     than _BLOCK_EFOLDS (so no exp() overflows); the sums run within every chunk at once (one row of
-    a 2-D array each, so every sum starts from an exact zero), and a scalar recurrence carries y
-    from chunk to chunk.
+    a 2-D array each, so every sum starts from an exact zero), and a recurrence of the same form carries y
+    from chunk to chunk (solved the same way when there are many chunks, so no Python loop per chunk).
     """
     efolds = np.asarray(efolds, float)
     b = np.asarray(b, float)
@@ -70,9 +100,16 @@ def linear_recurrence(efolds: np.ndarray, b: np.ndarray, start: float) -> np.nda
     entering[:, 0] = 0.0  # a chunk's first row gets its value from the chunk before
     within = np.cumsum(entering, axis=1)[owner, pos]
     last = np.append(first[1:] - 1, n - 1)
-    decay = np.exp(log_a[first[1:]] - log_a[first[:-1]]).tolist()
-    carried, into = within[last].tolist(), b[first[1:] - 1].tolist()
-    heads = [float(start)]
-    for g in range(len(first) - 1):
-        heads.append(decay[g] * (heads[g] + carried[g]) + into[g])
-    return np.exp(log_a - ref) * (np.asarray(heads)[owner] + within)
+    chunk_efolds = log_a[first[:-1]] - log_a[first[1:]]
+    decay = np.exp(-chunk_efolds)
+    carried, into = within[last], b[first[1:] - 1]
+    # the heads are a recurrence of the same form, one row per chunk: solved alike when that makes it much shorter
+    # (not where fast decays cut the rows into chunks of one or two)
+    if _CHUNK_ROWS < len(first) <= n // 4:
+        heads = linear_recurrence(chunk_efolds, decay * carried[:-1] + into, start)
+    else:
+        heads_list = [float(start)]
+        for g, (d, c, i) in enumerate(zip(decay.tolist(), carried.tolist(), into.tolist(), strict=False)):
+            heads_list.append(d * (heads_list[g] + c) + i)
+        heads = np.asarray(heads_list)
+    return np.exp(log_a - ref) * (heads[owner] + within)

@@ -31,8 +31,12 @@ from scipy.special import expit
 
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.model.effects import Effect, Inputs, register
-from ecds_lab.model.library.history import relaxation
+from ecds_lab.model.library.history import relaxation, relaxation_derivative
 from ecds_lab.model.parameters import Parameter
+from ecds_lab.model.tangents import InputTangents, Tangent, plus
+
+#: The parameters the moisture m(t) depends on.
+_MOISTURE_PARAMETERS = ("drying_rate", "drying_onset", "drying_width", "drying_order", "bound_share", "sorption_width")
 
 
 @register
@@ -43,6 +47,9 @@ class ParasiticCapacitance(Effect):
     _line: _Timeline
     _memo_key: tuple[float, ...] = ()
     _memo: np.ndarray = np.ones(0)
+    _tangent_data: Measurements | None = None
+    _tangent_key: tuple[float, ...] = ()
+    _tangent: dict[str, np.ndarray]
     explains = "moisture in the former changes the coil's parallel capacitance as heating dries it"
     #: Table 2: the moist former adds ~15 pF; tens of pF at most.
     plausible: ClassVar[dict[str, tuple[float, float]]] = {"moist_dC": (-50e-12, 50e-12)}
@@ -109,6 +116,69 @@ class ParasiticCapacitance(Effect):
         self._memo_data, self._memo_key, self._memo = data, key, out
         return out
 
+    def moisture_derivatives(self, data: Measurements, p: Mapping[str, float]) -> dict[str, np.ndarray]:
+        """dm/d parameter per row for the six parameters of ``moisture`` (the same recurrences differentiated)."""
+        key = (p["drying_rate"], p["drying_onset"], p["drying_width"], p["drying_order"], p["bound_share"],
+               p["sorption_width"])
+        if self._tangent_data is data and self._tangent_key == key:
+            return self._tangent
+        if len(data) == 0:
+            return {name: np.zeros(0) for name in _MOISTURE_PARAMETERS}
+        if self._line_data is not data:
+            self._line_data, self._line = data, _Timeline.of(data)
+        line = self._line
+        mid = 0.5 * (line.temp_c[1:] + line.temp_c[:-1])
+        z = (mid - p["drying_onset"]) / p["drying_width"]
+        sigma = expit(z)
+        rate = p["drying_rate"] * sigma
+        d_rate = {"drying_rate": sigma, "drying_onset": -p["drying_rate"] * sigma * (1 - sigma) / p["drying_width"],
+                  "drying_width": -p["drying_rate"] * sigma * (1 - sigma) * z / p["drying_width"]}
+        dose = np.concatenate([[0.0], np.cumsum(rate * line.dt_s)])
+        dose = dose - dose[line.first]
+        free, by_dose, by_order = _remaining_derivatives(dose, p["drying_order"])
+        d_free = {}
+        for name, values in d_rate.items():
+            d_dose = np.concatenate([[0.0], np.cumsum(values * line.dt_s)])
+            d_free[name] = by_dose * (d_dose - d_dose[line.first])
+        d_free["drying_order"] = by_order
+        relative = -(mid - line.start_c[1:]) / p["sorption_width"]
+        equilibrium = np.exp(np.minimum(relative, 3.0))
+        bound = relaxation(line.time_s, rate, equilibrium, 1.0, restart=line.restart)
+        share = p["bound_share"]
+        d_bound: dict[str, np.ndarray] = {}
+        if share != 0:  # with no bound water (the simpler law) its derivatives count nothing: not computed
+            zero = np.zeros(len(mid))
+            d_equilibrium = np.where(relative < 3.0, -equilibrium * relative / p["sorption_width"], 0.0)
+            d_bound = {name: relaxation_derivative(line.time_s, rate, equilibrium, bound, values, zero, line.restart)
+                       for name, values in d_rate.items()}
+            d_bound["sorption_width"] = relaxation_derivative(line.time_s, rate, equilibrium, bound, zero,
+                                                              d_equilibrium, line.restart)
+        in_line = {name: (1.0 - share) * d_free.get(name, 0.0) + share * d_bound.get(name, 0.0)
+                   for name in _MOISTURE_PARAMETERS if name != "bound_share"}
+        in_line["bound_share"] = bound - free
+        out = {}
+        for name, values in in_line.items():
+            out[name] = np.empty(len(data))
+            out[name][line.order] = values
+        self._tangent_data, self._tangent_key, self._tangent = data, key, out
+        return out
+
+    def _with_moisture(self, value: np.ndarray, tangent: Tangent, size: str, data: Measurements,
+                       p: Mapping[str, float]) -> tuple[np.ndarray, Tangent]:
+        """value + p[size] m and its tangent: m for the size, p[size] dm for the moisture's parameters."""
+        moisture = self.moisture(data, p)
+        own = {name: p[size] * values for name, values in self.moisture_derivatives(data, p).items()}
+        own[size] = moisture
+        return value + p[size] * moisture, plus(tangent, own)
+
+    def d_coil_capacitance(self, c_f: np.ndarray, dc: Tangent, inputs: Inputs, d_inputs: InputTangents,
+                           data: Measurements, p: Mapping[str, float]) -> tuple[np.ndarray, Tangent]:
+        return self._with_moisture(c_f, dc, "moist_dC", data, p)
+
+    def d_parallel_conductance(self, g_s: np.ndarray, dg: Tangent, inputs: Inputs, d_inputs: InputTangents,
+                               data: Measurements, p: Mapping[str, float]) -> tuple[np.ndarray, Tangent]:
+        return self._with_moisture(g_s, dg, "moist_dG", data, p)
+
     def coil_capacitance(self, c_f: np.ndarray, inputs: Inputs, data: Measurements,
                          p: Mapping[str, float]) -> np.ndarray:
         return c_f + p["moist_dC"] * self.moisture(data, p)
@@ -152,3 +222,20 @@ def _remaining(dose: np.ndarray, order: float) -> np.ndarray:
         return np.exp(-dose)
     # order < 1: dry (0) once the dose reaches 1/(1 - order); order > 1: the base stays >= 1.
     return np.clip(1.0 - (1.0 - order) * dose, 0.0, None) ** (1.0 / (1.0 - order))
+
+
+def _remaining_derivatives(dose: np.ndarray, order: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``_remaining`` m and its derivatives dm/d dose and dm/d order. With B = 1 - (1 - n) D and
+    e = 1/(1 - n): m = B^e, dm/dD = -m/B, dm/dn = m (e^2 ln B + e D/B) (0 once dry); at n = 1,
+    m = exp(-D), dm/dD = -m and dm/dn = m D^2/2 (the limit)."""
+    if abs(order - 1.0) < 1e-6:
+        m = np.exp(-dose)
+        return m, -m, m * dose**2 / 2
+    base = np.clip(1.0 - (1.0 - order) * dose, 0.0, None)
+    exponent = 1.0 / (1.0 - order)
+    m = base**exponent
+    wet = base > 0
+    safe = np.where(wet, base, 1.0)
+    by_dose = np.where(wet, -m / safe, 0.0)
+    by_order = np.where(wet, m * (exponent**2 * np.log(safe) + exponent * dose / safe), 0.0)
+    return m, by_dose, by_order

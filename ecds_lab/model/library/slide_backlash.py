@@ -14,6 +14,7 @@ import numpy as np
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.model.effects import Effect, register
 from ecds_lab.model.parameters import Parameter
+from ecds_lab.model.tangents import Tangent, plus
 
 
 @register
@@ -33,3 +34,7 @@ class SlideBacklash(Effect):
 
     def effective_distance(self, x_m: np.ndarray, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
         return x_m - data.direction * p["backlash"] / 2
+
+    def d_effective_distance(self, x_m: np.ndarray, dx: Tangent, data: Measurements,
+                             p: Mapping[str, float]) -> tuple[np.ndarray, Tangent]:
+        return self.effective_distance(x_m, data, p), plus(dx, {"backlash": -0.5 * data.direction})

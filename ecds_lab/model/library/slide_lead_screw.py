@@ -23,6 +23,7 @@ import numpy as np
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.model.effects import Effect, register
 from ecds_lab.model.parameters import Parameter
+from ecds_lab.model.tangents import Tangent, plus
 
 #: Physically possible leads (m): fine screws of 0.5 mm up to the 20 mm of fast ball screws.
 LEAD_RANGE_M = (0.5e-3, 20e-3)
@@ -81,6 +82,19 @@ class SlideLeadScrew(Effect):
         phase = 2 * np.pi * np.where(finite, data.x_m, 0.0) / p["screw_lead"]
         error = p["screw_sin"] * np.sin(phase) + p["screw_cos"] * np.cos(phase)
         return x_m + np.where(finite, error, 0.0)
+
+    def d_effective_distance(self, x_m: np.ndarray, dx: Tangent, data: Measurements,
+                             p: Mapping[str, float]) -> tuple[np.ndarray, Tangent]:
+        if p["screw_lead"] < self.shortest_lead(data):  # as effective_distance: nothing moves, nothing to derive
+            return x_m, dx
+        finite = np.isfinite(data.x_m)
+        x = np.where(finite, data.x_m, 0.0)
+        phase = 2 * np.pi * x / p["screw_lead"]
+        sin, cos = np.where(finite, np.sin(phase), 0.0), np.where(finite, np.cos(phase), 0.0)
+        # d phase / d lead = -phase / lead
+        d_lead = (p["screw_sin"] * cos - p["screw_cos"] * sin) * (-phase / p["screw_lead"])
+        own = {"screw_sin": sin, "screw_cos": cos, "screw_lead": d_lead}
+        return x_m + p["screw_sin"] * sin + p["screw_cos"] * cos, plus(dx, own)
 
 
 def _positions(data: Measurements) -> tuple[int, float]:

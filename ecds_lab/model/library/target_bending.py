@@ -16,6 +16,7 @@ import numpy as np
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.model.effects import Effect, register
 from ecds_lab.model.parameters import Parameter
+from ecds_lab.model.tangents import Tangent, chained
 
 
 @register
@@ -53,3 +54,13 @@ class TargetBending(Effect):
         d_t = data.t_target_c - self.sensor.reference_temperature_c
         weight = 1 + p["bending_x"] * np.where(np.isfinite(x_m), (x_m - 0.060) / 0.040, 0.0)
         return x_m - (p["bending"] * d_t + p["bending_quadratic"] * d_t**2) * weight
+
+    def d_effective_distance(self, x_m: np.ndarray, dx: Tangent, data: Measurements,
+                             p: Mapping[str, float]) -> tuple[np.ndarray, Tangent]:
+        d_t = data.t_target_c - self.sensor.reference_temperature_c
+        finite = np.isfinite(x_m)
+        relative = np.where(finite, (x_m - 0.060) / 0.040, 0.0)
+        weight = 1 + p["bending_x"] * relative
+        shift = p["bending"] * d_t + p["bending_quadratic"] * d_t**2
+        own = {"bending": -d_t * weight, "bending_quadratic": -d_t**2 * weight, "bending_x": -shift * relative}
+        return x_m - shift * weight, chained(dx, np.where(finite, 1.0 - shift * p["bending_x"] / 0.040, 1.0), own)

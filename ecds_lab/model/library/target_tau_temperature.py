@@ -53,6 +53,7 @@ from ecds_lab.data.measurements import Measurements
 from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.model.effects import Effect, Inputs, register
 from ecds_lab.model.parameters import Parameter
+from ecds_lab.model.tangents import InputTangents, Tangent, plus, scaled
 
 #: Vacuum permeability (H/m).
 MU_0 = 4e-7 * math.pi
@@ -73,6 +74,18 @@ def recession_m(delta_m: np.ndarray, thickness_m: float) -> np.ndarray:
     gamma = (1 + 1j) / delta_m
     z = np.minimum(np.abs(gamma) * thickness_m, THICK_GAMMA_D) * (1 + 1j) / math.sqrt(2.0)
     return (1.0 / (np.tanh(z) * gamma)).real
+
+
+def recession_derivatives_m(delta_m: np.ndarray, thickness_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """d recession / d delta and d recession / d thickness (``recession_m`` = Re{coth(u) delta/(1 + j)},
+    u = (1 + j) d/delta: d/dd = Re{-csch^2 u}, d/d delta = Re{coth(u)/(1 + j) + csch^2(u) d/delta});
+    beyond THICK_GAMMA_D, where coth is held at 1, only the first term of d/d delta remains."""
+    q = 1 + 1j
+    thick = np.abs(q / delta_m) * thickness_m >= THICK_GAMMA_D
+    z = np.minimum(np.abs(q / delta_m) * thickness_m, THICK_GAMMA_D) * q / math.sqrt(2.0)
+    coth = 1.0 / np.tanh(z)
+    csch2 = np.where(thick, 0.0, coth**2 - 1.0)
+    return (coth / q + csch2 * thickness_m / delta_m).real, (-csch2).real
 
 
 @register
@@ -168,3 +181,45 @@ class TargetTauTemperature(Effect):
         if self.resistivity_ohm_m is not None:
             log_ratio = log_ratio * (1 - self._skin_share(data, p))
         return tau_s * np.exp(log_ratio)
+
+    def _rise(self, t_c: np.ndarray) -> np.ndarray:
+        return t_c - self.sensor.reference_temperature_c
+
+    def _skin_share_thickness(self, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
+        """d w / d thickness: (2 / delta) exp(-2 d / delta)."""
+        rho = self.resistivity_ohm_m
+        assert rho is not None  # called for a non-magnetic target only
+        delta = skin_depth_m(rho, data.freq_hz)
+        return 2.0 / delta * np.exp(-2.0 * p["plate_thickness"] / delta)
+
+    def d_effective_distance(self, x_m: np.ndarray, dx: Tangent, data: Measurements,
+                             p: Mapping[str, float]) -> tuple[np.ndarray, Tangent]:
+        rho = self.resistivity_ohm_m
+        if rho is None:
+            return x_m, dx
+        d_t = self._rise(data.t_target_c)
+        log_ratio = self._log_tau_ratio(data.t_target_c, self.sensor.reference_temperature_c, p)
+        delta = skin_depth_m(rho, data.freq_hz)
+        hot = delta * np.exp(-0.5 * log_ratio)
+        thickness = p["plate_thickness"]
+        change = recession_m(hot, thickness) - recession_m(delta, thickness)
+        hot_by_delta, hot_by_thickness = recession_derivatives_m(hot, thickness)
+        _, cold_by_thickness = recession_derivatives_m(delta, thickness)
+        share = self._skin_share(data, p)
+        by_log_ratio = share * hot_by_delta * hot * -0.5
+        own = {"tau_tempco": by_log_ratio * d_t, "tau_tempco2": by_log_ratio * d_t**2,
+               "plate_thickness": self._skin_share_thickness(data, p) * change
+               + share * (hot_by_thickness - cold_by_thickness)}
+        return x_m + share * change, plus(dx, own)
+
+    def d_target_tau(self, tau_s: np.ndarray, dtau: Tangent, inputs: Inputs, d_inputs: InputTangents,
+                     data: Measurements, p: Mapping[str, float]) -> tuple[np.ndarray, Tangent]:
+        d_t = self._rise(inputs.t_target_c)
+        log_ratio = self._log_tau_ratio(inputs.t_target_c, self.sensor.reference_temperature_c, p)
+        keep = 1.0 if self.resistivity_ohm_m is None else 1 - self._skin_share(data, p)
+        out = tau_s * np.exp(log_ratio * keep)
+        own = {"tau_tempco": out * keep * d_t, "tau_tempco2": out * keep * d_t**2}
+        if self.resistivity_ohm_m is not None:
+            own["plate_thickness"] = -out * log_ratio * self._skin_share_thickness(data, p)
+        by_temperature = scaled(d_inputs.t_target_c, out * keep * (p["tau_tempco"] + 2 * p["tau_tempco2"] * d_t))
+        return out, plus(scaled(dtau, out / tau_s), own, by_temperature)

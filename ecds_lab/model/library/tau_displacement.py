@@ -19,6 +19,7 @@ from scipy.interpolate import CubicSpline
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.model.effects import Effect, Inputs, register
 from ecds_lab.model.parameters import Parameter
+from ecds_lab.model.tangents import InputTangents, Tangent, plus, scaled
 
 KNOTS_M = (0.020, 0.028, 0.040, 0.060, 0.100)
 FREE_KNOTS = {"tau_x_20mm": 0, "tau_x_28mm": 1, "tau_x_40mm": 2, "tau_x_100mm": 4}
@@ -47,3 +48,21 @@ class TauDisplacement(Effect):
         spline = CubicSpline(KNOTS_M, values, bc_type="natural")
         x = np.clip(np.where(np.isfinite(inputs.x_m), inputs.x_m, KNOTS_M[3]), KNOTS_M[0], KNOTS_M[-1])
         return tau_s * np.exp(spline(x))
+
+    def d_target_tau(self, tau_s: np.ndarray, dtau: Tangent, inputs: Inputs, d_inputs: InputTangents,
+                     data: Measurements, p: Mapping[str, float]) -> tuple[np.ndarray, Tangent]:
+        values = np.zeros(len(KNOTS_M))
+        for name, index in FREE_KNOTS.items():
+            values[index] = p[name]
+        spline = CubicSpline(KNOTS_M, values, bc_type="natural")
+        finite = np.isfinite(inputs.x_m)
+        x = np.clip(np.where(finite, inputs.x_m, KNOTS_M[3]), KNOTS_M[0], KNOTS_M[-1])
+        inside = finite & (inputs.x_m > KNOTS_M[0]) & (inputs.x_m < KNOTS_M[-1])
+        out = tau_s * np.exp(spline(x))
+        # the spline is linear in its knot values: d/d value_i is the spline through the unit vector e_i
+        own = {name: out * CubicSpline(KNOTS_M, np.eye(len(KNOTS_M))[index], bc_type="natural")(x)
+               for name, index in FREE_KNOTS.items()}
+        slope = np.where(inside, out * spline(x, 1), 0.0)
+        with np.errstate(invalid="ignore"):
+            by_distance = {name: np.where(inside, slope * values, 0.0) for name, values in d_inputs.x_m.items()}
+        return out, plus(scaled(dtau, out / tau_s), own, by_distance)

@@ -13,8 +13,9 @@ import numpy as np
 
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.model.effects import Effect, register
-from ecds_lab.model.library.history import first_order_lag
+from ecds_lab.model.library.history import first_order_lag, first_order_lag_tau_derivative
 from ecds_lab.model.parameters import Parameter
+from ecds_lab.model.tangents import Tangent, mapped, plus
 
 
 @register
@@ -39,3 +40,21 @@ class ThermalLag(Effect):
         for rows in data.segment_rows:
             out[rows] = first_order_lag(data.time_s[rows], out[rows], p["lag_tau"])
         return out
+
+    def d_winding_temperature(self, t_c: np.ndarray, dt: Tangent, data: Measurements,
+                              p: Mapping[str, float]) -> tuple[np.ndarray, Tangent]:
+        """The lag is linear in the thermocouple's temperature, so an incoming tangent is lagged alike."""
+        tau = p["lag_tau"]
+        out = np.array(t_c, dtype=float)
+        by_tau = np.zeros(len(out))
+        for rows in data.segment_rows:
+            out[rows] = first_order_lag(data.time_s[rows], t_c[rows], tau)
+            by_tau[rows] = first_order_lag_tau_derivative(data.time_s[rows], t_c[rows], out[rows], tau)
+
+        def lagged(values: np.ndarray) -> np.ndarray:
+            result = np.array(values, dtype=float)
+            for rows in data.segment_rows:
+                result[rows] = first_order_lag(data.time_s[rows], values[rows], tau)
+            return result
+
+        return out, plus(mapped(dt, lagged), {"lag_tau": by_tau})
