@@ -264,11 +264,12 @@ def smooth_residual(data: Measurements, residuals_ppm: np.ndarray, window: int =
 
 
 def _repeat_pairs(data: Measurements, residuals_ppm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Differences of successive residuals of one state (see the module docstring), and the later row of each."""
+    """Differences of successive residuals of one state (see the module docstring), and the two rows of each
+    (earlier, later; one pair per row of the array)."""
     order = np.lexsort((data.time_s, data.direction, data.x_commanded_m, data.freq_hz, data.segment))
     r = residuals_ppm[order]
     if len(r) < 2:
-        return np.zeros(0), np.zeros(0, int)
+        return np.zeros(0), np.zeros((0, 2), int)
     same = np.ones(len(r) - 1, bool)
     for key in (data.segment, data.freq_hz, data.x_commanded_m, data.direction):
         k = key[order]
@@ -276,7 +277,7 @@ def _repeat_pairs(data: Measurements, residuals_ppm: np.ndarray) -> tuple[np.nda
     t, tc, tt = (a[order] for a in (data.time_s, data.t_coil_c, data.t_target_c))
     same &= np.abs(np.diff(t)) <= MAX_GAP_S
     same &= (np.abs(np.diff(tc)) <= MAX_TEMPERATURE_STEP_K) & (np.abs(np.diff(tt)) <= MAX_TEMPERATURE_STEP_K)
-    return np.diff(r)[same], order[1:][same]
+    return np.diff(r)[same], np.column_stack([order[:-1][same], order[1:][same]])
 
 
 def _smooth_remainders(data: Measurements, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -307,8 +308,8 @@ def _smoothed_sigma(u: np.ndarray, shared_ppm: np.ndarray) -> float:
 
 @dataclass(frozen=True)
 class _Samples:
-    """What the readings say about their noise: repeat differences (with a row each) and remainders about a
-    smooth (with their rows)."""
+    """What the readings say about their noise: repeat differences (with their two rows) and remainders about
+    a smooth (with their rows)."""
 
     pairs: np.ndarray
     pair_rows: np.ndarray
@@ -317,11 +318,34 @@ class _Samples:
 
     def sigma(self, rows: np.ndarray, shared_ppm: np.ndarray, min_pairs: int, min_readings: int
               ) -> tuple[float, int, str]:
-        """The reading noise of the readings ``rows`` (boolean mask) selects: from repeats where there are
-        ``min_pairs``, else from remainders where there are ``min_readings``; NaN when neither."""
-        in_pairs = rows[self.pair_rows]
+        """The pooled reading noise of the readings ``rows`` (boolean mask) selects: from repeats where there
+        are ``min_pairs``, else from remainders where there are ``min_readings``; NaN when neither."""
+        in_pairs = rows[self.pair_rows].all(axis=1)
         if in_pairs.sum() >= min_pairs:
             return _robust_sigma(self.pairs[in_pairs]), int(in_pairs.sum()), REPEATED
+        return self._smoothed(rows, shared_ppm, min_readings)
+
+    def class_sigma(self, rows: np.ndarray, shared_ppm: np.ndarray) -> tuple[float, int, str]:
+        """The reading noise of one phase class: repeats speak for the readings that have a repeat partner,
+        remainders about a smooth for the others (a ramp's readings rarely repeat a state, while its last,
+        settled readings may), the two variances weighted by the readings behind each; NaN with too few."""
+        in_pairs = rows[self.pair_rows].all(axis=1)
+        parts = []
+        if in_pairs.sum() >= MIN_CLASS_PAIRS:
+            paired = np.zeros(len(rows), bool)
+            paired[self.pair_rows[in_pairs].ravel()] = True
+            parts.append((_robust_sigma(self.pairs[in_pairs]), int(paired.sum()), REPEATED))
+            rows = rows & ~paired
+        smoothed = self._smoothed(rows, shared_ppm, MIN_CLASS_READINGS)
+        if math.isfinite(smoothed[0]):
+            parts.append(smoothed)
+        if not parts:
+            return math.nan, int(rows.sum()), ""
+        count = sum(n for _, n, _ in parts)
+        sigma = math.sqrt(sum(n * v**2 for v, n, _ in parts) / count)
+        return sigma, count, " and ".join(how for _, _, how in parts)
+
+    def _smoothed(self, rows: np.ndarray, shared_ppm: np.ndarray, min_readings: int) -> tuple[float, int, str]:
         chosen = self.remainder_rows[rows[self.remainder_rows]]
         if len(chosen) >= min_readings:
             u = self.remainders[rows[self.remainder_rows]]
@@ -373,7 +397,7 @@ def _with_classes(data: Measurements, r: np.ndarray, samples: _Samples, room: fl
     classes, reading = [], np.full(len(data), pooled)
     for f, a, g in keys:
         rows = (freq == f) & (air == bool(a)) & (regime == int(g))
-        own, n, how = samples.sigma(rows, shared, MIN_CLASS_PAIRS, MIN_CLASS_READINGS)
+        own, n, how = samples.class_sigma(rows, shared)
         used = pooled if not math.isfinite(own) else \
             math.sqrt((n * own**2 + SHRINK_READINGS * pooled**2) / (n + SHRINK_READINGS))
         classes.append(PhaseNoise(float(f), bool(a), int(g), used, own, n, how or f"pooled ({method})"))

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 from functools import cache
 
 import numpy as np
-from scipy.optimize import brentq
+from scipy.optimize import brentq, minimize
 from scipy.signal import savgol_filter
 
 from ecds_lab.analysis.grouping import visit_labels
@@ -40,6 +40,8 @@ REVISIT_TOLERANCE_K = 2.0
 #: Passes of at least this many distances are smoothed along x (odd window up to ``SMOOTH_WINDOW``).
 MIN_PASS_POINTS = 5
 SMOOTH_WINDOW = 7
+#: Revisit differences beyond this many of their own sigmas are clipped (a glitch must not look like scatter).
+CLIP_SIGMAS = 4.0
 #: Median of |z| for a standard normal z.
 _MEDIAN_ABS_NORMAL = 0.6744897501960817
 
@@ -92,11 +94,15 @@ def estimate_positioning(data: Measurements, residuals_ppm: np.ndarray, reading_
     declared = declared_repeatability_m(data)
     if sensitivity_ppm_per_m is None:
         return Positioning(declared)
-    u, scale, s = _revisit_differences(data, np.asarray(residuals_ppm, float), np.asarray(reading_sigma_ppm, float),
-                                       np.asarray(sensitivity_ppm_per_m, float))
+    u, scale, s, pair = _revisit_differences(data, np.asarray(residuals_ppm, float),
+                                             np.asarray(reading_sigma_ppm, float),
+                                             np.asarray(sensitivity_ppm_per_m, float))
     if not len(u):
         return Positioning(declared)
-    dof = len(u) / max(len(np.unique(data.freq_hz[np.isfinite(data.x_m)])), 1)
+    across = _across_frequencies(u, scale, s, pair)
+    if across is not None:
+        return Positioning(declared, *across)
+    dof = float(len(u))
 
     def excess(sigma_x: float) -> float:
         return float(np.median(np.abs(u) / np.sqrt(scale[:, 0] * (2 * sigma_x**2 * s**2) + scale[:, 1])))
@@ -110,14 +116,53 @@ def estimate_positioning(data: Measurements, residuals_ppm: np.ndarray, reading_
     return Positioning(declared, float(sigma_x), dof)
 
 
+def _across_frequencies(u: np.ndarray, scale: np.ndarray, s: np.ndarray,
+                        pair: np.ndarray) -> tuple[float, float] | None:
+    """sigma_x and its degrees of freedom from revisits read at two frequencies: the two frequencies of one
+    visit share its position error but not the bridge's noise, so each pair of differences (u_a, u_b) is
+    Gaussian with covariance [[c s_a^2 + n_a, c s_a s_b], [c s_a s_b, c s_b^2 + n_b]] (each divided by the
+    smooth's reduction first; c = 2 sigma_x^2, n the reading noise's part). c and the two noise variances by maximum
+    likelihood, so the reading noise need not be known; each difference clipped at ``CLIP_SIGMAS`` robust
+    sigmas first. None with fewer than ``MIN_REVISIT_DOF`` pairs."""
+    order = np.lexsort((s, pair))
+    twin = pair[order][1:] == pair[order][:-1]
+    first, second = order[:-1][twin], order[1:][twin]
+    if len(first) < MIN_REVISIT_DOF:
+        return None
+    a, b = u[first] / np.sqrt(scale[first, 0]), u[second] / np.sqrt(scale[second, 0])
+    a, b = (np.clip(v, -CLIP_SIGMAS * _robust_scale(v), CLIP_SIGMAS * _robust_scale(v)) for v in (a, b))
+    sa, sb = s[first], s[second]
+
+    def negative_log_likelihood(log_params: np.ndarray) -> float:
+        c, na, nb = np.exp(log_params)
+        vaa, vbb, vab = c * sa**2 + na, c * sb**2 + nb, c * sa * sb
+        det = vaa * vbb - vab**2
+        quad = (vbb * a**2 - 2 * vab * a * b + vaa * b**2) / det
+        return float(0.5 * np.sum(np.log(det) + quad))
+
+    na0, nb0 = _robust_scale(a) ** 2, _robust_scale(b) ** 2
+    c0 = max(float(np.mean(a * b / (sa * sb))), 1e-4 * min(na0 / np.mean(sa**2), nb0 / np.mean(sb**2)))
+    start = np.log([c0, na0, nb0])
+    best = minimize(negative_log_likelihood, start, method="Nelder-Mead",
+                    options={"xatol": 1e-4, "fatol": 1e-6, "maxiter": 2000})
+    c = float(np.exp(best.x[0])) if best.success or np.isfinite(best.fun) else math.nan
+    return math.sqrt(c / 2), float(len(first))
+
+
+def _robust_scale(v: np.ndarray) -> float:
+    """1.4826 MAD: a standard deviation a glitch does not inflate."""
+    return float(1.4826 * np.median(np.abs(v - np.median(v)))) or float(np.std(v)) or 1.0
+
+
 def _revisit_differences(data: Measurements, r: np.ndarray, reading: np.ndarray,
-                         s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                         s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Differences of successive visits of one distance, direction and frequency in one thermal state, about
     a smooth of themselves along x; with each one's variance factors (of 2 sigma_x^2 s^2 and of the reading
-    noise, times the smooth's reduction) and its sensitivity."""
+    noise, times the smooth's reduction), its sensitivity and the pair of visits it compares (a number)."""
     target = np.isfinite(data.x_m) & np.isfinite(s) & (s > 0) & np.isfinite(r)
+    nothing = np.zeros(0), np.zeros((0, 2)), np.zeros(0), np.zeros(0, int)
     if target.sum() < 2 * MIN_PASS_POINTS:
-        return np.zeros(0), np.zeros((0, 2)), np.zeros(0)
+        return nothing
     visits = visit_labels(data)
     rows = np.flatnonzero(target)
     key = np.unique(np.column_stack([visits[rows], data.freq_hz[rows]]), axis=0, return_inverse=True)[1].ravel()
@@ -139,7 +184,7 @@ def _revisit_differences(data: Measurements, r: np.ndarray, reading: np.ndarray,
     same &= (np.abs(np.diff(tc[order])) <= REVISIT_TOLERANCE_K) & (np.abs(np.diff(tt[order])) <= REVISIT_TOLERANCE_K)
     i, j = order[:-1][same], order[1:][same]
     if not len(i):
-        return np.zeros(0), np.zeros((0, 2)), np.zeros(0)
+        return nothing
     rank = _rank_within(order, same)[same]
     d, v, sp = m[j] - m[i], var_r[i] + var_r[j], 0.5 * (sens[i] + sens[j])
     passes = np.unique(np.column_stack([segment[i], freq[i], direction[i], phase[i], phase[j], rank]), axis=0,
@@ -155,7 +200,8 @@ def _revisit_differences(data: Measurements, r: np.ndarray, reading: np.ndarray,
         factor_all[members] = np.sum(residual_operator**2, axis=1)
         keep[members] = True
     scale = np.column_stack([factor_all, factor_all * v])[keep]
-    return u_all[keep], scale, sp[keep]
+    pair = np.unique(np.column_stack([visits[first[i]], visits[first[j]]]), axis=0, return_inverse=True)[1].ravel()
+    return u_all[keep], scale, sp[keep], pair[keep]
 
 
 def _rank_within(order: np.ndarray, same: np.ndarray) -> np.ndarray:
