@@ -47,6 +47,7 @@ def fit_summary(data: Measurements, effects: Sequence[str] = (), sensor: SensorC
         "noise_ppm": round(result.noise.ppm, 3),
         "noise_method": result.noise.method,
         "noise": result.noise.to_json(),
+        "noise_warnings": list(result.noise.warnings),
         "dof": result.dof,
         "bic": result.bic,
         "converged": result.success,
@@ -206,7 +207,9 @@ def format_fit_summary(summary: dict[str, Any]) -> str:
              f"  residual RMS {summary['rmse_ppm']:.2f} ppm"
              + (f" (noise {noise:.2f} ppm{_noise_origin(summary)})"
                 if noise is not None else "")
-             + f", dof {summary['dof']}, BIC {summary['bic']:.1f}", "  parameters:"]
+             + f", dof {summary['dof']}, BIC {summary['bic']:.1f}"]
+    lines += [f"  warning: {text}" for text in summary.get("noise_warnings", [])]
+    lines.append("  parameters:")
     for name, p in summary["params"].items():
         err = "fixed" if p["stderr"] is None else f"+/- {p['stderr']:.4g}"
         lines.append(f"    {name:<8} {p['value']:>14.7g} {err:<16} {p['unit']}")

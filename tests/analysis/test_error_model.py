@@ -13,6 +13,7 @@ from ecds_lab.analysis.fitting import fit, fit_model
 from ecds_lab.analysis.grouping import visit_labels
 from ecds_lab.analysis.noise import REGIMES, reading_groups
 from ecds_lab.analysis.outliers import find_glitches
+from ecds_lab.analysis.summary import fit_summary, format_fit_summary
 from ecds_lab.model.sensor_model import SensorModel
 from ecds_lab.simulators import campaign
 
@@ -126,3 +127,4 @@ def test_a_declared_positioning_far_above_the_truth_is_warned_about(faithful_swe
     assert bool(noise.warnings) == warned, noise.warnings
     if warned:
         assert "too large" in noise.warnings[0] and "20 um" in noise.warnings[0]
+        assert f"warning: {noise.warnings[0]}" in format_fit_summary(fit_summary(data, KNOWN))
