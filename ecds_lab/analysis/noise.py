@@ -38,15 +38,16 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from functools import cache
 from typing import Any
 
 import numpy as np
 from scipy.ndimage import median_filter
 from scipy.optimize import brentq
-from scipy.signal import savgol_filter
+from scipy.signal import savgol_coeffs, savgol_filter
 
 from ecds_lab.analysis.grouping import design_effect, ramping, visit_labels
-from ecds_lab.analysis.positioning import Positioning, declared_repeatability_m, estimate_positioning
+from ecds_lab.analysis.positioning import Positioning, estimate_positioning
 from ecds_lab.data.measurements import Measurements
 
 #: ``NoiseEstimate.method`` when repeated readings of one state gave the estimate.
@@ -170,13 +171,9 @@ class NoiseEstimate:
     def reading_sigma_ppm(self, data: Measurements) -> np.ndarray:
         """The bridge's reading noise of each reading of ``data`` (ppm): its phase class's figure."""
         fallback = self.pooled_ppm if math.isfinite(self.pooled_ppm) else self.reading_ppm
-        out = np.full(len(data), fallback)
         if not self.classes:
-            return out
-        freq, air, regime = phase_classes(data, self.room_c)
-        for c in self.classes:
-            out[(freq == c.freq_hz) & (air == c.in_air) & (regime == c.regime)] = c.sigma_ppm
-        return out
+            return np.full(len(data), fallback)
+        return _by_class(self.classes, phase_classes(data, self.room_c), fallback)
 
     def positioning_sigma_ppm(self, data: Measurements) -> np.ndarray:
         """The positioning scatter's share of each reading (ppm): sigma_x |d ln L / dx|, 0 in air."""
@@ -230,6 +227,16 @@ def phase_classes(data: Measurements, room_c: float) -> tuple[np.ndarray, np.nda
     return data.freq_hz, data.in_air, regime
 
 
+def _by_class(classes: tuple[PhaseNoise, ...], keys: tuple[np.ndarray, np.ndarray, np.ndarray],
+              fallback: float) -> np.ndarray:
+    """Each row's class figure (``fallback`` for a class not among ``classes``)."""
+    freq, air, regime = keys
+    out = np.full(len(freq), fallback)
+    for c in classes:
+        out[(freq == c.freq_hz) & (air == c.in_air) & (regime == c.regime)] = c.sigma_ppm
+    return out
+
+
 def room_temperature_c(data: Measurements) -> float:
     """The campaign's room temperature (C): the 5th percentile of the cooler of the coil and target readings."""
     return float(np.percentile(np.minimum(data.t_coil_c, data.t_target_c), 5)) if len(data) else math.nan
@@ -280,13 +287,34 @@ def _repeat_pairs(data: Measurements, residuals_ppm: np.ndarray) -> tuple[np.nda
     return np.diff(r)[same], np.column_stack([order[:-1][same], order[1:][same]])
 
 
+def local_quadratic(values: np.ndarray, window: int) -> np.ndarray:
+    """Savitzky-Golay smooth of order 2 over an odd ``window`` (at most ``len(values)``), exactly as
+    ``scipy.signal.savgol_filter(values, window, 2, mode="interp")`` but without its per-call edge fits,
+    which made it the cost of the noise estimate (hundreds of short runs per campaign)."""
+    v = np.asarray(values, float)
+    coefficients, first, last = _operators(window)
+    half = window // 2
+    out = np.convolve(v, coefficients, mode="same")
+    out[:half] = first @ v[:window]
+    out[-half:] = last @ v[-window:]
+    return out
+
+
+@cache
+def _operators(window: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The smooth's coefficients inside, and the rows of its operator for the first and last ``window // 2``
+    points (a quadratic fitted to the first or last ``window`` points)."""
+    operator = savgol_filter(np.eye(window), window, 2, axis=0, mode="interp")
+    return savgol_coeffs(window, 2), operator[: window // 2], operator[window - window // 2:]
+
+
 def _smooth_remainders(data: Measurements, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The residual about a local quadratic smooth of itself along each run of like readings long enough
     for one (``NOISE_WINDOW``), and the rows they belong to."""
     usable = [rows for rows in reading_groups(data) if len(rows) >= NOISE_WINDOW]
     if not usable:
         return np.zeros(0), np.zeros(0, int)
-    u = np.concatenate([r[rows] - savgol_filter(r[rows], NOISE_WINDOW, 2, mode="interp") for rows in usable])
+    u = np.concatenate([r[rows] - local_quadratic(r[rows], NOISE_WINDOW) for rows in usable])
     return u, np.concatenate(usable)
 
 
@@ -363,83 +391,96 @@ def estimate_noise(data: Measurements, residuals_ppm: np.ndarray,
     r = np.asarray(residuals_ppm, float)
     samples = _Samples(*_repeat_pairs(data, r), *_smooth_remainders(data, r))
     room = room_temperature_c(data)
+    keys = phase_classes(data, room)
     table = SensitivityTable() if relative_sensitivity_per_m is None else \
         SensitivityTable.from_rows(data, relative_sensitivity_per_m)
     s_ppm = None if relative_sensitivity_per_m is None else \
         np.nan_to_num(np.abs(np.asarray(relative_sensitivity_per_m, float)) * 1e6, nan=0.0, posinf=0.0)
     shared = np.zeros(len(data))
-    positioning = Positioning(declared_repeatability_m(data))
-    estimate = _with_classes(data, r, samples, room, shared)
-    for _ in range(2):  # the reading noise and the positioning each need the other: two rounds settle them
-        positioning = estimate_positioning(data, r, estimate.reading_sigma_ppm(data), s_ppm)
-        shared = positioning.sigma_m * s_ppm if s_ppm is not None else shared
-        estimate = _with_classes(data, r, samples, room, shared)
+    visits = visit_labels(data)
+    estimate, reading = _with_classes(r, samples, keys, room, shared)
+    positioning = estimate_positioning(data, r, reading, s_ppm, visits)
+    for again in (True, False):  # the reading noise and the positioning each need the other: two rounds
+        if s_ppm is None or not positioning.sigma_m > 0:
+            break
+        shared = positioning.sigma_m * s_ppm
+        estimate, reading = _with_classes(r, samples, keys, room, shared)
+        if not again or not positioning.dof > 0:
+            break
+        positioning = estimate_positioning(data, r, reading, s_ppm, visits)
     positioning_ppm = float(np.sqrt(np.mean(shared**2))) if len(shared) else 0.0
-    estimate = NoiseEstimate(estimate.reading_ppm, estimate.method, estimate.pairs, positioning_ppm, 1.0,
-                             estimate.classes, estimate.pooled_ppm, room, positioning, table)
-    deff = visit_design_effect(data, r, estimate.sigma_ppm(data))
+    deff = visit_design_effect(data, r, np.hypot(reading, shared), visits)
     return NoiseEstimate(estimate.reading_ppm, estimate.method, estimate.pairs, positioning_ppm, deff,
                          estimate.classes, estimate.pooled_ppm, room, positioning, table,
-                         tuple(_warnings(data, r, estimate, s_ppm)))
+                         tuple(_warnings(r, reading, positioning, s_ppm)))
 
 
-def _with_classes(data: Measurements, r: np.ndarray, samples: _Samples, room: float,
-                  shared: np.ndarray) -> NoiseEstimate:
-    """The reading noise, pooled and per phase class (shrunk toward the pooled), with positioning shares
-    ``shared`` (ppm per row) taken out of estimates from remainders."""
-    everything = np.ones(len(data), bool)
+def _with_classes(r: np.ndarray, samples: _Samples, keys: tuple[np.ndarray, np.ndarray, np.ndarray], room: float,
+                  shared: np.ndarray) -> tuple[NoiseEstimate, np.ndarray]:
+    """The reading noise, pooled and per phase class (``keys``, shrunk toward the pooled), with positioning
+    shares ``shared`` (ppm per row) taken out of estimates from remainders; and each row's figure."""
+    everything = np.ones(len(r), bool)
     pooled, count, method = samples.sigma(everything, shared, MIN_PAIRS, MIN_SMOOTH_READINGS)
     if not math.isfinite(pooled):
         pooled = float(1.4826 * np.median(np.abs(r - np.median(r)))) if len(r) else math.nan
         method = "robust spread of the residual (too few readings)"
-    freq, air, regime = phase_classes(data, room)
-    keys = np.unique(np.column_stack([freq, air, regime]), axis=0) if len(data) else np.zeros((0, 3))
-    classes, reading = [], np.full(len(data), pooled)
-    for f, a, g in keys:
-        rows = (freq == f) & (air == bool(a)) & (regime == int(g))
+    freq, air, regime = keys
+    frequencies, index = np.unique(freq, return_inverse=True)
+    code = (index.ravel() * 2 + air) * len(REGIMES) + regime
+    classes, reading = [], np.full(len(r), pooled)
+    for c in np.unique(code):
+        rows = code == c
+        f, a, g = frequencies[c // (2 * len(REGIMES))], bool(c // len(REGIMES) % 2), int(c % len(REGIMES))
         own, n, how = samples.class_sigma(rows, shared)
         used = pooled if not math.isfinite(own) else \
             math.sqrt((n * own**2 + SHRINK_READINGS * pooled**2) / (n + SHRINK_READINGS))
         classes.append(PhaseNoise(float(f), bool(a), int(g), used, own, n, how or f"pooled ({method})"))
         reading[rows] = used
     rms = float(np.sqrt(np.mean(reading**2))) if len(reading) else pooled
-    return NoiseEstimate(rms, method, count, classes=tuple(classes), pooled_ppm=pooled, room_c=room)
+    return NoiseEstimate(rms, method, count, classes=tuple(classes), pooled_ppm=pooled, room_c=room), reading
 
 
-def visit_design_effect(data: Measurements, residuals_ppm: np.ndarray, sigma_ppm: np.ndarray) -> float:
+def visit_design_effect(data: Measurements, residuals_ppm: np.ndarray, sigma_ppm: np.ndarray,
+                        visits: np.ndarray | None = None) -> float:
     """Kish's design effect of the readings at the target clustered by visit (``grouping``): the intraclass
-    correlation of the residuals in noise units, about a smooth of the visit means along each sweep (so
-    structure the model leaves, smooth over a sweep, is not taken for shared error); 1 without visits of
-    more than one reading."""
+    correlation of the residuals in noise units, about a smooth of the visit means along each run of like
+    readings (so structure the model leaves, smooth over a sweep, is not taken for shared error); 1 without
+    visits of more than one reading."""
     target = np.isfinite(data.x_m) & (sigma_ppm > 0) & np.isfinite(residuals_ppm)
-    visits = visit_labels(data)
+    visits = visit_labels(data) if visits is None else visits
     if not target.any() or np.bincount(visits[target]).max(initial=0) < 2:
         return 1.0
     z = np.where(target, residuals_ppm / np.where(sigma_ppm > 0, sigma_ppm, 1.0), 0.0)
-    about = np.zeros(len(data))
-    for rows in reading_groups(data):
-        rows = rows[target[rows]]
-        if len(rows) < 2:
-            continue
-        label, inverse = np.unique(visits[rows], return_inverse=True)
-        means = np.bincount(inverse, weights=z[rows]) / np.bincount(inverse)
-        first_time = np.full(len(label), np.inf)
-        np.minimum.at(first_time, inverse, data.time_s[rows])
-        order = np.argsort(first_time)
-        smooth = np.full(len(label), means.mean())
-        if len(label) >= 5:
-            window = min(NOISE_WINDOW, len(label) if len(label) % 2 else len(label) - 1)
-            smooth[order] = savgol_filter(means[order], window, 2, mode="interp")
-        about[rows] = z[rows] - smooth[inverse]
-    return design_effect(about[target], visits[target])
+    run = np.zeros(len(data), int)
+    for k, rows in enumerate(reading_groups(data)):
+        run[rows] = k
+    rows = np.flatnonzero(target)
+    rows = rows[np.lexsort((data.time_s[rows], run[rows]))]
+    cell = np.concatenate([[True], (run[rows][1:] != run[rows][:-1]) | (visits[rows][1:] != visits[rows][:-1])])
+    key = np.cumsum(cell) - 1  # one number per (run, visit), in time order within each run
+    means = np.bincount(key, weights=z[rows]) / np.bincount(key)
+    cell_run = run[rows][cell]
+    smooth = np.empty(len(means))
+    for start, stop in zip(*_runs(cell_run), strict=True):
+        part = means[start:stop]
+        size = len(part)
+        smooth[start:stop] = local_quadratic(part, min(NOISE_WINDOW, size - 1 + size % 2)) if size >= 5 else part.mean()
+    about = z[rows] - smooth[key]
+    return design_effect(about, visits[rows])
 
 
-def _warnings(data: Measurements, r: np.ndarray, estimate: NoiseEstimate, s_ppm: np.ndarray | None) -> list[str]:
-    """What the user must know: a declared positioning figure that the residual or the revisits show too large."""
+def _runs(labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Start and stop indices of the runs of equal values in ``labels``."""
+    edges = np.flatnonzero(np.diff(labels)) + 1
+    return np.r_[0, edges], np.r_[edges, len(labels)]
+
+
+def _warnings(r: np.ndarray, reading: np.ndarray, p: Positioning, s_ppm: np.ndarray | None) -> list[str]:
+    """What the user must know: a declared positioning figure that the residual or the revisits show too large
+    (``reading``: each row's reading noise)."""
     out = []
-    p = estimate.positioning
     if p.declared_m > 0 and s_ppm is not None and len(r):
-        stated = np.hypot(estimate.reading_sigma_ppm(data), p.declared_m * s_ppm)
+        stated = np.hypot(reading, p.declared_m * s_ppm)
         ratio = float(np.sqrt(np.mean(r**2)) / np.sqrt(np.mean(stated**2)))
         if ratio < LOW_RESIDUAL_RATIO:
             out.append(f"the residual ({np.sqrt(np.mean(r**2)):.1f} ppm) is {ratio:.2f}x the noise the declared "

@@ -88,15 +88,17 @@ def declared_repeatability_m(data: Measurements) -> float:
 
 
 def estimate_positioning(data: Measurements, residuals_ppm: np.ndarray, reading_sigma_ppm: np.ndarray,
-                         sensitivity_ppm_per_m: np.ndarray | None) -> Positioning:
+                         sensitivity_ppm_per_m: np.ndarray | None, visits: np.ndarray | None = None) -> Positioning:
     """The positioning scatter from revisits (module docstring) with the declared figure as prior;
-    ``sensitivity_ppm_per_m`` is |d ln L / dx| * 1e6 per row (None: no model sensitivity, data unused)."""
+    ``sensitivity_ppm_per_m`` is |d ln L / dx| * 1e6 per row (None: no model sensitivity, data unused);
+    ``visits``: ``grouping.visit_labels(data)`` if already known."""
     declared = declared_repeatability_m(data)
     if sensitivity_ppm_per_m is None:
         return Positioning(declared)
     u, scale, s, pair = _revisit_differences(data, np.asarray(residuals_ppm, float),
                                              np.asarray(reading_sigma_ppm, float),
-                                             np.asarray(sensitivity_ppm_per_m, float))
+                                             np.asarray(sensitivity_ppm_per_m, float),
+                                             visit_labels(data) if visits is None else visits)
     if not len(u):
         return Positioning(declared)
     across = _across_frequencies(u, scale, s, pair)
@@ -154,8 +156,8 @@ def _robust_scale(v: np.ndarray) -> float:
     return float(1.4826 * np.median(np.abs(v - np.median(v)))) or float(np.std(v)) or 1.0
 
 
-def _revisit_differences(data: Measurements, r: np.ndarray, reading: np.ndarray,
-                         s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def _revisit_differences(data: Measurements, r: np.ndarray, reading: np.ndarray, s: np.ndarray,
+                         visits: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Differences of successive visits of one distance, direction and frequency in one thermal state, about
     a smooth of themselves along x; with each one's variance factors (of 2 sigma_x^2 s^2 and of the reading
     noise, times the smooth's reduction), its sensitivity and the pair of visits it compares (a number)."""
@@ -163,7 +165,6 @@ def _revisit_differences(data: Measurements, r: np.ndarray, reading: np.ndarray,
     nothing = np.zeros(0), np.zeros((0, 2)), np.zeros(0), np.zeros(0, int)
     if target.sum() < 2 * MIN_PASS_POINTS:
         return nothing
-    visits = visit_labels(data)
     rows = np.flatnonzero(target)
     key = np.unique(np.column_stack([visits[rows], data.freq_hz[rows]]), axis=0, return_inverse=True)[1].ravel()
     count = np.bincount(key).astype(float)
