@@ -50,7 +50,8 @@ def visit_labels(data: Measurements) -> np.ndarray:
 
 def temperature_rates_k_per_s(data: Measurements) -> np.ndarray:
     """The larger of |dT/dt| of the coil and of the target at every row (K/s): the slope of a straight line
-    through the readings of the same phase within ``RATE_WINDOW_S`` (never across a pause between phases)."""
+    through the readings of the same phase within ``RATE_WINDOW_S``, or its neighbours in time where the
+    readings are sparser (never across a pause between phases)."""
     phase = phase_labels(data)
     out = np.zeros(len(data))
     for temperatures in (data.t_coil_c, data.t_target_c):
@@ -113,7 +114,8 @@ def design_effect(values: np.ndarray, labels: np.ndarray) -> float:
 
 
 def _windowed_slope(t: np.ndarray, v: np.ndarray, group: np.ndarray, half_width_s: float) -> np.ndarray:
-    """Least-squares slope dv/dt over the rows of the same ``group`` within +-``half_width_s`` of each row."""
+    """Least-squares slope dv/dt over the rows of the same ``group`` within +-``half_width_s`` of each row
+    (and at least its neighbours in time)."""
     out = np.zeros(len(t))
     for g in np.unique(group):
         rows = np.flatnonzero(group == g)
@@ -123,8 +125,10 @@ def _windowed_slope(t: np.ndarray, v: np.ndarray, group: np.ndarray, half_width_
         tt = t[rows] - t[rows].mean()
         vv = v[rows] - v[rows].mean()
         sums = [np.concatenate([[0.0], np.cumsum(a)]) for a in (np.ones_like(tt), tt, vv, tt * vv, tt * tt)]
-        lo = np.searchsorted(tt, tt - half_width_s, side="left")
-        hi = np.searchsorted(tt, tt + half_width_s, side="right")
+        # at least the neighbours either side: a sparse subset of the readings still gets a rate
+        index = np.arange(len(tt))
+        lo = np.minimum(np.searchsorted(tt, tt - half_width_s, side="left"), np.maximum(index - 1, 0))
+        hi = np.maximum(np.searchsorted(tt, tt + half_width_s, side="right"), np.minimum(index + 2, len(tt)))
         n, st, sv, stv, stt = (s[hi] - s[lo] for s in sums)
         denominator = n * stt - st**2
         ok = denominator > 1e-9 * np.maximum(n * stt, 1e-300)
