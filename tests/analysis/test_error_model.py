@@ -130,3 +130,17 @@ def test_a_declared_positioning_far_above_the_truth_is_warned_about(faithful_swe
     if warned:
         assert "too large" in noise.warnings[0] and "20 um" in noise.warnings[0]
         assert f"warning: {noise.warnings[0]}" in format_fit_summary(fit_summary(data, KNOWN))
+
+
+def test_a_robust_start_finds_exactly_the_glitches_of_a_one_frequency_campaign(field_lab, glitched):
+    """Four 2 % glitches in a one-frequency sweep with repeated readings: a least-squares fit bends toward
+    them and the rules then also flag readings beside them; the heavy-tailed fit does not bend."""
+    data = campaign.displacement_sweep(field_lab(seed=4), np.linspace(20.0, 100.0, 30), frequencies_hz=(15000.0,),
+                                       repeats=2)
+    data, rows = glitched(data, 4, 2e4, seed=1)
+    plain = fit(data, KNOWN)
+    flagged_plain = set(np.flatnonzero(find_glitches(data, plain.residuals_ppm, plain.noise.reading_sigma_ppm(data))))
+    robust = fit_model(SensorModel(None, KNOWN), data, start=plain.values, noise=plain.noise, robust=True)
+    flagged = np.flatnonzero(find_glitches(data, robust.residuals_ppm, robust.noise.reading_sigma_ppm(data)))
+    assert flagged.tolist() == rows
+    assert flagged_plain > set(rows)  # what the plain fit's rules add beside the glitches
