@@ -1,21 +1,33 @@
 """How noisy are the data? Estimated from the data themselves, so structure can be told from noise.
 
-One estimator for the whole analysis (fit and diagnosis report the same noise):
+One estimator for the whole analysis (fit and diagnosis report the same noise). The noise is not one
+number: each reading's is its phase class's reading noise and its share of the slide's positioning
+scatter, ``NoiseEstimate.sigma_ppm(data)``.
 
-1. Repeats: pairs of successive readings of one state (same recording, frequency, distance and
-   direction, close in time and temperature). Their difference holds only the bridge's noise.
-2. Without enough repeats: the residual minus a flexible smooth of itself (a local quadratic over
+Reading noise, per phase class (frequency; coil in air or at the target; room temperature, heated and
+steady, or a heater ramping: ``phase_classes``), each found
+
+1. from repeats: pairs of successive readings of one state (same recording, frequency, distance and
+   direction, close in time and temperature). Their difference holds only the bridge's noise;
+2. without enough repeats: the residual minus a flexible smooth of itself (a local quadratic over
    ``NOISE_WINDOW`` successive readings of one run of like readings, ``reading_groups``: a
    Savitzky-Golay filter), scaled robustly (MAD). The smooth follows slopes and bends of the
    residual (structure the model leaves), so structure cannot inflate the estimate the way
-   successive differences do, and the MAD keeps single glitches from inflating it either.
+   successive differences do, and the MAD keeps single glitches from inflating it either. Each of
+   these readings is its own visit of the slide, so its scatter also holds the positioning share:
+   that share is taken out (it is counted once, as positioning).
 
-Beside the bridge's reading noise, a station may declare its slide's positioning repeatability
-(1 sigma, from the slide's datasheet; ``Measurements.slide_repeatability_m``). Each move lands a
-little off the commanded distance at random, and the reading follows: sigma_x |d ln L / dx| in ppm.
-The data cannot tell this scatter from structure (each position is visited once per direction),
-so it is a declared (GUM type-B) figure, counted with the fitted model's sensitivity
-(``positioning_noise``), never estimated from the residual. ``NoiseEstimate.ppm`` combines both.
+A class with few readings is shrunk toward the pooled figure (``SHRINK_READINGS``), so a class of a
+handful of readings cannot claim a noise of its own by chance.
+
+Positioning (``analysis.positioning``): each move lands a little off the commanded distance, and every
+reading of that visit follows by sigma_x |d ln L / dx|; sigma_x is estimated from revisits of one distance
+in one direction where they exist, with the station's declared repeatability
+(``Measurements.slide_repeatability_m``) as a prior, and seen through the fitted model's sensitivity.
+
+``NoiseEstimate.ppm``, the figure thresholds are stated in, is the RMS of the per-reading noise over the
+readings it was estimated on: the residual RMS a model that explains everything would leave.
+``design_effect`` is Kish's for readings of one visit (``analysis.grouping``).
 
 ``smooth_residual`` (a running median) is the reference glitches are judged against
 (``analysis.outliers``): a median is not pulled toward a glitch.
@@ -25,17 +37,22 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field
+from functools import cache
 from typing import Any
 
 import numpy as np
 from scipy.ndimage import median_filter
+from scipy.optimize import brentq
 
+from ecds_lab.analysis.grouping import design_effect, ramping, visit_labels
+from ecds_lab.analysis.positioning import Positioning, estimate_positioning
 from ecds_lab.data.measurements import Measurements
 
-#: Successive readings of one state: at most this far apart in time, and this close in temperature.
 #: ``NoiseEstimate.method`` when repeated readings of one state gave the estimate.
 REPEATED = "repeated readings"
+SMOOTHED = "residual about a local quadratic smooth of itself"
+#: Successive readings of one state: at most this far apart in time, and this close in temperature.
 MAX_GAP_S = 300.0
 MAX_TEMPERATURE_STEP_K = 0.3
 MIN_PAIRS = 20
@@ -47,48 +64,181 @@ SMOOTH_WINDOW = 5
 NOISE_WINDOW = 7
 NOISE_SMOOTH_FACTOR = 0.8165
 MIN_SMOOTH_READINGS = 12
+#: A phase class gets its own estimate from this many repeat pairs, or else this many smoothed readings.
+MIN_CLASS_PAIRS = 8
+MIN_CLASS_READINGS = 12
+#: Shrinkage of a class's variance toward the pooled one: the pooled figure counts as this many readings.
+SHRINK_READINGS = 10.0
+#: A reading at least this much (K) above the campaign's room temperature is heated (a heater is on).
+HEATED_K = 5.0
+#: Phase regimes of ``phase_classes``.
+REGIMES = ("room temperature", "heated, steady", "heater ramping")
+#: The residual below this multiple of the noise a declared positioning figure implies: that figure is too large.
+LOW_RESIDUAL_RATIO = 0.5
+_MEDIAN_ABS_NORMAL = 0.6744897501960817
+
+
+@dataclass(frozen=True)
+class PhaseNoise:
+    """The reading noise of one phase class: frequency, coil in air or not, regime (``REGIMES``); the figure
+    used (ppm, shrunk toward the pooled one), the class's own estimate (NaN: too few readings), from how
+    many pairs or readings and how."""
+
+    freq_hz: float
+    in_air: bool
+    regime: int
+    sigma_ppm: float
+    own_ppm: float
+    count: int
+    method: str
+
+    def to_json(self) -> dict[str, Any]:
+        return {"freq_hz": self.freq_hz, "in_air": self.in_air, "regime": REGIMES[self.regime],
+                "sigma_ppm": round(self.sigma_ppm, 3),
+                "own_ppm": round(self.own_ppm, 3) if math.isfinite(self.own_ppm) else None,
+                "count": self.count, "method": self.method}
+
+
+@dataclass(frozen=True)
+class SensitivityTable:
+    """|d ln L / dx| (1/m) of the fitted model over the commanded distances, per frequency: what a position
+    error does to a reading anywhere in the campaign's range (interpolated; clamped at its ends)."""
+
+    freq_hz: tuple[float, ...] = ()
+    x_m: tuple[tuple[float, ...], ...] = ()
+    per_m: tuple[tuple[float, ...], ...] = ()
+
+    @classmethod
+    def from_rows(cls, data: Measurements, relative_sensitivity_per_m: np.ndarray) -> SensitivityTable:
+        s = np.abs(np.asarray(relative_sensitivity_per_m, float))
+        ok = np.isfinite(data.x_m) & np.isfinite(s)
+        freqs, xs, values = [], [], []
+        for f in np.unique(data.freq_hz[ok]):
+            rows = ok & (data.freq_hz == f)
+            x, inverse = np.unique(data.x_m[rows], return_inverse=True)
+            mean = np.bincount(inverse, weights=s[rows]) / np.bincount(inverse)
+            freqs.append(float(f))
+            xs.append(tuple(x.tolist()))
+            values.append(tuple(mean.tolist()))
+        return cls(tuple(freqs), tuple(xs), tuple(values))
+
+    def __call__(self, data: Measurements) -> np.ndarray:
+        """|d ln L / dx| (1/m) at every row of ``data`` (0 in air, or with an empty table)."""
+        out = np.zeros(len(data))
+        if not self.freq_hz:
+            return out
+        target = np.isfinite(data.x_m)
+        table_f = np.asarray(self.freq_hz)
+        for f in np.unique(data.freq_hz[target]):
+            k = int(np.argmin(np.abs(np.log(table_f) - math.log(f)))) if f > 0 else 0
+            rows = target & (data.freq_hz == f)
+            out[rows] = np.interp(data.x_m[rows], self.x_m[k], self.per_m[k])
+        return out
 
 
 @dataclass(frozen=True)
 class NoiseEstimate:
     """Noise of one reading in ppm of L: the bridge's reading noise (how it was found, from how many
-    pairs or readings) and the declared positioning repeatability's share (0 when none is declared)."""
+    pairs or readings; RMS over the readings, per phase class in ``classes``) and the positioning
+    scatter's share (0 when neither declared nor seen in revisits)."""
 
     reading_ppm: float
     method: str
     pairs: int
     positioning_ppm: float = 0.0
     #: How many correlated readings count as one independent one (>= 1): readings of one visit share its
-    #: position error, readings of one thermal state share it too. Chi-square and BIC gains are divided by it.
+    #: position error. Chi-square and BIC gains are divided by it.
     design_effect: float = 1.0
+    #: the reading noise per phase class; empty: ``reading_ppm`` for every reading
+    classes: tuple[PhaseNoise, ...] = ()
+    #: the pooled reading noise (all classes together), the figure a reading of an unseen class gets
+    pooled_ppm: float = math.nan
+    #: room temperature of the campaign the classes were found on (C): readings this much above it are heated
+    room_c: float = math.nan
+    positioning: Positioning = field(default_factory=Positioning)
+    #: not compared: it only matters through the positioning figures, which are
+    sensitivity: SensitivityTable = field(default_factory=SensitivityTable, compare=False)
+    #: things the user must know about the noise (e.g. a declared figure far larger than the data show)
+    warnings: tuple[str, ...] = ()
 
     def sigma_ppm(self, data: Measurements) -> np.ndarray:
-        """The noise of each reading of ``data`` (ppm of L), in its order; uniform here, the same ``ppm``
-        for every reading. Residuals divided by it (times ``ppm``) weigh every reading by its own noise."""
-        return np.full(len(data), self.ppm)
+        """The noise of each reading of ``data`` (ppm of L), in its order, from its attributes only (frequency,
+        phase, distance): its class's reading noise and its positioning share in quadrature. Residuals times
+        ``ppm / sigma_ppm(data)`` weigh every reading by its own noise."""
+        return np.hypot(self.reading_sigma_ppm(data), self.positioning_sigma_ppm(data))
+
+    def reading_sigma_ppm(self, data: Measurements) -> np.ndarray:
+        """The bridge's reading noise of each reading of ``data`` (ppm): its phase class's figure."""
+        fallback = self.pooled_ppm if math.isfinite(self.pooled_ppm) else self.reading_ppm
+        if not self.classes:
+            return np.full(len(data), fallback)
+        return _by_class(self.classes, phase_classes(data, self.room_c), fallback)
+
+    def positioning_sigma_ppm(self, data: Measurements) -> np.ndarray:
+        """The positioning scatter's share of each reading (ppm): sigma_x |d ln L / dx|, 0 in air."""
+        sigma = self.positioning.sigma_m
+        if not sigma > 0:
+            return np.zeros(len(data))
+        return sigma * self.sensitivity(data) * 1e6
 
     @property
     def ppm(self) -> float:
-        """The noise models are judged against: reading and positioning parts in quadrature."""
+        """The noise models are judged against: reading and positioning parts (RMS each) in quadrature."""
         return math.hypot(self.reading_ppm, self.positioning_ppm)
 
     @property
     def source(self) -> str:
-        """Where the noise comes from, in words: the reading part's method, and the declared positioning part."""
+        """Where the noise comes from, in words: the reading part's method, and the positioning part's."""
         return noise_parts_text(self.to_json()) or self.method
 
     def to_json(self) -> dict[str, float | str]:
         return {"reading_ppm": round(self.reading_ppm, 3), "positioning_ppm": round(self.positioning_ppm, 3),
                 "method": self.method}
 
+    def details_json(self) -> dict[str, Any]:
+        """Everything behind the figures: phase classes, positioning (declared, from revisits, used), the
+        design effect and the warnings."""
+        p = self.positioning
+        return {"classes": [c.to_json() for c in self.classes],
+                "positioning": {"declared_um": round(p.declared_m * 1e6, 4),
+                                "from_revisits_um": round(p.from_data_m * 1e6, 4) if math.isfinite(p.from_data_m)
+                                else None,
+                                "revisit_dof": round(p.dof, 1), "used_um": round(p.sigma_m * 1e6, 4),
+                                "source": p.source},
+                "design_effect": round(self.design_effect, 3), "warnings": list(self.warnings)}
+
 
 def noise_parts_text(parts: Mapping[str, Any]) -> str:
     """The noise's two parts in words, from ``NoiseEstimate.to_json()`` (as the JSON reports carry it);
-    empty when no slide repeatability was declared (the noise is then the reading noise alone)."""
+    empty when there is no positioning part (the noise is then the reading noise alone)."""
     if not parts.get("positioning_ppm"):
         return ""
     return (f"reading {parts['reading_ppm']:.1f} ppm from {parts['method']}, slide positioning "
-            f"{parts['positioning_ppm']:.1f} ppm from the declared repeatability")
+            f"{parts['positioning_ppm']:.1f} ppm from the declared repeatability or revisits of the same distances")
+
+
+def phase_classes(data: Measurements, room_c: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The phase class of every row: frequency, coil in air, regime (index into ``REGIMES``: 0 room
+    temperature, 1 heated and steady, 2 a heater ramping; heated = ``HEATED_K`` above ``room_c``)."""
+    hot = np.maximum(data.t_coil_c, data.t_target_c) - room_c > HEATED_K if math.isfinite(room_c) else \
+        np.zeros(len(data), bool)
+    regime = np.where(ramping(data), 2, np.where(hot, 1, 0))
+    return data.freq_hz, data.in_air, regime
+
+
+def _by_class(classes: tuple[PhaseNoise, ...], keys: tuple[np.ndarray, np.ndarray, np.ndarray],
+              fallback: float) -> np.ndarray:
+    """Each row's class figure (``fallback`` for a class not among ``classes``)."""
+    freq, air, regime = keys
+    out = np.full(len(freq), fallback)
+    for c in classes:
+        out[(freq == c.freq_hz) & (air == c.in_air) & (regime == c.regime)] = c.sigma_ppm
+    return out
+
+
+def room_temperature_c(data: Measurements) -> float:
+    """The campaign's room temperature (C): the 5th percentile of the cooler of the coil and target readings."""
+    return float(np.percentile(np.minimum(data.t_coil_c, data.t_target_c), 5)) if len(data) else math.nan
 
 
 def _robust_sigma(differences: np.ndarray) -> float:
@@ -119,12 +269,13 @@ def smooth_residual(data: Measurements, residuals_ppm: np.ndarray, window: int =
     return out
 
 
-def _repeat_pairs(data: Measurements, residuals_ppm: np.ndarray) -> np.ndarray:
-    """Differences of successive residuals of one state (see the module docstring)."""
+def _repeat_pairs(data: Measurements, residuals_ppm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Differences of successive residuals of one state (see the module docstring), and the two rows of each
+    (earlier, later; one pair per row of the array)."""
     order = np.lexsort((data.time_s, data.direction, data.x_commanded_m, data.freq_hz, data.segment))
     r = residuals_ppm[order]
     if len(r) < 2:
-        return np.zeros(0)
+        return np.zeros(0), np.zeros((0, 2), int)
     same = np.ones(len(r) - 1, bool)
     for key in (data.segment, data.freq_hz, data.x_commanded_m, data.direction):
         k = key[order]
@@ -132,45 +283,212 @@ def _repeat_pairs(data: Measurements, residuals_ppm: np.ndarray) -> np.ndarray:
     t, tc, tt = (a[order] for a in (data.time_s, data.t_coil_c, data.t_target_c))
     same &= np.abs(np.diff(t)) <= MAX_GAP_S
     same &= (np.abs(np.diff(tc)) <= MAX_TEMPERATURE_STEP_K) & (np.abs(np.diff(tt)) <= MAX_TEMPERATURE_STEP_K)
-    return np.diff(r)[same]
+    return np.diff(r)[same], np.column_stack([order[:-1][same], order[1:][same]])
 
 
-def positioning_noise(data: Measurements, relative_sensitivity_per_m: np.ndarray | None) -> float:
-    """RMS over all readings of sigma_x |d ln L / dx| (ppm): the declared slide repeatability seen
-    through the model's sensitivity; readings in air, or without a declared figure, count 0."""
-    sigma = np.nan_to_num(np.asarray(data.slide_repeatability_m, float), nan=0.0, posinf=0.0)
-    if relative_sensitivity_per_m is None or not len(sigma) or not (sigma > 0).any():
-        return 0.0
-    with np.errstate(invalid="ignore"):
-        share = np.abs(np.asarray(relative_sensitivity_per_m, float)) * sigma * 1e6
-    share = np.where(np.isfinite(data.x_m) & np.isfinite(share), share, 0.0)
-    return float(np.sqrt(np.mean(share**2)))
+def local_quadratic(values: np.ndarray, window: int) -> np.ndarray:
+    """Savitzky-Golay smooth of order 2 over an odd ``window`` (at most ``len(values)``), exactly as
+    ``scipy.signal.savgol_filter(values, window, 2, mode="interp")`` but without its per-call edge fits,
+    which made it the cost of the noise estimate (hundreds of short runs per campaign)."""
+    v = np.asarray(values, float)
+    coefficients, first, last = _operators(window)
+    half = window // 2
+    out = np.convolve(v, coefficients, mode="same")
+    out[:half] = first @ v[:window]
+    out[-half:] = last @ v[-window:]
+    return out
+
+
+@cache
+def _operators(window: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The smooth's coefficients inside, and the rows of its operator for the first and last ``window // 2``
+    points (a quadratic fitted to the first or last ``window`` points)."""
+    from scipy.signal import savgol_coeffs, savgol_filter  # here, not at the top: scipy.signal (and scipy.stats
+    # with it) costs ~0.5 s CPU to import, paid by every command that imports the analysis otherwise
+
+    operator = savgol_filter(np.eye(window), window, 2, axis=0, mode="interp")
+    return savgol_coeffs(window, 2), operator[: window // 2], operator[window - window // 2:]
+
+
+def _smooth_remainders(data: Measurements, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The residual about a local quadratic smooth of itself along each run of like readings long enough
+    for one (``NOISE_WINDOW``), and the rows they belong to."""
+    usable = [rows for rows in reading_groups(data) if len(rows) >= NOISE_WINDOW]
+    if not usable:
+        return np.zeros(0), np.zeros(0, int)
+    u = np.concatenate([r[rows] - local_quadratic(r[rows], NOISE_WINDOW) for rows in usable])
+    return u, np.concatenate(usable)
+
+
+def _smoothed_sigma(u: np.ndarray, shared_ppm: np.ndarray) -> float:
+    """Reading noise from remainders about a smooth: the sigma whose sum in quadrature with each reading's
+    positioning share ``shared_ppm`` makes the remainders' median absolute deviation what Gaussian noise
+    gives (without a share: 1.4826 MAD / ``NOISE_SMOOTH_FACTOR``, as before)."""
+    centred = np.abs(u - np.median(u)) / NOISE_SMOOTH_FACTOR
+    alone = float(np.median(centred)) / _MEDIAN_ABS_NORMAL
+    if not (shared_ppm > 0).any() or not alone > 0:
+        return alone
+
+    def excess(sigma: float) -> float:
+        return float(np.median(centred / np.sqrt(sigma**2 + shared_ppm**2))) - _MEDIAN_ABS_NORMAL
+
+    floor = 0.1 * alone  # positioning cannot explain all of the scatter: the bridge is never noiseless
+    return floor if excess(floor) <= 0 else float(brentq(excess, floor, alone, xtol=1e-6 * alone))
+
+
+@dataclass(frozen=True)
+class _Samples:
+    """What the readings say about their noise: repeat differences (with their two rows) and remainders about
+    a smooth (with their rows)."""
+
+    pairs: np.ndarray
+    pair_rows: np.ndarray
+    remainders: np.ndarray
+    remainder_rows: np.ndarray
+
+    def sigma(self, rows: np.ndarray, shared_ppm: np.ndarray, min_pairs: int, min_readings: int
+              ) -> tuple[float, int, str]:
+        """The pooled reading noise of the readings ``rows`` (boolean mask) selects: from repeats where there
+        are ``min_pairs``, else from remainders where there are ``min_readings``; NaN when neither."""
+        in_pairs = rows[self.pair_rows].all(axis=1)
+        if in_pairs.sum() >= min_pairs:
+            return _robust_sigma(self.pairs[in_pairs]), int(in_pairs.sum()), REPEATED
+        return self._smoothed(rows, shared_ppm, min_readings)
+
+    def class_sigma(self, rows: np.ndarray, shared_ppm: np.ndarray) -> tuple[float, int, str]:
+        """The reading noise of one phase class: repeats speak for the readings that have a repeat partner,
+        remainders about a smooth for the others (a ramp's readings rarely repeat a state, while its last,
+        settled readings may), the two variances weighted by the readings behind each; NaN with too few."""
+        in_pairs = rows[self.pair_rows].all(axis=1)
+        parts = []
+        if in_pairs.sum() >= MIN_CLASS_PAIRS:
+            paired = np.zeros(len(rows), bool)
+            paired[self.pair_rows[in_pairs].ravel()] = True
+            parts.append((_robust_sigma(self.pairs[in_pairs]), int(paired.sum()), REPEATED))
+            rows = rows & ~paired
+        smoothed = self._smoothed(rows, shared_ppm, MIN_CLASS_READINGS)
+        if math.isfinite(smoothed[0]):
+            parts.append(smoothed)
+        if not parts:
+            return math.nan, int(rows.sum()), ""
+        count = sum(n for _, n, _ in parts)
+        sigma = math.sqrt(sum(n * v**2 for v, n, _ in parts) / count)
+        return sigma, count, " and ".join(how for _, _, how in parts)
+
+    def _smoothed(self, rows: np.ndarray, shared_ppm: np.ndarray, min_readings: int) -> tuple[float, int, str]:
+        chosen = self.remainder_rows[rows[self.remainder_rows]]
+        if len(chosen) >= min_readings:
+            u = self.remainders[rows[self.remainder_rows]]
+            return _smoothed_sigma(u, shared_ppm[chosen]), len(chosen), SMOOTHED
+        return math.nan, int(rows.sum()), ""
 
 
 def estimate_noise(data: Measurements, residuals_ppm: np.ndarray,
                    relative_sensitivity_per_m: np.ndarray | None = None) -> NoiseEstimate:
-    """Noise of one reading (ppm of L): the reading noise from repeats where they exist, else from the
-    residual about a flexible smooth of itself (see the module docstring); ``residuals_ppm`` are model
-    residuals, so slow changes the model already explains do not count as noise either way. With the
-    model's d ln L / dx per reading (``relative_sensitivity_per_m``), the declared slide repeatability
-    is added (``positioning_noise``)."""
-    reading = _reading_noise(data, np.asarray(residuals_ppm, float))
-    return replace(reading, positioning_ppm=positioning_noise(data, relative_sensitivity_per_m))
+    """Noise of each reading (ppm of L) from model residuals (see the module docstring): the reading noise
+    per phase class, the positioning scatter (with the model's d ln L / dx per reading,
+    ``relative_sensitivity_per_m``, from revisits and the declared figure), the design effect of visits,
+    and warnings. ``residuals_ppm`` are model residuals, so slow changes the model already explains do not
+    count as noise either way."""
+    r = np.asarray(residuals_ppm, float)
+    samples = _Samples(*_repeat_pairs(data, r), *_smooth_remainders(data, r))
+    room = room_temperature_c(data)
+    keys = phase_classes(data, room)
+    table = SensitivityTable() if relative_sensitivity_per_m is None else \
+        SensitivityTable.from_rows(data, relative_sensitivity_per_m)
+    s_ppm = None if relative_sensitivity_per_m is None else \
+        np.nan_to_num(np.abs(np.asarray(relative_sensitivity_per_m, float)) * 1e6, nan=0.0, posinf=0.0)
+    shared = np.zeros(len(data))
+    visits = visit_labels(data)
+    estimate, reading = _with_classes(r, samples, keys, room, shared)
+    positioning = estimate_positioning(data, r, reading, s_ppm, visits)
+    for again in (True, False):  # the reading noise and the positioning each need the other: two rounds
+        if s_ppm is None or not positioning.sigma_m > 0:
+            break
+        shared = positioning.sigma_m * s_ppm
+        estimate, reading = _with_classes(r, samples, keys, room, shared)
+        if not again or not positioning.dof > 0:
+            break
+        positioning = estimate_positioning(data, r, reading, s_ppm, visits)
+    positioning_ppm = float(np.sqrt(np.mean(shared**2))) if len(shared) else 0.0
+    deff = visit_design_effect(data, r, np.hypot(reading, shared), visits)
+    return NoiseEstimate(estimate.reading_ppm, estimate.method, estimate.pairs, positioning_ppm, deff,
+                         estimate.classes, estimate.pooled_ppm, room, positioning, table,
+                         tuple(_warnings(r, reading, positioning, s_ppm)))
 
 
-def _reading_noise(data: Measurements, r: np.ndarray) -> NoiseEstimate:
-    """The bridge's reading noise alone (see ``estimate_noise``)."""
-    pairs = _repeat_pairs(data, r)
-    if len(pairs) >= MIN_PAIRS:
-        return NoiseEstimate(_robust_sigma(pairs), REPEATED, len(pairs))
-    usable = [rows for rows in reading_groups(data) if len(rows) >= NOISE_WINDOW]
-    count = sum(len(rows) for rows in usable)
-    if count < MIN_SMOOTH_READINGS:
-        spread = float(1.4826 * np.median(np.abs(r - np.median(r)))) if len(r) else math.nan
-        return NoiseEstimate(spread, "robust spread of the residual (too few readings)", len(r))
-    from scipy.signal import savgol_filter  # here, not at the top: scipy.signal (and scipy.stats with it) costs
-    # ~0.5 s CPU to import, paid by every command that imports the analysis otherwise
+def _with_classes(r: np.ndarray, samples: _Samples, keys: tuple[np.ndarray, np.ndarray, np.ndarray], room: float,
+                  shared: np.ndarray) -> tuple[NoiseEstimate, np.ndarray]:
+    """The reading noise, pooled and per phase class (``keys``, shrunk toward the pooled), with positioning
+    shares ``shared`` (ppm per row) taken out of estimates from remainders; and each row's figure."""
+    everything = np.ones(len(r), bool)
+    pooled, count, method = samples.sigma(everything, shared, MIN_PAIRS, MIN_SMOOTH_READINGS)
+    if not math.isfinite(pooled):
+        pooled = float(1.4826 * np.median(np.abs(r - np.median(r)))) if len(r) else math.nan
+        method = "robust spread of the residual (too few readings)"
+    freq, air, regime = keys
+    frequencies, index = np.unique(freq, return_inverse=True)
+    code = (index.ravel() * 2 + air) * len(REGIMES) + regime
+    classes, reading = [], np.full(len(r), pooled)
+    for c in np.unique(code):
+        rows = code == c
+        f, a, g = frequencies[c // (2 * len(REGIMES))], bool(c // len(REGIMES) % 2), int(c % len(REGIMES))
+        own, n, how = samples.class_sigma(rows, shared)
+        used = pooled if not math.isfinite(own) else \
+            math.sqrt((n * own**2 + SHRINK_READINGS * pooled**2) / (n + SHRINK_READINGS))
+        classes.append(PhaseNoise(float(f), bool(a), int(g), used, own, n, how or f"pooled ({method})"))
+        reading[rows] = used
+    rms = float(np.sqrt(np.mean(reading**2))) if len(reading) else pooled
+    return NoiseEstimate(rms, method, count, classes=tuple(classes), pooled_ppm=pooled, room_c=room), reading
 
-    d = np.concatenate([r[rows] - savgol_filter(r[rows], NOISE_WINDOW, 2, mode="interp") for rows in usable])
-    sigma = 1.4826 * float(np.median(np.abs(d - np.median(d)))) / NOISE_SMOOTH_FACTOR
-    return NoiseEstimate(sigma, "residual about a local quadratic smooth of itself", count)
+
+def visit_design_effect(data: Measurements, residuals_ppm: np.ndarray, sigma_ppm: np.ndarray,
+                        visits: np.ndarray | None = None) -> float:
+    """Kish's design effect of the readings at the target clustered by visit (``grouping``): the intraclass
+    correlation of the residuals in noise units, about a smooth of the visit means along each run of like
+    readings (so structure the model leaves, smooth over a sweep, is not taken for shared error); 1 without
+    visits of more than one reading."""
+    target = np.isfinite(data.x_m) & (sigma_ppm > 0) & np.isfinite(residuals_ppm)
+    visits = visit_labels(data) if visits is None else visits
+    if not target.any() or np.bincount(visits[target]).max(initial=0) < 2:
+        return 1.0
+    z = np.where(target, residuals_ppm / np.where(sigma_ppm > 0, sigma_ppm, 1.0), 0.0)
+    run = np.zeros(len(data), int)
+    for k, rows in enumerate(reading_groups(data)):
+        run[rows] = k
+    rows = np.flatnonzero(target)
+    rows = rows[np.lexsort((data.time_s[rows], run[rows]))]
+    cell = np.concatenate([[True], (run[rows][1:] != run[rows][:-1]) | (visits[rows][1:] != visits[rows][:-1])])
+    key = np.cumsum(cell) - 1  # one number per (run, visit), in time order within each run
+    means = np.bincount(key, weights=z[rows]) / np.bincount(key)
+    cell_run = run[rows][cell]
+    smooth = np.empty(len(means))
+    for start, stop in zip(*_runs(cell_run), strict=True):
+        part = means[start:stop]
+        size = len(part)
+        smooth[start:stop] = local_quadratic(part, min(NOISE_WINDOW, size - 1 + size % 2)) if size >= 5 else part.mean()
+    about = z[rows] - smooth[key]
+    return design_effect(about, visits[rows])
+
+
+def _runs(labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Start and stop indices of the runs of equal values in ``labels``."""
+    edges = np.flatnonzero(np.diff(labels)) + 1
+    return np.r_[0, edges], np.r_[edges, len(labels)]
+
+
+def _warnings(r: np.ndarray, reading: np.ndarray, p: Positioning, s_ppm: np.ndarray | None) -> list[str]:
+    """What the user must know: a declared positioning figure that the residual or the revisits show too large
+    (``reading``: each row's reading noise)."""
+    out = []
+    if p.declared_m > 0 and s_ppm is not None and len(r):
+        stated = np.hypot(reading, p.declared_m * s_ppm)
+        ratio = float(np.sqrt(np.mean(r**2)) / np.sqrt(np.mean(stated**2)))
+        if ratio < LOW_RESIDUAL_RATIO:
+            out.append(f"the residual ({np.sqrt(np.mean(r**2)):.1f} ppm) is {ratio:.2f}x the noise the declared "
+                       f"slide repeatability of {p.declared_m * 1e6:.3g} um implies: the declared figure is too "
+                       "large and would hide real effects")
+        if p.dof >= 10 and math.isfinite(p.from_data_m) and p.from_data_m < LOW_RESIDUAL_RATIO * p.declared_m:
+            out.append(f"revisits of the same distances show a slide repeatability of {p.from_data_m * 1e6:.3g} um "
+                       f"({p.dof:.0f} differences), under half the declared {p.declared_m * 1e6:.3g} um")
+    return out

@@ -55,12 +55,15 @@ SHARED = 0.1
 PARTNER_GAP_S = 60.0
 
 
-def find_glitches(data: Measurements, residuals_ppm: np.ndarray, noise_ppm: float) -> np.ndarray:
-    """Boolean mask of glitch readings: isolated readings far from their neighbours (module docstring)."""
+def find_glitches(data: Measurements, residuals_ppm: np.ndarray, noise_ppm: float | np.ndarray) -> np.ndarray:
+    """Boolean mask of glitch readings: isolated readings far from their neighbours (module docstring).
+    ``noise_ppm`` is one figure or each reading's own (``NoiseEstimate.reading_sigma_ppm(data)``): a reading
+    of a noisy phase (a heater ramping) is judged against its own noise, so its scatter is not a glitch."""
     r = np.asarray(residuals_ppm, float)
-    if not len(r) or not noise_ppm > 0:
+    sigma = np.broadcast_to(np.asarray(noise_ppm, float), r.shape)
+    if not len(r) or not (sigma > 0).all():
         return np.zeros(len(r), bool)
-    deviation = (r - smooth_residual(data, r)) / noise_ppm
+    deviation = (r - smooth_residual(data, r)) / sigma
     suspect = np.abs(deviation) > THRESHOLD
     neighbours = _time_neighbours(data)
     return np.array([bool(suspect[i]) and not _in_structure(data, deviation, neighbours, i)
@@ -102,9 +105,10 @@ def _in_structure(data: Measurements, deviation: np.ndarray, neighbours: np.ndar
     return (np.sign(median) == sign and abs(median) > REPEATED) or float(np.mean(others * sign > THRESHOLD)) >= SHARED
 
 
-def describe(data: Measurements, rows: np.ndarray, residuals_ppm: np.ndarray, noise_ppm: float,
+def describe(data: Measurements, rows: np.ndarray, residuals_ppm: np.ndarray, noise_ppm: float | np.ndarray,
              index: np.ndarray) -> list[Outlier]:
-    """Outlier records for ``rows`` (indices into ``data``), numbered by ``index`` (original rows)."""
+    """Outlier records for ``rows`` (indices into ``data``), numbered by ``index`` (original rows); ``noise_ppm``
+    as for ``find_glitches``."""
     deviation = (residuals_ppm - smooth_residual(data, residuals_ppm)) / noise_ppm
     out = []
     for i in rows:

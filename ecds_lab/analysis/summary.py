@@ -61,6 +61,7 @@ def fit_summary(data: Measurements, effects: Sequence[str] = (), sensor: SensorC
         "noise_ppm": round(result.noise.ppm, 3),
         "noise_method": result.noise.method,
         "noise": result.noise.to_json(),
+        "noise_warnings": list(result.noise.warnings),
         "dof": result.dof,
         "bic": result.bic,
         "converged": result.success,
@@ -352,6 +353,7 @@ def format_fit_summary(summary: dict[str, Any]) -> str:
     if model.get("status") == MODEL_FAILS:
         lines.append(f"  {MODEL_FAILS}: {model['reason']}; the parameters below describe no coil and give no "
                      "positions (ecds-lab diagnose finds what the model lacks)")
+    lines += [f"  warning: {text}" for text in summary.get("noise_warnings", [])]
     lines.append("  parameters:")
     for name, p in summary["params"].items():
         shown = p.get("shown") or format_quantity(p["value"], p["unit"], p["stderr"])

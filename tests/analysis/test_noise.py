@@ -77,3 +77,41 @@ def test_without_a_declared_repeatability_the_noise_is_exactly_the_reading_noise
         estimate = estimate_noise(with_repeatability(data, sigma), residual, slope)
         assert estimate.positioning_ppm == 0.0
         assert estimate.ppm == estimate.reading_ppm == estimate_noise(data, residual).ppm
+
+
+def test_each_frequency_gets_its_own_noise_and_ppm_is_their_rms():
+    data, residual = readings(200, 2, sigma_ppm=10.0)
+    freq = np.where(np.arange(len(data)) % 4 < 2, 500.0, 15000.0)  # pairs of repeats alternate frequency
+    data = dataclasses.replace(data, freq_hz=freq)
+    residual = np.where(freq == 500.0, 4.0, 1.0) * residual  # 40 ppm at 500 Hz, 10 ppm at 15 kHz
+    estimate = estimate_noise(data, residual)
+    sigma = estimate.sigma_ppm(data)
+    assert np.median(sigma[freq == 500.0]) == pytest.approx(40.0, rel=0.15)
+    assert np.median(sigma[freq == 15000.0]) == pytest.approx(10.0, rel=0.15)
+    assert estimate.ppm == pytest.approx(float(np.sqrt(np.mean(sigma**2))), rel=1e-9)
+    subset = np.arange(len(data)) % 3 == 0  # any data set: a function of each reading's attributes
+    assert np.allclose(estimate.sigma_ppm(data.select(subset)), sigma[subset])
+
+
+def test_a_class_of_few_readings_is_shrunk_toward_the_pooled_noise():
+    data, residual = readings(200, 2, sigma_ppm=10.0)
+    few = np.arange(len(data)) >= len(data) - 12  # the last 6 repeat pairs at another frequency
+    data = dataclasses.replace(data, freq_hz=np.where(few, 500.0, 15000.0))
+    residual = np.where(few, 5.0, 1.0) * residual
+    estimate = estimate_noise(data, residual)
+    small = next(c for c in estimate.classes if c.freq_hz == 500.0)
+    assert small.count < 20
+    assert estimate.pooled_ppm < small.sigma_ppm < small.own_ppm
+
+
+def test_without_repeats_the_positioning_share_is_not_counted_twice():
+    """One reading per visit: the scatter about a smooth holds the bridge noise and the position error."""
+    data, residual = readings(400, 1, sigma_ppm=20.0)
+    slope = 2e7 * (0.02 / data.x_m) ** 2 * 1e-6  # |d ln L / dx| in 1/m: 20 ppm/um at 20 mm
+    errors = np.random.default_rng(9).normal(0, 8e-6, len(data))
+    data = with_repeatability(data, 8e-6)
+    estimate = estimate_noise(data, residual + slope * errors * 1e6, slope)
+    total = float(np.sqrt(np.mean((residual + slope * errors * 1e6) ** 2)))
+    assert estimate.reading_ppm == pytest.approx(20.0, rel=0.15)
+    assert estimate_noise(data, residual + slope * errors * 1e6).reading_ppm > 1.3 * 20.0  # both, undeclared
+    assert estimate.ppm == pytest.approx(total, rel=0.15)
