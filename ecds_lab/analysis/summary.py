@@ -27,6 +27,7 @@ from ecds_lab.analysis.fitting import FitResult, fit_model
 from ecds_lab.analysis.noise import noise_parts_text
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.data.sensor import SensorConfig
+from ecds_lab.model.effects import EffectRegistry
 from ecds_lab.model.sensor_model import SensorModel
 
 #: Temperature rise (K) above room temperature that makes a reading "heated".
@@ -36,9 +37,11 @@ FEW_POINTS = 4
 _CALIBRATED = ("L0", "p1", "p2", "p3", "p4")
 
 
-def fit_summary(data: Measurements, effects: Sequence[str] = (), sensor: SensorConfig | None = None) -> dict[str, Any]:
-    """Fit baseline plus ``effects`` to ``data``; the fit, calibration and position-error summary."""
-    model = SensorModel(sensor, list(effects))
+def fit_summary(data: Measurements, effects: Sequence[str] = (), sensor: SensorConfig | None = None,
+                registry: EffectRegistry | None = None) -> dict[str, Any]:
+    """Fit baseline plus ``effects`` (from ``registry``, default the library) to ``data``; the fit,
+    calibration and position-error summary."""
+    model = SensorModel(sensor, list(effects), registry=registry)
     result = fit_model(model, data)
     summary: dict[str, Any] = {
         "n_points": len(data),

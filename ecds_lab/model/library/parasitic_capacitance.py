@@ -50,6 +50,7 @@ class ParasiticCapacitance(Effect):
     reveal = ("hold the coil at two or three temperatures for an hour each at 15 kHz, then cool it: drying "
               "changes L early in each heating, stops once the former holds its equilibrium moisture, and "
               "leaves a hysteresis on cooling")
+    reveal_needs: ClassVar[dict[str, float]] = {"hold_s": 3000.0, "coil_span_k": 30.0}
     alternative_starts = ({"drying_rate": 1e-4}, {"drying_rate": 1e-2},
                           *({"drying_order": 0.0, "drying_rate": 3e-4, "drying_onset": onset, "drying_width": 1.0}
                             for onset in (60.0, 90.0)),

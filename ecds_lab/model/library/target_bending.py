@@ -26,8 +26,9 @@ class TargetBending(Effect):
     plausible: ClassVar[dict[str, tuple[float, float]]] = {"bending": (-20e-6, 20e-6),
                                                            "bending_quadratic": (-0.2e-6, 0.2e-6)}
     key_parameters = ("bending",)
-    reveal = ("measure at 500 Hz as well as 15 kHz with the target hot: bending shifts the distance alike at "
+    reveal = ("measure at both 500 Hz and 15 kHz with the target hot: bending shifts the distance alike at "
               "both frequencies, a conductivity change alters the eddy-current screening mostly at 500 Hz")
+    reveal_needs: ClassVar[dict[str, float]] = {"frequencies_target_hot": 2}
 
     def parameters(self) -> list[Parameter]:
         return [

@@ -30,7 +30,8 @@ class TauDisplacement(Effect):
     explains = "the target's eddy-current time constant changes with distance"
     #: The field simulation gives ~20 % at 30 mm; beyond a factor e either way is not a time constant's change.
     plausible: ClassVar[dict[str, tuple[float, float]]] = {name: (-1.0, 1.0) for name in FREE_KNOTS}
-    reveal = "sweep the distance at 500 Hz as well as 15 kHz (tau_T(x) changes the screening most at 500 Hz)"
+    reveal = "sweep the distance at both 500 Hz and 15 kHz (tau_T(x) changes the screening most at 500 Hz)"
+    reveal_needs: ClassVar[dict[str, float]] = {"frequencies": 2}
 
     def parameters(self) -> list[Parameter]:
         return [Parameter(name, 0.0, -2.0, 2.0, "1", f"ln(tau_T / tau_T at 60 mm) at {name[6:]}", 0.05)

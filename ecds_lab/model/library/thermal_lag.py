@@ -24,6 +24,7 @@ class ThermalLag(Effect):
     #: A winding under a few mm of former: seconds to an hour behind its thermocouple.
     plausible: ClassVar[dict[str, tuple[float, float]]] = {"lag_tau": (2.0, 5000.0)}
     reveal = "hold the coil hot for an hour and record the approach to steady state at a fixed distance"
+    reveal_needs: ClassVar[dict[str, float]] = {"hold_s": 3000.0}
     alternative_starts = ({"lag_tau": 15.0}, {"lag_tau": 600.0}, {"lag_tau": 2400.0})
 
     def parameters(self) -> list[Parameter]:
