@@ -104,10 +104,11 @@ class Effect:
         """Parameters these data cannot determine (name -> reason); they are fixed at their start."""
         return {}
 
-    def starts_from_residual(self, data: Measurements, shift_m: np.ndarray) -> tuple[dict[str, float], ...]:
+    def starts_from_residual(self, data: Measurements, shift_m: np.ndarray,
+                             weights: np.ndarray) -> tuple[dict[str, float], ...]:
         """Starts read off the current model's residual as a distance error (``shift_m``, m per reading,
-        NaN where undefined), best first: the first is the fit's start, the rest join the alternatives
-        (e.g. a screw's lead from a periodogram of the residual in x). None by default."""
+        NaN where undefined; ``weights`` 1/variance of each, in 1/m^2), best first: the first is the fit's
+        start, the rest join the alternatives (e.g. a screw's lead from a periodogram). None by default."""
         return ()
 
     def identifies(self, data: Measurements) -> set[str]:

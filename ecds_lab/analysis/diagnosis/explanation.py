@@ -87,7 +87,7 @@ def explain(result: Diagnosis, registry: EffectRegistry | None = None) -> str:
     lines += _limits_text(result)
     final_ratio = final.rmse_ppm / noise if noise > 0 else math.inf
     structure = result.structure
-    outside = structure is not None and outside_library(final, result.noise, structure)
+    outside = structure is not None and outside_library(final, result.noise, structure, result.associations)
     if result.verdict == "inconclusive" and not result.alternatives and not result.limits_reached \
             and not result.steps[0].candidates:
         untested = "; ".join(f"{k}: {v}" for k, v in result.untestable.items())
@@ -97,11 +97,11 @@ def explain(result: Diagnosis, registry: EffectRegistry | None = None) -> str:
         lines.append(("Even so the residual stays " if len(result.steps) > 1 else "The residual stays ")
                      + f"{final_ratio:.1f}x the noise; every remaining library effect was refitted at the final "
                      "model and none passes its checks" + (f" ({', '.join(rejected)})" if rejected else "")
-                     + f", while a flexible smooth of the residual finds structure {structure.significance:.0f} "
-                     "standard deviations beyond chance: it lies outside the library. It lives in "
+                     + ", while a flexible smooth of the residual finds structure beyond chance "
+                     f"({_significance(result):.0f} standard deviations): it lies outside the library. It lives in "
                      + _where(result) + ".")
     elif outside and structure is not None:
-        lines.append(f"The residual stays {final_ratio:.1f}x the noise with structure {structure.significance:.0f} "
+        lines.append(f"The residual stays {final_ratio:.1f}x the noise with structure {_significance(result):.0f} "
                      "standard deviations beyond chance; whether a library effect explains it is not known, since "
                      "the search stopped first (see above). It lives in " + _where(result) + ".")
     elif final_ratio > FAILING_RATIO:
@@ -112,6 +112,12 @@ def explain(result: Diagnosis, registry: EffectRegistry | None = None) -> str:
         lines.append(f"With {', '.join(result.claimed)} the model is adequate ({final.rmse_ppm:.1f} ppm, "
                      f"{final_ratio:.2f}x the noise).")
     return " ".join(lines)
+
+
+def _significance(result: Diagnosis) -> float:
+    """The strongest structure beyond chance: the smooth over every state or the bin means of one variable."""
+    smooth = result.structure.significance if result.structure is not None else 0.0
+    return max([smooth, *(a.significance for a in result.associations)])
 
 
 def _limits_text(result: Diagnosis) -> list[str]:

@@ -163,7 +163,7 @@ def run_diagnosis(data: Measurements, effects: Sequence[str] = (), sensor: Senso
     if len(steps) == 1 and len(undetermined) > 1:
         alternatives.append(list(undetermined))
         undetermined = []
-    verdict = verdict_of(steps, effects, noise, structure, alternatives, untestable, limits)
+    verdict = verdict_of(steps, effects, noise, structure, alternatives, untestable, limits, associations)
     result = Diagnosis(clean, effects, noise, steps, associations, verdict, "", outliers, alternatives, [],
                        untestable, base_cv, limits, untested, partial, undetermined,
                        {name: "the data determine it (see docs/diagnosis.md)" for name in released}, structure)
@@ -250,7 +250,7 @@ def _round(screen: Measurements, clean: Measurements, current: Step, names: list
     current model's held-out error."""
     base = current.fit if screen is clean else _evaluate(current.fit, screen)
     ranked, untestable = [], {}
-    shift_mm = residual_mm(base, screen)
+    shift_m, shift_weights = _distance_error(base, screen, noise)
     for name in names:
         model = space.model([*current.effects, name])
         effect = model.effects[-1]
@@ -259,12 +259,12 @@ def _round(screen: Measurements, clean: Measurements, current: Step, names: list
         if all(k in fixed for k in keys):
             untestable[name] = "; ".join(sorted({fixed[k] for k in keys}))
             continue
-        why = absorbed(model, screen, start_values(model, base.values), base.free_names, noise)
+        from_residual = effect.starts_from_residual(screen, shift_m, shift_weights)
+        start = from_residual[0] if from_residual else None
+        why = absorbed(model, screen, start_values(model, {**base.values, **(start or {})}), base.free_names, noise)
         if why is not None:
             untestable[name] = why
             continue
-        from_residual = effect.starts_from_residual(screen, shift_mm * 1e-3)
-        start = from_residual[0] if from_residual else None
         candidate = _candidate(screen, model, name, base, noise, len(clean), start)
         candidate.from_residual = [dict(s) for s in from_residual[1:]]
         ranked.append(candidate)
@@ -372,6 +372,17 @@ def _full_fit(clean: Measurements, candidate: Candidate) -> FitResult:
     # From the screening solution a polish to a relative cost change of 1e-8 is all the claim needs;
     # the last digits of a slow direction are not worth thousands of evaluations on every reading.
     return fit_model(candidate.fit.model, clean, start=candidate.fit.values, multistart=False, screening=True)
+
+
+def _distance_error(result: FitResult, data: Measurements, noise: NoiseEstimate) -> tuple[np.ndarray, np.ndarray]:
+    """The residual as a distance error (m) and its weights (1/variance, 1/m^2: each reading's noise over
+    the sensitivity); NaN and 0 for the coil in air."""
+    sensitivity = result.model.relative_sensitivity(data, result.values)
+    finite = np.isfinite(data.x_m) & np.isfinite(sensitivity) & (np.abs(np.nan_to_num(sensitivity)) > 0)
+    with np.errstate(all="ignore"):
+        shift = np.where(finite, result.residuals_ppm * 1e-6 / sensitivity, np.nan)
+        weights = np.where(finite, (sensitivity * 1e6 / noise.sigma_ppm(data)) ** 2, 0.0)
+    return shift, np.nan_to_num(weights)
 
 
 def residual_mm(result: FitResult, data: Measurements) -> np.ndarray:

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
+from ecds_lab.analysis.associations import Association
 from ecds_lab.analysis.diagnosis.result import Step
 from ecds_lab.analysis.diagnosis.structure import ResidualStructure
 from ecds_lab.analysis.noise import NoiseEstimate
@@ -19,15 +21,21 @@ STRUCTURE_SIGNIFICANCE = 8.0
 STRUCTURE_RATIO = 1.03
 
 
-def outside_library(final: Step, noise: NoiseEstimate, structure: ResidualStructure) -> bool:
+def outside_library(final: Step, noise: NoiseEstimate, structure: ResidualStructure,
+                    associations: Sequence[Association] = ()) -> bool:
     """The final residual holds what the library does not explain: a flexible smooth of it finds structure
-    STRUCTURE_SIGNIFICANCE standard deviations beyond chance, and it is at least a little above the noise."""
+    STRUCTURE_SIGNIFICANCE standard deviations beyond chance (the smooth over every state, or the bin means
+    over one variable: x, a temperature, time within a phase, which see a trend the many states dilute),
+    and it is at least a little above the noise."""
     ratio = final.rmse_ppm / noise.ppm if noise.ppm > 0 else math.inf
-    return structure.beyond(STRUCTURE_SIGNIFICANCE) and ratio > STRUCTURE_RATIO
+    smooth = structure.beyond(STRUCTURE_SIGNIFICANCE) or any(a.significance > STRUCTURE_SIGNIFICANCE
+                                                              for a in associations)
+    return smooth and ratio > STRUCTURE_RATIO
 
 
 def verdict_of(steps: list[Step], effects: list[str], noise: NoiseEstimate, structure: ResidualStructure,
-               alternatives: list[list[str]], untestable: dict[str, str], limits: list[str]) -> str:
+               alternatives: list[list[str]], untestable: dict[str, str], limits: list[str],
+               associations: Sequence[Association] = ()) -> str:
     """missing_effect when effects were claimed, or when every candidate was refitted at the final model
     and the residual still holds structure (outside the library); inconclusive when the data cannot
     separate the candidates, could test none of them, or the search stopped at a limit first."""
@@ -35,6 +43,6 @@ def verdict_of(steps: list[Step], effects: list[str], noise: NoiseEstimate, stru
         return "missing_effect"
     if alternatives:
         return "inconclusive"
-    if not outside_library(steps[-1], noise, structure):
+    if not outside_library(steps[-1], noise, structure, associations):
         return "adequate"
     return "missing_effect" if steps[0].candidates and not limits else "inconclusive"

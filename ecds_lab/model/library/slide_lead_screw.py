@@ -82,7 +82,8 @@ class SlideLeadScrew(Effect):
                        f"{LEAD_RANGE_M[1] * 500:g} mm)" for n in _NAMES}
         return {}
 
-    def starts_from_residual(self, data: Measurements, shift_m: np.ndarray) -> tuple[dict[str, float], ...]:
+    def starts_from_residual(self, data: Measurements, shift_m: np.ndarray,
+                             weights: np.ndarray) -> tuple[dict[str, float], ...]:
         """The best peaks of a weighted Lomb-Scargle periodogram of the residual distance error over the
         resolvable leads (see the module docstring), each with its sine and cosine parts."""
         count, closest = _positions(data)
@@ -91,21 +92,24 @@ class SlideLeadScrew(Effect):
             return ()
         leads = np.geomspace(shortest, LEAD_RANGE_M[1], LEAD_GRID)
         omega = 2 * np.pi / leads
-        groups = _detrended(data, shift_m)
+        groups = _detrended(data, shift_m, weights)
         if not groups:
             return ()
         power = np.zeros(len(leads))
-        for x, y in groups:
-            power += len(x) * lombscargle(x, y, omega, floating_mean=True, normalize=True)
+        for x, y, w in groups:
+            power += float(np.sum(w * y**2)) * lombscargle(x, y, omega, weights=w, floating_mean=True,
+                                                           normalize=True)
         peaks = [i for i in range(len(leads)) if power[i] >= power[max(i - 1, 0)] and power[i] >= power[min(i + 1,
                  len(leads) - 1)]]
         peaks.sort(key=lambda i: -power[i])
-        x_all = np.concatenate([x for x, _ in groups])
-        y_all = np.concatenate([y for _, y in groups])
+        x_all = np.concatenate([x for x, _, _ in groups])
+        y_all = np.concatenate([y for _, y, _ in groups])
+        root_w = np.sqrt(np.concatenate([w for _, _, w in groups]))
         starts = []
         for i in peaks[:PEAKS]:
             phase = 2 * np.pi * x_all / leads[i]
-            (a, b), *_ = np.linalg.lstsq(np.column_stack([np.sin(phase), np.cos(phase)]), y_all, rcond=None)
+            design = np.column_stack([np.sin(phase), np.cos(phase)]) * root_w[:, None]
+            (a, b), *_ = np.linalg.lstsq(design, y_all * root_w, rcond=None)
             limit = 0.9 * self.parameters()[0].upper
             starts.append({"screw_lead": float(leads[i]), "screw_sin": float(np.clip(a, -limit, limit)),
                            "screw_cos": float(np.clip(b, -limit, limit))})
@@ -126,23 +130,22 @@ class SlideLeadScrew(Effect):
         return x_m + np.where(finite, error, 0.0)
 
 
-def _detrended(data: Measurements, shift_m: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
-    """(x, distance error less a cubic in x) per direction and frequency, readings with a finite error only;
-    the error clipped at 5 robust standard deviations (far from the coil a small sensitivity inflates it)."""
+def _detrended(data: Measurements, shift_m: np.ndarray, weights: np.ndarray
+               ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """(x, distance error less a weighted cubic in x, weights) per direction and frequency, readings with a
+    finite error and weight only (far from the coil a small sensitivity makes the error noisy: low weight)."""
     shift = np.asarray(shift_m, float)
-    usable = np.isfinite(data.x_m) & np.isfinite(shift)
+    w_all = np.asarray(weights, float)
+    usable = np.isfinite(data.x_m) & np.isfinite(shift) & np.isfinite(w_all) & (w_all > 0)
     out = []
     for direction in np.unique(data.direction[usable]):
         for freq in np.unique(data.freq_hz[usable]):
             rows = usable & (data.direction == direction) & (data.freq_hz == freq)
-            x, y = data.x_m[rows], shift[rows]
+            x, y, w = data.x_m[rows], shift[rows], w_all[rows]
             if len(np.unique(np.round(x, 6))) < MIN_POSITIONS:
                 continue
-            y = y - np.polyval(np.polyfit(x, y, DETREND_DEGREE), x)
-            spread = 1.4826 * float(np.median(np.abs(y - np.median(y))))
-            if spread > 0:
-                y = np.clip(y, -5 * spread, 5 * spread)
-            out.append((x, y))
+            y = y - np.polyval(np.polyfit(x, y, DETREND_DEGREE, w=np.sqrt(w)), x)
+            out.append((x, y, w))
     return out
 
 
