@@ -146,6 +146,11 @@ def format_diagnosis(report: dict[str, Any]) -> str:
         lines += ["", "excluded readings:"] + [f"  row {o['row']}: {o['reason']}" for o in report["outliers"]]
     if report.get("alternatives"):
         lines += ["", "cannot be separated: " + "; ".join(" / ".join(a) for a in report["alternatives"])]
+    if report.get("partial"):
+        lines += ["each explains a part, none well (not claimed): "
+                  + "; ".join(" / ".join(g) for g in report["partial"])]
+    if report.get("undetermined"):
+        lines += ["evidence but size not determined (not claimed): " + ", ".join(report["undetermined"])]
     if report.get("limits_reached"):
         lines += ["", "limits reached:"] + [f"  - {limit}" for limit in report["limits_reached"]]
     if report.get("untested"):

@@ -4,9 +4,11 @@ Two questions, both answered by projecting one Jacobian column out of others (re
 their noise):
 
 - Is a baseline parameter the rules fix (``baseline_unidentifiable``: tau_T at one frequency, C_p...)
-  determined after all? Its column, with the free parameters' columns projected out, gives the
+  determined after all? Its column, with the calibration's columns (below) projected out, gives the
   standard error a fit would reach; below half its value the parameter is released (``released``),
-  and kept free only if the fit confirms that standard error.
+  and kept free only if the fit confirms that standard error. (The fit's residuals are those of Ls:
+  at one frequency Ls alone ties tau_T to the coupling's gain exactly, so tau_T is released there only
+  once the loss holds what else determines it, e.g. Rs.)
 - Is an effect's signature absorbed by the calibration? A real calibration follows any smooth change
   of the coupling with distance, shared by every frequency (the coil and plate are one); so the
   calibration's space is the current model's free columns plus ``s(row) B_j(x)``: a cubic B-spline
@@ -106,24 +108,33 @@ def calibration_basis(model: SensorModel, data: Measurements, values: Mapping[st
     return np.where(finite[:, None], basis * response[:, None], 0.0)
 
 
-def absorbed(model: SensorModel, data: Measurements, values: Mapping[str, float], free: Sequence[str],
-             noise: NoiseEstimate) -> str | None:
-    """Why the last effect of ``model`` is untestable here (its signature absorbed), or None.
+def calibration_space(model: SensorModel, data: Measurements, values: Mapping[str, float], free: Sequence[str],
+                      noise: NoiseEstimate) -> np.ndarray:
+    """The columns a calibration can follow (weighed by each reading's noise): the current model's free
+    parameters and the smooth change of the coupling with x (``calibration_basis``). One per round."""
+    steps = _steps(model.parameters())
+    block = np.hstack([columns(model, data, values, list(free), steps), calibration_basis(model, data, values)])
+    return block * _weights(data, noise)
 
-    ``values``: the current solution with the effect's own parameters at their starts; ``free``: the
-    current model's free parameters."""
+
+def _weights(data: Measurements, noise: NoiseEstimate) -> np.ndarray:
+    return (noise.ppm / noise.sigma_ppm(data))[:, None] if noise.ppm > 0 else np.ones((len(data), 1))
+
+
+def absorbed(model: SensorModel, data: Measurements, values: Mapping[str, float], space: np.ndarray,
+             noise: NoiseEstimate) -> str | None:
+    """Why the last effect of ``model`` is untestable here (its signature absorbed by ``space``, the
+    ``calibration_space`` of the current model), or None.
+
+    ``values``: the current solution with the effect's own parameters at their starts."""
     effect = model.effects[-1]
     own = effect.parameters()
     keys = list(effect.key_parameters or [p.name for p in own])
-    weights = (noise.ppm / noise.sigma_ppm(data))[:, None] if noise.ppm > 0 else 1.0
-    steps = {**_steps(model.parameters()), **_steps(own)}
-    target = columns(model, data, values, keys, steps) * weights
+    target = columns(model, data, values, keys, _steps(own)) * _weights(data, noise)
     norms = np.linalg.norm(target, axis=0)
     if not (norms > 0).any():
         return "its signature moves none of these readings"
-    base = np.hstack([columns(model, data, values, list(free), steps),
-                      calibration_basis(model, data, values)]) * weights
-    left = np.linalg.norm(_project_out(base, target), axis=0)
+    left = np.linalg.norm(_project_out(space, target), axis=0)
     share = float(np.max(np.divide(left, norms, out=np.zeros_like(left), where=norms > 0)))
     if share >= ABSORBED_SHARE:
         return None
@@ -141,7 +152,7 @@ def releasable(model: SensorModel, data: Measurements, values: Mapping[str, floa
     weights = (1.0 / noise.sigma_ppm(data))[:, None]
     steps = _steps(model.parameters())
     target = columns(model, data, values, names, steps) * weights
-    base = columns(model, data, values, list(free), steps) * weights
+    base = calibration_space(model, data, values, free, noise) / noise.ppm  # a calibration takes its share first
     left = np.linalg.norm(_project_out(base, target), axis=0)
     out = []
     for name, information in zip(names, left, strict=True):

@@ -36,7 +36,13 @@ from ecds_lab.analysis.diagnosis.advice import suggestions
 from ecds_lab.analysis.diagnosis.checks import check_candidate, evidence_rank, score_candidate, tied
 from ecds_lab.analysis.diagnosis.explanation import explain
 from ecds_lab.analysis.diagnosis.held_out import SCREEN_ROWS, check_held_out, cv_rmse, folds_of, screened
-from ecds_lab.analysis.diagnosis.identifiability import ReleasedModel, absorbed, releasable, start_values
+from ecds_lab.analysis.diagnosis.identifiability import (
+    ReleasedModel,
+    absorbed,
+    calibration_space,
+    releasable,
+    start_values,
+)
 from ecds_lab.analysis.diagnosis.result import Candidate, Diagnosis, Step
 from ecds_lab.analysis.diagnosis.structure import residual_structure
 from ecds_lab.analysis.diagnosis.verdict import ADEQUATE_RATIO, STRUCTURE_SIGNIFICANCE, verdict_of
@@ -242,7 +248,7 @@ def _released(fitted: FitResult, data: Measurements, effects: list[str], space: 
     return trial, kept
 
 
-def _round(screen: Measurements, clean: Measurements, current: Step, names: list[str], space: _Space,
+def _round(screen: Measurements, clean: Measurements, current: Step, names: list[str], models: _Space,
            noise: NoiseEstimate, folds: np.ndarray | None,
            current_cv: float | None = None) -> tuple[list[Candidate], dict[str, str], float | None]:
     """Fit and check every candidate against the current model; ranked best first (passing ones
@@ -251,8 +257,9 @@ def _round(screen: Measurements, clean: Measurements, current: Step, names: list
     base = current.fit if screen is clean else _evaluate(current.fit, screen)
     ranked, untestable = [], {}
     shift_m, shift_weights = _distance_error(base, screen, noise)
+    space = calibration_space(base.model, screen, base.values, base.free_names, noise)
     for name in names:
-        model = space.model([*current.effects, name])
+        model = models.model([*current.effects, name])
         effect = model.effects[-1]
         fixed = model.unidentifiable(screen)
         keys = effect.key_parameters or tuple(p.name for p in effect.parameters())
@@ -261,7 +268,7 @@ def _round(screen: Measurements, clean: Measurements, current: Step, names: list
             continue
         from_residual = effect.starts_from_residual(screen, shift_m, shift_weights)
         start = from_residual[0] if from_residual else None
-        why = absorbed(model, screen, start_values(model, {**base.values, **(start or {})}), base.free_names, noise)
+        why = absorbed(model, screen, start_values(model, {**base.values, **(start or {})}), space, noise)
         if why is not None:
             untestable[name] = why
             continue
