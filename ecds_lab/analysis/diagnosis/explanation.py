@@ -75,8 +75,8 @@ def explain(result: Diagnosis, registry: EffectRegistry | None = None) -> str:
         for group in result.alternatives:
             lines.append(f"The data cannot tell {' from '.join(group)}: each explains them about equally well "
                          "(or neither is determined), so none is claimed.")
-    if result.alternatives or result.undetermined:
-        lines += [f"To separate or determine them: {s}." for s in result.suggested_measurements]
+    if (result.alternatives or result.undetermined) and result.suggested_measurements:
+        lines.append("To separate or determine them: " + "; or ".join(result.suggested_measurements) + ".")
     for name in result.undetermined:
         lines.append(f"{name} would explain part of it, but these data do not determine its size, so it is "
                      "not claimed.")
