@@ -106,3 +106,15 @@ def test_advice_never_asks_for_what_the_campaign_already_holds(field_lab):
     design = Design.of(data)
     assert design.present_hz == (500.0,) and design.directions == 1
     assert not design.meets({"frequencies_target_hot": 2}) and design.meets({"target_span_k": 50.0})
+
+
+# -- the held-out check's margin, in noise units --------------------------------------------------------------
+def test_the_held_out_check_needs_a_margin_in_noise_units():
+    from ecds_lab.analysis.diagnosis.held_out import HELD_OUT_CHI2, held_out_gain
+    from ecds_lab.analysis.noise import NoiseEstimate
+
+    noise = NoiseEstimate(20.0, "test", 0)
+    assert held_out_gain(115.2, 115.0, 700, noise) < HELD_OUT_CHI2  # 0.2 ppm of 115: no evidence
+    assert held_out_gain(30.0, 21.0, 700, noise) > HELD_OUT_CHI2  # a residual brought to the noise
+    correlated = NoiseEstimate(20.0, "test", 0, design_effect=4.0)
+    assert held_out_gain(30.0, 21.0, 700, correlated) == pytest.approx(held_out_gain(30.0, 21.0, 700, noise) / 4)

@@ -33,7 +33,7 @@ import numpy as np
 
 from ecds_lab.analysis.associations import residual_associations
 from ecds_lab.analysis.diagnosis.advice import suggestions
-from ecds_lab.analysis.diagnosis.checks import check_candidate, evidence_rank, score_candidate, tied
+from ecds_lab.analysis.diagnosis.checks import check_candidate, evidence_rank, score_candidate, tied, whitened
 from ecds_lab.analysis.diagnosis.explanation import explain
 from ecds_lab.analysis.diagnosis.held_out import SCREEN_ROWS, check_held_out, cv_rmse, folds_of, screened
 from ecds_lab.analysis.diagnosis.identifiability import (
@@ -164,7 +164,9 @@ def run_diagnosis(data: Measurements, effects: Sequence[str] = (), sensor: Senso
         claimed_cv = best.cv_rmse_ppm if refit is best.fit else None
         fresh = True
     final = steps[-1]
-    associations = residual_associations(clean, final.fit.residuals_ppm, noise.ppm)
+    # Where the residual lives, each reading weighed by its noise, correlated readings counted as fewer.
+    associations = residual_associations(clean, whitened(final.fit.residuals_ppm, clean, noise),
+                                         noise.ppm * math.sqrt(max(noise.design_effect, 1.0)))
     structure = residual_structure(clean, final.fit.residuals_ppm, noise)
     if len(steps) == 1 and len(undetermined) > 1:
         alternatives.append(list(undetermined))
