@@ -275,10 +275,17 @@ def _chain_label(effects: Sequence[str]) -> str:
 
 def _chain_table(steps: Sequence[Any]) -> Html:
     """The chain baseline → +effect → …: RMS, position error (mm and % FS) and BIC of every model."""
-    rows = [(_chain_label(s.effects), number(s.rmse_ppm, 4), number(s.position_error_mm, 3),
+    rows = [(_chain_label(s.effects) + _tie_note(s), number(s.rmse_ppm, 4), number(s.position_error_mm, 3),
              number(s.position_error_fs_pct, 3), f"{s.fit.bic:.1f}") for s in steps]
     return table(("model", "RMS (ppm of L)", "position error RMS (mm)", "position error (% FS)", "BIC"), rows,
-                 caption="Watch the error fall: each step adds the effect the diagnosis claimed", css="chain")
+                 caption="Watch the error fall: each step adds the effect the diagnosis claimed, or one that stands "
+                         "for a group the data cannot tell apart (not claimed)", css="chain")
+
+
+def _tie_note(step: Any) -> str:
+    """For a step whose effect stands for a tied group: which group (none of it is claimed)."""
+    group = getattr(step, "stands_for", None)
+    return f" (stands for {' / '.join(group)}: not claimed)" if group else ""
 
 
 def _step_plot(diagnosis: Any, before: Any, after: Any) -> Html | Plot:
