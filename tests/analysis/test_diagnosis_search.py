@@ -84,6 +84,17 @@ def test_a_limit_reached_is_said_with_what_was_left_untested(field_campaign):
     json.dumps(report)
 
 
+def test_on_a_1_mm_plate_tau_of_x_joins_the_conductivity_change_and_nothing_false(field_campaign):
+    """A 1 mm copper plate heated, two frequencies: tau(x)'s range once set for a thick plate refused it, and a
+    thickness settled alone in the thick valley left room for a false bending. Refitting the earlier effects
+    from their alternative starts once tau(x) joins finds the thin plate."""
+    data = field_campaign(plate={"thickness_m": 1e-3, "conductivity": {"enabled": True}})
+    result = run_diagnosis(data)
+    assert result.claimed == ["target_tau_temperature", FIELD_SOLUTION], result.explanation
+    assert result.final.fit.values["plate_thickness"] == pytest.approx(1e-3, rel=0.3)
+    assert result.final.rmse_ppm <= 1.5 * result.noise_ppm
+
+
 # -- class 6: the lead screw over its whole declared range ----------------------------------------------------
 def test_a_long_lead_is_found_by_the_scan_over_leads(faithful_sweep_with):
     result = run_diagnosis(faithful_sweep_with(1, screw_um=12.0, lead_mm=17.0))

@@ -157,6 +157,7 @@ def run_diagnosis(data: Measurements, effects: Sequence[str] = (), sensor: Senso
         members = [c.effect for c in group] if len(group) > 1 else []
         if members:
             alternatives.append(members)
+        refit = _repolished(refit, clean, len(current.effects) - len(effects))
         steps.append(Step([*current.effects, best.effect], refit, residual_mm(refit, clean), full_scale,
                           stands_for=members))
         names = [n for n in names if n not in {c.effect for c in group}]
@@ -371,6 +372,22 @@ def _refined(data: Measurements, candidate: Candidate, base: FitResult, noise: N
         trial = _candidate(data, model, candidate.effect, base, noise, n_full, start)
         if trial.fit.rms_ppm < best.fit.rms_ppm:
             best = trial
+    return best
+
+
+def _repolished(fitted: FitResult, data: Measurements, earlier: int) -> FitResult:
+    """The new model refitted from the alternative starts of the effects found before the one just added
+    (the last ``earlier`` effects before it): a valley an earlier effect settled in alone (a plate's
+    thickness, say) may not be the best once the new effect takes its share. The better fit is kept."""
+    if earlier <= 0:
+        return fitted
+    best = fitted
+    for effect in fitted.model.effects[-1 - earlier:-1]:
+        for alternative in effect.alternative_starts:
+            start = {**best.values, **alternative}
+            trial = fit_model(fitted.model, data, start=start, multistart=False, screening=True)
+            if trial.rms_ppm < best.rms_ppm * (1 - 1e-3):
+                best = trial
     return best
 
 
