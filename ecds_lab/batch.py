@@ -16,6 +16,7 @@ from typing import Any
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.errors import EcdsLabError
+from ecds_lab.model.effects import EffectRegistry
 from ecds_lab.parallel import run_all
 
 
@@ -55,10 +56,10 @@ def diagnose_job(job: CampaignJob) -> dict[str, Any]:
     if job.error is not None or job.data is None:
         return {**row, "error": job.error}
     try:
-        _load_effect_sources(job.effect_sources)
+        registry = _registry_with(job.effect_sources)
         from ecds_lab.analysis.diagnosis import diagnose
 
-        report = diagnose(job.data, job.effects, job.sensor)
+        report = diagnose(job.data, job.effects, job.sensor, registry=registry)
     except (EcdsLabError, ValueError, ArithmeticError) as error:
         return {**row, "readings": len(job.data), "error": str(error)}
     final = report["steps"][-1] if report.get("steps") else {}
@@ -68,19 +69,21 @@ def diagnose_job(job: CampaignJob) -> dict[str, Any]:
             "explanation": report["explanation"]}
 
 
-def _load_effect_sources(sources: Sequence[tuple[str, str]]) -> None:
-    """Write the user's effect files on this worker and load them (once per worker process)."""
+def _registry_with(sources: Sequence[tuple[str, str]]) -> EffectRegistry | None:
+    """The library plus the user's effect files, written on this worker (None: the library alone)."""
     if not sources:
-        return
-    from ecds_lab.model.plugins import load_effects_file
+        return None
+    from ecds_lab.model.plugins import with_effects_files
 
     folder = Path(tempfile.gettempdir()) / "ecds_lab_batch_effects"
     folder.mkdir(exist_ok=True)
+    paths = []
     for name, text in sources:
         path = folder / name
         if not path.exists() or path.read_text() != text:
             path.write_text(text)
-        load_effects_file(path)
+        paths.append(path)
+    return with_effects_files(paths)
 
 
 def diagnose_each(paths: Sequence[Path], effects: Sequence[str] = (), sensor: str | Path | None = None, *,

@@ -11,9 +11,13 @@ import sys
 import traceback
 from collections.abc import Callable, Sequence, Sized
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ecds_lab import __version__
 from ecds_lab.errors import EcdsLabError, InvalidSettingError
+
+if TYPE_CHECKING:
+    from ecds_lab.model.effects import EffectRegistry
 
 log = logging.getLogger("ecds_lab")
 
@@ -164,21 +168,22 @@ def _effects(text: str | None) -> list[str]:
     return [e.strip() for e in (text or "").split(",") if e.strip()]
 
 
-def _load_user_effects(files: Sequence[Path] | None) -> None:
-    """Register the effects of every ``--effects-from`` file (installed packages' come with the library)."""
-    from ecds_lab.model.plugins import load_effects_file
+def _load_user_effects(files: Sequence[Path] | None) -> EffectRegistry:
+    """The effects ``fit``, ``diagnose`` and ``report`` may use: the library, installed packages' and every
+    ``--effects-from`` file's."""
+    from ecds_lab.model.plugins import with_effects_files
 
-    for path in files or ():
-        load_effects_file(path)
+    return with_effects_files(files or ())
 
 
 def _cmd_fit(args: argparse.Namespace) -> int:
     from ecds_lab.analysis.summary import fit_summary, format_fit_summary
     from ecds_lab.storage.data_file import open_campaign
 
-    _load_user_effects(args.effects_from)
+    registry = _load_user_effects(args.effects_from)
     opened = open_campaign(args.data, args.sensor)
-    summary = {"sensor": opened.sensor_summary(), **fit_summary(opened.data, _effects(args.effects), opened.sensor)}
+    summary = {"sensor": opened.sensor_summary(),
+               **fit_summary(opened.data, _effects(args.effects), opened.sensor, registry)}
     _print(summary, opened.sensor_note, args.json, format_fit_summary)
     return 0
 
@@ -191,10 +196,11 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
         return _diagnose_each(args)
     if args.scheduler or args.workers:
         raise InvalidSettingError("--scheduler and --workers apply to diagnose --each only")
-    _load_user_effects(args.effects_from)
+    registry = _load_user_effects(args.effects_from)
     opened = open_campaign(args.data, args.sensor)
     _require_readings(opened.data, args.data, 2, "a diagnosis compares readings")
-    result = {"sensor": opened.sensor_summary(), **diagnose(opened.data, _effects(args.effects), opened.sensor)}
+    result = {"sensor": opened.sensor_summary(),
+              **diagnose(opened.data, _effects(args.effects), opened.sensor, registry=registry)}
     _print(result, opened.sensor_note, args.json, format_diagnosis)
     return 0
 
@@ -234,10 +240,10 @@ def _cmd_report(args: argparse.Namespace) -> int:
     from ecds_lab.report.html import write_report
     from ecds_lab.storage.outputs import check_output, write_output
 
-    _load_user_effects(args.effects_from)
+    registry = _load_user_effects(args.effects_from)
     inputs = [Path(p) for p in args.data]
     check_output(args.output, inputs, overwrite=args.overwrite)  # before minutes of analysis
-    write_output(args.output, inputs, args.overwrite, lambda path: write_report(inputs, path))
+    write_output(args.output, inputs, args.overwrite, lambda path: write_report(inputs, path, effects=registry))
     print(f"report -> {args.output}")
     return 0
 

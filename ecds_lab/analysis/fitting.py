@@ -41,7 +41,7 @@ from ecds_lab.data.measurements import Measurements
 from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.model import ecm
 from ecds_lab.model.baseline import MIN_SPAN_ALPHA_K, MIN_SPAN_BETA_K
-from ecds_lab.model.effects import Effect
+from ecds_lab.model.effects import Effect, EffectRegistry
 from ecds_lab.model.parameters import Parameter, Scaling, update, values_of
 from ecds_lab.model.sensor_model import SensorModel
 
@@ -152,9 +152,11 @@ class FitResult:
 
 def fit(data: Measurements, effects: Sequence[str | Effect] = (), sensor: SensorConfig | None = None, *,
         start: Mapping[str, float] | None = None, fixed: Mapping[str, float] | None = None,
-        multistart: bool | None = None) -> FitResult:
-    """Fit the baseline plus named effects to measurements (keywords as for ``fit_model``)."""
-    return fit_model(SensorModel(sensor, effects), data, start=start, fixed=fixed, multistart=multistart)
+        multistart: bool | None = None, registry: EffectRegistry | None = None) -> FitResult:
+    """Fit the baseline plus named effects (from ``registry``, default the library) to measurements
+    (keywords as for ``fit_model``)."""
+    return fit_model(SensorModel(sensor, effects, registry=registry), data, start=start, fixed=fixed,
+                     multistart=multistart)
 
 
 def fit_model(model: SensorModel, data: Measurements, *, start: Mapping[str, float] | None = None,

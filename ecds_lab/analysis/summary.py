@@ -39,6 +39,7 @@ from ecds_lab.analysis.quantities import (
 )
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.data.sensor import SensorConfig
+from ecds_lab.model.effects import EffectRegistry
 from ecds_lab.model.sensor_model import SensorModel
 
 #: Temperature rise (K) above room temperature that makes a reading "heated".
@@ -50,9 +51,11 @@ _CALIBRATED = ("L0", "p1", "p2", "p3", "p4")
 JOINT_EQ4_METHOD = "alpha, beta of the joint model fit of every reading at every frequency"
 
 
-def fit_summary(data: Measurements, effects: Sequence[str] = (), sensor: SensorConfig | None = None) -> dict[str, Any]:
-    """Fit baseline plus ``effects`` to ``data``; the fit, calibration and position-error summary."""
-    model = SensorModel(sensor, list(effects))
+def fit_summary(data: Measurements, effects: Sequence[str] = (), sensor: SensorConfig | None = None,
+                registry: EffectRegistry | None = None) -> dict[str, Any]:
+    """Fit baseline plus ``effects`` (from ``registry``, default the library) to ``data``; the fit,
+    calibration and position-error summary."""
+    model = SensorModel(sensor, list(effects), registry=registry)
     result = fit_model(model, data)
     summary: dict[str, Any] = {
         "n_points": len(data),

@@ -21,9 +21,12 @@ so later hooks see e.g. the effective target temperature. ``p`` maps every param
 name of the model to its value. History-dependent effects (moisture, thermal lag)
 integrate along time within each ``data.segment``.
 
-To add an effect: subclass ``Effect`` and enter it in ``EFFECTS`` with ``@register``.
-Users add their own without editing ecds-lab (``ecds_lab.model.plugins``): a Python file
-(``--effects-from FILE.py``) or an installed package (entry point group ``ecds_lab.effects``).
+To add an effect to the library: subclass ``Effect`` (``@register`` checks it has a name) and list
+it in ``ecds_lab.model.library.LIBRARY``. Which effects a fit or a diagnosis may use is an
+``EffectRegistry`` object handed to it (``library()``: the library plus installed packages' effects),
+not a module-level table: users add their own without editing ecds-lab (``ecds_lab.model.plugins``)
+to a registry of their own, from a Python file (``--effects-from FILE.py``) or an installed package
+(entry point group ``ecds_lab.effects``), and tests build registries without touching anyone else's.
 
 What the diagnosis needs to weigh a claim, declared by each effect: ``plausible`` (parameter ->
 (low, high) in SI: the physically possible size), ``key_parameters`` (those that must be clearly
@@ -40,7 +43,8 @@ rest at that solution, and keep the better: the richer law never ends worse than
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import logging
+from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -50,6 +54,8 @@ from ecds_lab.data.measurements import Measurements
 from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.model.parameters import Parameter
 from ecds_lab.model.tangents import InputTangents, Tangent
+
+log = logging.getLogger("ecds_lab.model")
 
 #: The effect names DESIGN.md fixes (the contract of ``--effects`` and of the diagnosis).
 EFFECT_NAMES = ("target_tau_temperature", "tau_displacement", "target_bending",
@@ -80,6 +86,10 @@ class Effect:
     key_parameters: ClassVar[tuple[str, ...]] = ()
     #: The measurement that shows this effect best (suggested when the data cannot separate it).
     reveal: ClassVar[str] = ""
+    #: What a campaign must hold for ``reveal``'s measurement (keys of ``analysis.diagnosis.advice.Design``:
+    #: frequencies, frequencies_target_hot, directions, target_span_k, coil_span_k, hold_s; finest_step_mm
+    #: at most). A campaign that holds it is not advised to measure it again.
+    reveal_needs: ClassVar[dict[str, float]] = {}
     #: Secondary parameters that only shape the effect (e.g. a plate's thickness): where the data
     #: determine one poorly (standard error above its value) the diagnosis holds it where the fit left
     #: it, so it does not blur the key parameters' standard errors.
@@ -98,6 +108,13 @@ class Effect:
     def unidentifiable(self, data: Measurements) -> dict[str, str]:
         """Parameters these data cannot determine (name -> reason); they are fixed at their start."""
         return {}
+
+    def starts_from_residual(self, data: Measurements, shift_m: np.ndarray,
+                             weights: np.ndarray) -> tuple[dict[str, float], ...]:
+        """Starts read off the current model's residual as a distance error (``shift_m``, m per reading,
+        NaN where undefined; ``weights`` 1/variance of each, in 1/m^2), best first: the first is the fit's
+        start, the rest join the alternatives (e.g. a screw's lead from a periodogram). None by default."""
+        return ()
 
     def identifies(self, data: Measurements) -> set[str]:
         """Baseline parameters this effect makes determinable in these data although the baseline
@@ -182,35 +199,89 @@ HOOKS = ("effective_distance", "winding_temperature", "target_temperature", "tar
          "coil_capacitance", "parallel_conductance")
 
 
-#: The registry: effect name -> class. Every effect the fit and the diagnosis can use is listed here.
-EFFECTS: dict[str, type[Effect]] = {}
-
-
 def register(cls: type[Effect]) -> type[Effect]:
-    """Class decorator: enter an effect in ``EFFECTS`` under its name (names must be unique)."""
+    """Class decorator for effects: checks the class has a name (the library lists its classes in
+    ``ecds_lab.model.library.LIBRARY``; a user's file needs no decorator). Returns the class."""
     if not cls.name:
         raise ValueError(f"effect class {cls.__name__} has no name")
-    if EFFECTS.get(cls.name, cls) is not cls:
-        raise ValueError(f"effect name {cls.name!r} is registered twice")
-    EFFECTS[cls.name] = cls
     return cls
 
 
-def library() -> dict[str, type[Effect]]:
-    """The registered effects, the library's modules imported (they register themselves)."""
-    import ecds_lab.model.library  # noqa: F401  (registers the library's effects)
-    from ecds_lab.model.plugins import load_entry_points
+class EffectRegistry:
+    """The effects a fit or a diagnosis may use: name -> class, names unique.
 
-    load_entry_points()
-    return EFFECTS
+    Passed as an object (``SensorModel``, ``fit``, ``run_diagnosis`` take one), so a user's effects
+    or a test's join only the registry they are added to."""
+
+    def __init__(self, classes: Iterable[type[Effect]] = ()) -> None:
+        self._classes: dict[str, type[Effect]] = {}
+        for cls in classes:
+            self.add(cls)
+
+    def add(self, cls: type[Effect], origin: str = "") -> None:
+        """Enter an effect class under its name; the same class twice is a no-op, another class under a
+        taken name an error naming both."""
+        register(cls)
+        taken = self._classes.get(cls.name)
+        if taken is cls:
+            return
+        if taken is not None:
+            where = f"{origin}: " if origin else ""
+            raise ValueError(f"{where}effect name {cls.name!r} is registered twice (already taken by "
+                             f"{taken.__module__}.{taken.__qualname__})")
+        self._classes[cls.name] = cls
+
+    def with_effects(self, *classes: type[Effect]) -> EffectRegistry:
+        """A new registry: these effects and the given classes (this one unchanged)."""
+        out = EffectRegistry(self._classes.values())
+        for cls in classes:
+            out.add(cls)
+        return out
+
+    def names(self) -> list[str]:
+        return list(self._classes)
+
+    def get(self, name: str) -> type[Effect] | None:
+        return self._classes.get(name)
+
+    def __getitem__(self, name: str) -> type[Effect]:
+        return self._classes[name]
+
+    def __contains__(self, name: object) -> bool:
+        return name in self._classes
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._classes)
+
+    def __len__(self) -> int:
+        return len(self._classes)
+
+    def make(self, name: str, sensor: SensorConfig) -> Effect:
+        """An effect by name; unknown names fail listing the known ones."""
+        cls = self._classes.get(name)
+        if cls is not None:
+            return cls(sensor)
+        known = ", ".join(sorted(self._classes)) or "none yet"
+        if name in EFFECT_NAMES:
+            raise ValueError(f"effect {name!r} is a known effect name but not implemented; implemented: {known}")
+        raise ValueError(f"unknown effect {name!r}; known effects: {known} (add your own with --effects-from "
+                         "FILE.py or an installed package's 'ecds_lab.effects' entry point)")
 
 
-def make_effect(name: str, sensor: SensorConfig) -> Effect:
-    """An effect by its DESIGN.md name; unknown names fail listing the known ones."""
-    if name in library():
-        return EFFECTS[name](sensor)
-    known = ", ".join(sorted(EFFECTS)) or "none yet"
-    if name in EFFECT_NAMES:
-        raise ValueError(f"effect {name!r} is named in DESIGN.md but not implemented; implemented: {known}")
-    raise ValueError(f"unknown effect {name!r}; known effects: {known} (add your own with --effects-from FILE.py "
-                     "or an installed package's 'ecds_lab.effects' entry point)")
+def library() -> EffectRegistry:
+    """A new registry of the library's effects and those installed packages declare (entry points)."""
+    from ecds_lab.model.library import LIBRARY
+    from ecds_lab.model.plugins import entry_point_effects
+
+    registry = EffectRegistry(LIBRARY)
+    for cls, origin in entry_point_effects():
+        try:
+            registry.add(cls, origin)
+        except ValueError as exc:  # an installed package must not stop the analysis of data that do not need it
+            log.warning("%s", exc)
+    return registry
+
+
+def make_effect(name: str, sensor: SensorConfig, registry: EffectRegistry | None = None) -> Effect:
+    """An effect by its name, from ``registry`` (default: ``library()``); unknown names fail listing the known ones."""
+    return (registry if registry is not None else library()).make(name, sensor)

@@ -18,7 +18,7 @@ from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.model import ecm
 from ecds_lab.model.baseline import baseline_parameters, baseline_unidentifiable
 from ecds_lab.model.coupling import Coupling, image_method_coupling, table_coupling
-from ecds_lab.model.effects import Effect, Inputs, make_effect
+from ecds_lab.model.effects import Effect, EffectRegistry, Inputs, make_effect
 from ecds_lab.model.parameters import Parameter, check_unique
 from ecds_lab.model.tangents import InputTangents, Tangent, add_to, plus, scaled
 
@@ -36,10 +36,11 @@ class SensorModel:
     """Baseline ECM plus named effects; evaluates the bridge's apparent series L for measurements."""
 
     def __init__(self, sensor: SensorConfig | None = None, effects: Sequence[str | Effect] = (),
-                 coupling: Coupling | None = None) -> None:
+                 coupling: Coupling | None = None, registry: EffectRegistry | None = None) -> None:
+        """``effects`` by name (looked up in ``registry``, default the library) or as Effect objects."""
         self.sensor = sensor or SensorConfig()
         self.coupling = coupling or sensor_coupling(self.sensor)
-        self.effects = [make_effect(e, self.sensor) if isinstance(e, str) else e for e in effects]
+        self.effects = [make_effect(e, self.sensor, registry) if isinstance(e, str) else e for e in effects]
         names = [e.name for e in self.effects]
         if len(set(names)) != len(names):
             raise ValueError(f"effect listed twice: {names}")

@@ -24,6 +24,7 @@ from ecds_lab.analysis.spectroscopy import RlcFit, fit_parallel_rlc
 from ecds_lab.analysis.summary import CalibrationCase, CoilInputs, calibration_cases
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.data.sensor import SensorConfig
+from ecds_lab.model.effects import EffectRegistry
 from ecds_lab.model.sensor_model import SensorModel
 from ecds_lab.report.inputs import DEFAULT_TARGET, SPECTROSCOPY_MIN_FREQUENCIES, ReportInput
 
@@ -109,9 +110,10 @@ def find(inputs: list[ReportInput]) -> Findings:
     return Findings(inputs, groups, None, heating, spectra_of(inputs))
 
 
-def diagnose(findings: Findings, given: Any = None) -> None:
-    """Set ``findings.diagnosis``: ``given`` (a Diagnosis of the main group's readings), else run one; and
-    diagnose every other target group like it (``findings.others``): a target whose model fails is diagnosed too."""
+def diagnose(findings: Findings, given: Any = None, registry: EffectRegistry | None = None) -> None:
+    """Set ``findings.diagnosis``: ``given`` (a Diagnosis of the main group's readings), else run one over
+    ``registry``'s effects (an ``EffectRegistry``; default the library and installed packages'); and diagnose
+    every other target group like it (``findings.others``): a target whose model fails is diagnosed too."""
     main = findings.main
     if given is not None:
         findings.diagnosis = given
@@ -119,9 +121,9 @@ def diagnose(findings: Findings, given: Any = None) -> None:
         reason = findings.groups.reason if isinstance(findings.groups, Omitted) else "no data for the model"
         findings.diagnosis = Omitted(reason)
     else:
-        findings.diagnosis = run_diagnosis_of(main)
+        findings.diagnosis = run_diagnosis_of(main, registry)
     groups = findings.groups if isinstance(findings.groups, list) else []
-    findings.others = {g.material: run_diagnosis_of(g) if g.has_target else
+    findings.others = {g.material: run_diagnosis_of(g, registry) if g.has_target else
                        Omitted(f"no readings with the {g.material} target present") for g in groups[1:]}
 
 
@@ -225,14 +227,14 @@ def split_spectra(data: Measurements) -> list[np.ndarray]:
     return np.split(np.arange(len(data)), starts)
 
 
-def run_diagnosis_of(group: TargetGroup) -> Any:
+def run_diagnosis_of(group: TargetGroup, registry: EffectRegistry | None = None) -> Any:
     """The diagnosis of a target group's readings, or Omitted saying why there is none."""
     try:
         from ecds_lab.analysis.diagnosis import run_diagnosis
     except ImportError as exc:
         return Omitted(f"the diagnosis is not available in this installation ({exc})")
     try:
-        return run_diagnosis(group.data, sensor=group.fit.model.sensor)
+        return run_diagnosis(group.data, sensor=group.fit.model.sensor, registry=registry)
     except Exception as exc:
         log.warning("diagnosis failed", exc_info=True)
         return Omitted(f"the diagnosis failed: {type(exc).__name__}: {exc}")

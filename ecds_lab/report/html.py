@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from ecds_lab import __version__
+from ecds_lab.model.effects import EffectRegistry
 from ecds_lab.report import render
 from ecds_lab.report.canvas import Png
 from ecds_lab.report.findings import diagnose, find
@@ -62,12 +63,13 @@ table.ts { font-size: .8rem; }
 
 
 def write_report(data_paths: Sequence[Path], output: Path, *, diagnosis: Any = None,
-                 workers: int | None = None) -> Path:
+                 workers: int | None = None, effects: EffectRegistry | None = None) -> Path:
     """Write the HTML report of the data files (run files or CSV) to ``output``; returns its path.
 
     ``diagnosis``: a ``Diagnosis`` (``ecds_lab.analysis.diagnosis.run_diagnosis``) of the main
     target group's readings, to show instead of running one. ``workers``: processes drawing the
     figures (default: one per CPU, less one while the diagnosis runs; 1 draws in this process).
+    ``effects``: the ``EffectRegistry`` the diagnosis searches (default: the library and installed packages').
     """
     began = time.perf_counter()
     paths = [Path(p) for p in data_paths]
@@ -80,7 +82,7 @@ def write_report(data_paths: Sequence[Path], output: Path, *, diagnosis: Any = N
     running_diagnosis = diagnosis is None and findings.main is not None
     with render.start(plots, render.default_workers(busy=1 if running_diagnosis else 0)
                       if workers is None else workers) as rendering:
-        diagnose(findings, diagnosis)
+        diagnose(findings, diagnosis, effects)
         diagnosed = time.perf_counter()
         (diagnosis_section,) = build_sections(findings, [DIAGNOSIS])
         drawn = {id(plot): plot.render() for plot in diagnosis_section.plots()}  # while the workers draw the rest

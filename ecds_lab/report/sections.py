@@ -337,10 +337,17 @@ def _chain_table(steps: Sequence[Any], noise_ppm: float) -> Html:
         figure = step_error(s, noise_ppm)
         error = (number(figure.rms_mm, 3), number(figure.fs_percent(figure.rms_mm), 3)) if figure.valid else (
             f"{figure.status} ({figure.reason})", "—")
-        rows.append((_chain_label(s.effects), number(s.rmse_ppm, 4), *error, f"{s.fit.bic:.1f}"))
+        rows.append((_chain_label(s.effects) + _tie_note(s), number(s.rmse_ppm, 4), *error, f"{s.fit.bic:.1f}"))
     return table(("model", "RMS (ppm of L)", "position error RMS (mm)", "position error (% FS)", "BIC"), rows,
-                 caption="Watch the error fall: each step adds the effect the diagnosis claimed; a model that leaves "
+                 caption="Watch the error fall: each step adds the effect the diagnosis claimed, or one that stands "
+                         "for a group the data cannot tell apart (not claimed); a model that leaves "
                          f"more than {MODEL_FAILS_FACTOR:g}x the noise gives no position error", css="chain")
+
+
+def _tie_note(step: Any) -> str:
+    """For a step whose effect stands for a tied group: which group (none of it is claimed)."""
+    group = getattr(step, "stands_for", None)
+    return f" (stands for {' / '.join(group)}: not claimed)" if group else ""
 
 
 def _step_plot(diagnosis: Any, before: Any, after: Any) -> Html | Plot:

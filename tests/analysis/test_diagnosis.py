@@ -109,7 +109,16 @@ def _with_outside_effect(data, kind: str):
     return dataclasses.replace(data, ls_h=data.ls_h * factor)
 
 
-@pytest.mark.parametrize("kind, variable", [("leadscrew", "x_mm"), ("cubic coil temperature", "t_coil_c")])
+def test_a_lead_screw_error_of_a_long_lead_is_found_not_left_outside_the_library(campaign_with):
+    """30 um over a 17.3 mm lead: once "outside the library" only because the fit could not reach leads
+    above 10 mm (issue 23, class 6); the scan over leads finds it now."""
+    result = run_diagnosis(_with_outside_effect(campaign_with(), "leadscrew"))
+    assert "slide_lead_screw" in result.claimed, result.explanation
+    assert result.final.fit.values["screw_lead"] == pytest.approx(17.3e-3, abs=0.5e-3)
+    assert "outside the library" not in result.explanation
+
+
+@pytest.mark.parametrize("kind, variable", [("cubic coil temperature", "t_coil_c")])
 def test_other_effects_outside_the_library_are_found_where_they_live(campaign_with, kind, variable):
     report = diagnose(_with_outside_effect(campaign_with(), kind))
     assert report["verdict"] == "missing_effect", report["explanation"]

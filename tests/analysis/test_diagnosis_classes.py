@@ -18,7 +18,7 @@ from ecds_lab.analysis.diagnosis import run_diagnosis
 from ecds_lab.analysis.fitting import fit
 from ecds_lab.cli import main
 from ecds_lab.data.measurements import Measurements
-from ecds_lab.model.effects import EFFECTS
+from ecds_lab.model.effects import library
 from ecds_lab.simulators import campaign
 from ecds_lab.simulators.config import LabConfig
 from ecds_lab.simulators.lab import SimulatedLab
@@ -193,16 +193,7 @@ def metal_object_campaign(tmp_path: Path) -> Path:
     return path
 
 
-@pytest.fixture
-def own_registry():
-    """User effects registered by a test leave the registry with it (other tests diagnose the library)."""
-    saved = dict(EFFECTS)
-    yield
-    EFFECTS.clear()
-    EFFECTS.update(saved)
-
-
-def test_the_user_effect_walkthrough(tmp_path, capsys, own_registry):
+def test_the_user_effect_walkthrough(tmp_path, capsys):
     path = metal_object_campaign(tmp_path)
     assert main(["diagnose", str(path), "--json"]) == 0
     before = json.loads(capsys.readouterr().out)
@@ -220,6 +211,7 @@ def test_the_user_effect_walkthrough(tmp_path, capsys, own_registry):
     assert after["claimed"][:1] == ["metal_object"], after["explanation"]
     assert after["steps"][-1]["rmse_ppm"] <= 1.5 * after["noise_ppm"] < before["baseline"]["rmse_ppm"]
     assert after["steps"][-1]["position_error_mm"] < before["steps"][0]["position_error_mm"]
+    assert "metal_object" not in library()  # the file's effect joined only that command's registry
 
 
 def test_several_data_files_are_one_campaign(campaign_with, tmp_path, capsys):
@@ -233,7 +225,7 @@ def test_several_data_files_are_one_campaign(campaign_with, tmp_path, capsys):
     assert report["params"]["backlash"]["value"] == pytest.approx(40e-6, rel=0.2)
 
 
-def test_a_broken_effect_file_is_a_clear_error(tmp_path, capsys, own_registry):
+def test_a_broken_effect_file_is_a_clear_error(tmp_path, capsys):
     bad = tmp_path / "bad.py"
     bad.write_text("x = 1\n")
     data = tmp_path / "d.csv"
@@ -242,7 +234,7 @@ def test_a_broken_effect_file_is_a_clear_error(tmp_path, capsys, own_registry):
     assert "defines no Effect subclass" in capsys.readouterr().err
 
 
-def test_an_installed_package_s_effects_come_through_the_entry_point_group(monkeypatch, own_registry):
+def test_an_installed_package_s_effects_come_through_the_entry_point_group(monkeypatch):
     """An entry point in group ``ecds_lab.effects`` naming an Effect class joins the registry."""
     from importlib.metadata import EntryPoint
 
@@ -254,8 +246,9 @@ def test_an_installed_package_s_effects_come_through_the_entry_point_group(monke
     spec.loader.exec_module(module)  # the package a user would have installed
     monkeypatch.setitem(sys.modules, "ecds_lab_test_bracket", module)
     monkeypatch.setattr(plugins, "entry_points", lambda group: [point] if group == plugins.ENTRY_POINT_GROUP else [])
-    monkeypatch.setattr(plugins, "_loaded_entry_points", False)
-    assert plugins.load_entry_points() == ["metal_object"]
-    from ecds_lab.model.effects import library
-
-    assert "metal_object" in library()
+    plugins.entry_point_effects.cache_clear()
+    try:
+        assert plugins.load_entry_points() == ["metal_object"]
+        assert "metal_object" in library()
+    finally:
+        plugins.entry_point_effects.cache_clear()  # the next library() reads the real entry points again

@@ -7,8 +7,7 @@ import json
 import pytest
 
 from ecds_lab.analysis.summary import fit_summary, format_fit_summary
-from ecds_lab.model import effects as effects_module
-from ecds_lab.model.effects import Effect
+from ecds_lab.model.effects import Effect, library
 from ecds_lab.simulators.campaign import displacement_sweep, paper_campaign
 from ecds_lab.simulators.config import LabConfig
 from ecds_lab.simulators.lab import SimulatedLab
@@ -57,15 +56,15 @@ def test_summary_without_a_sweep_has_no_calibration():
     assert "p2" in result["fixed"]
 
 
-def test_unknown_effect_names_fail_listing_the_known_ones(monkeypatch):
+def test_unknown_effect_names_fail_listing_the_known_ones():
     class Demo(Effect):
         name = "demo_effect"
 
-    monkeypatch.setitem(effects_module.EFFECTS, "demo_effect", Demo)
+    registry = library().with_effects(Demo)
     data = displacement_sweep(SimulatedLab(LabConfig(seed=2)), positions_mm=(30.0, 60.0))
     with pytest.raises(ValueError, match="demo_effect"):
-        fit_summary(data, ["no_such_effect"])
-    assert fit_summary(data, ["demo_effect"])["effects"] == ["demo_effect"]
+        fit_summary(data, ["no_such_effect"], registry=registry)
+    assert fit_summary(data, ["demo_effect"], registry=registry)["effects"] == ["demo_effect"]
 
 
 @pytest.fixture(scope="module")

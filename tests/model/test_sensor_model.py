@@ -10,7 +10,7 @@ import pytest
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.model import effects as effects_module
-from ecds_lab.model.effects import EFFECT_NAMES, Effect, make_effect
+from ecds_lab.model.effects import EFFECT_NAMES, Effect, EffectRegistry, library, make_effect
 from ecds_lab.model.parameters import Parameter, values_of
 from ecds_lab.model.sensor_model import SensorModel
 from ecds_lab.simulators.campaign import move_to
@@ -106,9 +106,9 @@ class _Damp(Effect):
 
 
 @pytest.fixture
-def registered(monkeypatch):
-    monkeypatch.setitem(effects_module.EFFECTS, "test_shift", _Shift)
-    monkeypatch.setitem(effects_module.EFFECTS, "test_damp", _Damp)
+def registered():
+    """A registry of the library's effects and two of the test's own (the library's own is not touched)."""
+    return library().with_effects(_Shift, _Damp)
 
 
 def _sweep_rows() -> Measurements:
@@ -121,7 +121,7 @@ def _sweep_rows() -> Measurements:
 def test_an_effect_registered_by_name_changes_its_stage(registered):
     data = _sweep_rows()
     base = SensorModel()
-    shifted = SensorModel(effects=["test_shift"])
+    shifted = SensorModel(effects=["test_shift"], registry=registered)
     p = values_of(shifted.parameters())
     assert [q.name for q in shifted.parameters()][-1] == "shift"
     expected = base.predict(data, p, x_m=data.x_m - data.direction * p["shift"])
@@ -131,7 +131,7 @@ def test_an_effect_registered_by_name_changes_its_stage(registered):
 
 def test_later_hooks_see_effective_inputs(registered):
     data = _sweep_rows()
-    model = SensorModel(effects=["test_damp"])
+    model = SensorModel(effects=["test_damp"], registry=registered)
     p = values_of(model.parameters())
     z = model.impedance(data, p)
     tau = p["tau_t"] * (1 + p["tau_tc"] * (data.t_target_c - 20.0))
@@ -145,13 +145,14 @@ def test_later_hooks_see_effective_inputs(registered):
 
 def test_effect_names_are_checked(registered):
     with pytest.raises(ValueError, match="test_damp"):
-        make_effect("no_such_effect", SensorConfig())
+        make_effect("no_such_effect", SensorConfig(), registered)
     with pytest.raises(ValueError, match="listed twice"):
-        SensorModel(effects=["test_shift", "test_shift"])
+        SensorModel(effects=["test_shift", "test_shift"], registry=registered)
+    assert "test_shift" not in library()  # the test's effects joined only the registry they were added to
 
 
 def test_design_names_not_yet_implemented_say_so():
-    missing = [n for n in EFFECT_NAMES if n not in effects_module.EFFECTS]
+    missing = [n for n in EFFECT_NAMES if n not in library()]
     for name in missing:
         with pytest.raises(ValueError, match="known effect name but not implemented"):
             make_effect(name, SensorConfig())
@@ -168,18 +169,23 @@ def test_parameter_names_must_be_unique():
         SensorModel(effects=[Clash(SensorConfig())])
 
 
-def test_register_enters_an_effect_once(monkeypatch):
-    monkeypatch.setattr(effects_module, "EFFECTS", {})
+def test_a_registry_enters_an_effect_once():
+    registry = EffectRegistry()
 
     @effects_module.register
     class Demo(Effect):
         name = "demo"
 
-    assert effects_module.EFFECTS == {"demo": Demo}
-    assert isinstance(make_effect("demo", SensorConfig()), Demo)
+    registry.add(Demo)
+    registry.add(Demo)  # the same class again: no change
+    assert registry.names() == ["demo"]
+    assert isinstance(make_effect("demo", SensorConfig(), registry), Demo)
+    assert "demo" not in library()
 
     class Other(Effect):
         name = "demo"
 
     with pytest.raises(ValueError, match="twice"):
-        effects_module.register(Other)
+        registry.add(Other)
+    with pytest.raises(ValueError, match="no name"):
+        effects_module.register(type("Nameless", (Effect,), {}))

@@ -35,6 +35,7 @@ class FormerExpansion(Effect):
     plausible: ClassVar[dict[str, tuple[float, float]]] = {"former_alpha": (-2e-6, 150e-6)}
     reveal = ("sweep the distance with the coil hot and cold (coil-heated sweeps): the expansion changes L "
               "most near the target, a plain coil-temperature term alike at every distance")
+    reveal_needs: ClassVar[dict[str, float]] = {"coil_span_k": 30.0}
 
     def parameters(self) -> list[Parameter]:
         return [Parameter("former_alpha", 0.0, -1e-4, 3e-4, "1/K", "linear thermal expansion of the coil former",

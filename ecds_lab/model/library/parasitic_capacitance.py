@@ -30,6 +30,7 @@ import numpy as np
 from scipy.special import expit
 
 from ecds_lab.data.measurements import Measurements
+from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.model.effects import Effect, Inputs, register
 from ecds_lab.model.library.history import relaxation, relaxation_derivative
 from ecds_lab.model.parameters import Parameter
@@ -51,12 +52,16 @@ class ParasiticCapacitance(Effect):
     _tangent_key: tuple[float, ...] = ()
     _tangent: dict[str, np.ndarray]
     explains = "moisture in the former changes the coil's parallel capacitance as heating dries it"
-    #: Table 2: the moist former adds ~15 pF; tens of pF at most.
+    #: Table 2: the moist former adds ~15 pF to the coil's 47.5 pF. Water fills only the pores of the former
+    #: between the turns, so moisture adds at most about the dry inter-winding capacitance itself, which
+    #: grows with the winding (a large coil's C_p is several times the paper's): +/- the larger of 50 pF
+    #: and the sensor's own C_p (set per sensor in ``__init__``).
     plausible: ClassVar[dict[str, tuple[float, float]]] = {"moist_dC": (-50e-12, 50e-12)}
     key_parameters = ("moist_dC",)
     reveal = ("hold the coil at two or three temperatures for an hour each at 15 kHz, then cool it: drying "
               "changes L early in each heating, stops once the former holds its equilibrium moisture, and "
               "leaves a hysteresis on cooling")
+    reveal_needs: ClassVar[dict[str, float]] = {"hold_s": 3000.0, "coil_span_k": 30.0}
     alternative_starts = ({"drying_rate": 1e-4}, {"drying_rate": 1e-2},
                           *({"drying_order": 0.0, "drying_rate": 3e-4, "drying_onset": onset, "drying_width": 1.0}
                             for onset in (60.0, 90.0)),
@@ -65,9 +70,16 @@ class ParasiticCapacitance(Effect):
                           {"bound_share": 1.0, "drying_rate": 1e-2, "drying_onset": 150.0, "drying_width": 20.0})
     simpler_form: ClassVar[dict[str, float]] = {"bound_share": 0.0, "sorption_width": 18.0}
 
+    def __init__(self, sensor: SensorConfig) -> None:
+        super().__init__(sensor)
+        limit = max(50e-12, sensor.capacitance_f)
+        self.plausible = {"moist_dC": (-limit, limit)}  # type: ignore[misc]  # per sensor, not per class
+        self._dc_bound = max(1e-10, 2 * limit)
+
     def parameters(self) -> list[Parameter]:
         return [
-            Parameter("moist_dC", 1e-12, -1e-10, 1e-10, "F", "extra parallel capacitance of the moist former", 5e-12),
+            Parameter("moist_dC", 1e-12, -self._dc_bound, self._dc_bound, "F",
+                      "extra parallel capacitance of the moist former", 5e-12),
             Parameter("moist_dG", 1e-6, 0.0, 1e-4, "S", "extra loss conductance of the moist former", 3e-6),
             Parameter("drying_rate", 1.0 / 300, 1e-7, 1.0, "1/s", "drying rate of the hot former (r_hot)", 1e-3),
             Parameter("drying_onset", 100.0, 20.0, 250.0, "C", "temperature at which drying reaches half its rate",

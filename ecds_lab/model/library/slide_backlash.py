@@ -24,6 +24,7 @@ class SlideBacklash(Effect):
     #: A lead screw's play: up to a few hundred micrometres (PHYSICS.md: accuracy tens of um).
     plausible: ClassVar[dict[str, tuple[float, float]]] = {"backlash": (-500e-6, 500e-6)}
     reveal = "approach every position from both directions (a forward and a backward sweep)"
+    reveal_needs: ClassVar[dict[str, float]] = {"directions": 2}
 
     def parameters(self) -> list[Parameter]:
         return [Parameter("backlash", 0.0, -1e-3, 1e-3, "m", "slide backlash (play between directions)", 2e-5)]

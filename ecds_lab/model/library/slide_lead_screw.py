@@ -9,7 +9,14 @@ The same position shows the same error from either direction (unlike backlash or
 between moves). Positions taken on a regular grid g alias a lead to others (p and 1/(1/p + k/g)):
 only leads longer than twice the closest spacing of the positions can be told. A shorter lead
 therefore moves nothing in these data (its error is not determinable, so never claimed), and the
-effect is tested only where the steps resolve the common leads (up to 10 mm: steps of 5 mm or less).
+effect is tested only where the steps resolve at least the longest lead it declares (20 mm: steps of
+10 mm or less).
+
+The lead is found over the whole declared range by a scan of the residual over leads: the current
+model's residual as a distance error, detrended by a cubic in x per direction and frequency, in a
+weighted Lomb-Scargle periodogram (``scipy.signal.lombscargle``) over leads from the shortest the
+positions resolve to 20 mm; the best peaks, with their sine and cosine parts, are the fit's starts
+(``starts_from_residual``), then the fit refines them.
 """
 
 from __future__ import annotations
@@ -19,6 +26,7 @@ from collections.abc import Mapping
 from typing import ClassVar
 
 import numpy as np
+from scipy.signal import lombscargle
 
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.model.effects import Effect, register
@@ -31,6 +39,11 @@ LEAD_RANGE_M = (0.5e-3, 20e-3)
 COMMON_LEADS_M = (1e-3, 2e-3, 2.5e-3, 4e-3, 5e-3, 8e-3, 10e-3)
 #: A period needs this many distinct positions (3 parameters and a margin against chance).
 MIN_POSITIONS = 8
+#: Leads scanned by the periodogram (log-spaced over the resolvable part of LEAD_RANGE_M), and peaks kept.
+LEAD_GRID = 600
+PEAKS = 3
+#: Degree of the polynomial in x removed per direction and frequency before the scan (smooth trends).
+DETREND_DEGREE = 3
 _NAMES = ("screw_sin", "screw_cos", "screw_lead")
 
 
@@ -46,6 +59,7 @@ class SlideLeadScrew(Effect):
     key_parameters = ("screw_sin", "screw_cos")
     reveal = ("step finer than the screw's lead (e.g. 0.5 mm steps over two turns), or check the positions "
               "against a laser or dial-gauge reference")
+    reveal_needs: ClassVar[dict[str, float]] = {"finest_step_mm": 0.5}
     #: The other common leads (the longest is the default start, which every testable campaign resolves).
     alternative_starts = tuple({"screw_lead": lead} for lead in COMMON_LEADS_M[:-1])
     _memo_data: Measurements | None = None
@@ -63,11 +77,44 @@ class SlideLeadScrew(Effect):
         count, closest = _positions(data)
         if count < MIN_POSITIONS:
             return {n: f"{count} distinct positions (a periodic error needs {MIN_POSITIONS})" for n in _NAMES}
-        if 2 * closest > COMMON_LEADS_M[-1]:
-            return {n: f"the closest positions are {closest * 1e3:.3g} mm apart: a screw lead of "
-                       f"{COMMON_LEADS_M[-1] * 1e3:g} mm or less cannot be resolved (it needs steps of "
-                       f"{COMMON_LEADS_M[-1] * 500:g} mm or less)" for n in _NAMES}
+        if 2 * closest >= LEAD_RANGE_M[1] * (1 - 1e-6):  # (positions to 1 um: their spacing rounds)
+            return {n: f"the closest positions are {closest * 1e3:.3g} mm apart: no screw lead of "
+                       f"{LEAD_RANGE_M[1] * 1e3:g} mm or less can be resolved (it needs steps shorter than "
+                       f"{LEAD_RANGE_M[1] * 500:g} mm)" for n in _NAMES}
         return {}
+
+    def starts_from_residual(self, data: Measurements, shift_m: np.ndarray,
+                             weights: np.ndarray) -> tuple[dict[str, float], ...]:
+        """The best peaks of a weighted Lomb-Scargle periodogram of the residual distance error over the
+        resolvable leads (see the module docstring), each with its sine and cosine parts."""
+        count, closest = _positions(data)
+        shortest = max(LEAD_RANGE_M[0], 1.02 * 2 * closest)
+        if count < MIN_POSITIONS or shortest >= LEAD_RANGE_M[1]:
+            return ()
+        leads = np.geomspace(shortest, LEAD_RANGE_M[1], LEAD_GRID)
+        omega = 2 * np.pi / leads
+        groups = _detrended(data, shift_m, weights)
+        if not groups:
+            return ()
+        power = np.zeros(len(leads))
+        for x, y, w in groups:
+            power += float(np.sum(w * y**2)) * lombscargle(x, y, omega, weights=w, floating_mean=True,
+                                                           normalize=True)
+        peaks = [i for i in range(len(leads)) if power[i] >= power[max(i - 1, 0)] and power[i] >= power[min(i + 1,
+                 len(leads) - 1)]]
+        peaks.sort(key=lambda i: -power[i])
+        x_all = np.concatenate([x for x, _, _ in groups])
+        y_all = np.concatenate([y for _, y, _ in groups])
+        root_w = np.sqrt(np.concatenate([w for _, _, w in groups]))
+        starts = []
+        for i in peaks[:PEAKS]:
+            phase = 2 * np.pi * x_all / leads[i]
+            design = np.column_stack([np.sin(phase), np.cos(phase)]) * root_w[:, None]
+            (a, b), *_ = np.linalg.lstsq(design, y_all * root_w, rcond=None)
+            limit = 0.9 * self.parameters()[0].upper
+            starts.append({"screw_lead": float(leads[i]), "screw_sin": float(np.clip(a, -limit, limit)),
+                           "screw_cos": float(np.clip(b, -limit, limit))})
+        return tuple(starts)
 
     def shortest_lead(self, data: Measurements) -> float:
         """The shortest lead these positions resolve (m): twice their closest spacing (remembered per data)."""
@@ -95,6 +142,25 @@ class SlideLeadScrew(Effect):
         d_lead = (p["screw_sin"] * cos - p["screw_cos"] * sin) * (-phase / p["screw_lead"])
         own = {"screw_sin": sin, "screw_cos": cos, "screw_lead": d_lead}
         return x_m + p["screw_sin"] * sin + p["screw_cos"] * cos, plus(dx, own)
+
+
+def _detrended(data: Measurements, shift_m: np.ndarray, weights: np.ndarray
+               ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """(x, distance error less a weighted cubic in x, weights) per direction and frequency, readings with a
+    finite error and weight only (far from the coil a small sensitivity makes the error noisy: low weight)."""
+    shift = np.asarray(shift_m, float)
+    w_all = np.asarray(weights, float)
+    usable = np.isfinite(data.x_m) & np.isfinite(shift) & np.isfinite(w_all) & (w_all > 0)
+    out = []
+    for direction in np.unique(data.direction[usable]):
+        for freq in np.unique(data.freq_hz[usable]):
+            rows = usable & (data.direction == direction) & (data.freq_hz == freq)
+            x, y, w = data.x_m[rows], shift[rows], w_all[rows]
+            if len(np.unique(np.round(x, 6))) < MIN_POSITIONS:
+                continue
+            y = y - np.polyval(np.polyfit(x, y, DETREND_DEGREE, w=np.sqrt(w)), x)
+            out.append((x, y, w))
+    return out
 
 
 def _positions(data: Measurements) -> tuple[int, float]:

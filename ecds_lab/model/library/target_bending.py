@@ -23,12 +23,17 @@ from ecds_lab.model.tangents import Tangent, chained
 class TargetBending(Effect):
     name = "target_bending"
     explains = "the hot target bends, shifting the effective distance"
-    #: A plate heated from behind bows by micrometres per kelvin (tens of um over 100 K), not millimetres.
-    plausible: ClassVar[dict[str, tuple[float, float]]] = {"bending": (-20e-6, 20e-6),
+    #: A plate heated from behind bows with its through-thickness gradient g dT: curvature alpha g dT / t, centre
+    #: rise alpha g a^2 / (2 t) per kelvin over a half-width a. Over the plates a sensor YAML may describe:
+    #: 5 mm copper (alpha 17e-6/K, g ~0.01, a 150 mm) ~0.04 um/K; 5 mm steel (12e-6/K, g 0.15) ~4 um/K;
+    #: 1 mm steel ~20 um/K; 1 mm aluminium (23e-6/K, g 0.15) ~40 um/K. So up to tens of um/K on thin
+    #: plates (the old +/-20 um/K held for thick ones only), never hundreds: +/-60 um/K.
+    plausible: ClassVar[dict[str, tuple[float, float]]] = {"bending": (-60e-6, 60e-6),
                                                            "bending_quadratic": (-0.2e-6, 0.2e-6)}
     key_parameters = ("bending",)
-    reveal = ("measure at 500 Hz as well as 15 kHz with the target hot: bending shifts the distance alike at "
+    reveal = ("measure at both 500 Hz and 15 kHz with the target hot: bending shifts the distance alike at "
               "both frequencies, a conductivity change alters the eddy-current screening mostly at 500 Hz")
+    reveal_needs: ClassVar[dict[str, float]] = {"frequencies_target_hot": 2}
 
     def parameters(self) -> list[Parameter]:
         return [

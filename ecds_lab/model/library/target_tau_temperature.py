@@ -102,8 +102,9 @@ class TargetTauTemperature(Effect):
     #: flat maximum near 3 delta(500 Hz), so sheet-like and thick starts are tried as well.
     THICKNESS_STARTS: ClassVar[tuple[dict[str, float], ...]] = ({"plate_thickness": 1e-5},
                                                                 {"plate_thickness": 8e-3})
-    reveal = ("measure at 500 Hz as well as 15 kHz with the target hot: a conductivity change alters the "
+    reveal = ("measure at both 500 Hz and 15 kHz with the target hot: a conductivity change alters the "
               "eddy-current screening at both in a way a bending cannot (the skin depth scales as f^-1/2)")
+    reveal_needs: ClassVar[dict[str, float]] = {"frequencies_target_hot": 2}
 
     def __init__(self, sensor: SensorConfig) -> None:
         super().__init__(sensor)

@@ -22,13 +22,16 @@ from ecds_lab.model.tangents import Tangent, mapped, plus
 class ThermalLag(Effect):
     name = "thermal_lag"
     explains = "the winding lags the coil thermocouple during temperature changes"
-    #: A winding under a few mm of former: seconds to an hour behind its thermocouple.
-    plausible: ClassVar[dict[str, tuple[float, float]]] = {"lag_tau": (2.0, 5000.0)}
+    #: The winding lags its thermocouple by about w^2 / D over the former wall w between them (diffusivity D):
+    #: from a bare winding (seconds) to 30 mm of plastic (D ~1e-7 m^2/s: ~9000 s) or ceramic (D ~5e-7: ~1800 s),
+    #: small and large coils alike: 2 s to 3 h.
+    plausible: ClassVar[dict[str, tuple[float, float]]] = {"lag_tau": (2.0, 10800.0)}
     reveal = "hold the coil hot for an hour and record the approach to steady state at a fixed distance"
+    reveal_needs: ClassVar[dict[str, float]] = {"hold_s": 3000.0}
     alternative_starts = ({"lag_tau": 15.0}, {"lag_tau": 600.0}, {"lag_tau": 2400.0})
 
     def parameters(self) -> list[Parameter]:
-        return [Parameter("lag_tau", 60.0, 1.0, 7200.0, "s", "time constant of the winding behind the thermocouple",
+        return [Parameter("lag_tau", 60.0, 1.0, 14400.0, "s", "time constant of the winding behind the thermocouple",
                           100.0)]
 
     def unidentifiable(self, data: Measurements) -> dict[str, str]:

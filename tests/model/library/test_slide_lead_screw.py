@@ -50,8 +50,10 @@ def test_the_hook_shifts_the_distance_it_is_given(screw):
 def test_too_few_positions_or_steps_too_coarse_leave_it_undetermined(screw):
     few = screw.unidentifiable(at_positions([20.0, 40.0, 60.0, 80.0, 100.0] * 4))
     assert set(few) == {"screw_sin", "screw_cos", "screw_lead"} and "5 distinct positions" in few["screw_lead"]
-    coarse = screw.unidentifiable(at_positions(np.linspace(20.0, 100.0, 13)))  # 6.67 mm steps
-    assert set(coarse) == {"screw_sin", "screw_cos", "screw_lead"} and "6.67 mm apart" in coarse["screw_sin"]
+    coarse = screw.unidentifiable(at_positions(np.linspace(20.0, 100.0, 9)))  # 10 mm steps: no lead <= 20 mm
+    assert set(coarse) == {"screw_sin", "screw_cos", "screw_lead"} and "10 mm apart" in coarse["screw_sin"]
+    # 6.67 mm steps resolve the leads of 13.3-20 mm the effect declares (issue 23: its whole range is tested)
+    assert screw.unidentifiable(at_positions(np.linspace(20.0, 100.0, 13))) == {}
     fine = np.r_[np.arange(20.0, 30.0, 1.0), np.arange(30.0, 100.1, 5.0)]
     assert screw.unidentifiable(at_positions([*fine, math.inf])) == {}
 

@@ -1,0 +1,122 @@
+"""The checks a claim must pass: evidence (chi-square and BIC gains), identifiable key parameters,
+a physically plausible size; and when two candidates are tied."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ecds_lab.analysis.diagnosis.result import DISPLAY_UNITS, Candidate
+from ecds_lab.analysis.fitting import FitResult
+from ecds_lab.analysis.noise import NoiseEstimate
+from ecds_lab.data.measurements import Measurements
+
+#: BIC gain (negative) on the effect's signature readings that counts as clear evidence.
+DECISIVE_DELTA_BIC = -10.0
+#: ... and a fall of the residual sum of squares by this many noise variances (scaled to the campaign).
+MIN_CHI2_GAIN = 25.0
+#: A key parameter is identified when |value| exceeds this many standard errors ...
+MIN_Z = 3.0
+#: ... and lies farther than this share of its range from either bound.
+BOUND_MARGIN = 1e-3
+#: Two passing effects whose chi-square gains (in noise units) differ by less than this (plus a tenth
+#: of the larger) are not separated.
+SEPARATION_CHI2 = 10.0
+#: The signature of an effect: readings whose prediction it moves by at least this share of the noise.
+SIGNATURE_SHARE = 0.5
+
+
+def whitened(residuals_ppm: np.ndarray, data: Measurements, noise: NoiseEstimate) -> np.ndarray:
+    """Residuals weighed by each reading's noise, in ppm of the mean noise: r * noise.ppm / sigma_i."""
+    if not noise.ppm > 0:
+        return np.asarray(residuals_ppm, float)
+    return np.asarray(residuals_ppm, float) * (noise.ppm / noise.sigma_ppm(data))
+
+
+def score_candidate(name: str, fitted: FitResult, base: FitResult, noise: NoiseEstimate, data: Measurements,
+                    n_full: int) -> Candidate:
+    """Evidence of a fitted candidate against the current model: BIC overall and on its signature, and
+    its chi-square gain; residuals weighed by each reading's noise, gains divided by the design effect
+    (correlated readings count as fewer independent ones)."""
+    rc_all, rb_all = whitened(fitted.residuals_ppm, data, noise), whitened(base.residuals_ppm, data, noise)
+    rss_c, rss_b = float(rc_all @ rc_all), float(rb_all @ rb_all)
+    k = len(fitted.free_names) - len(base.free_names)
+    penalty = max(k, 1) * math.log(max(n_full, 2))
+    not_better = rss_c >= rss_b
+    if not_better:  # a nested fit that did not reach the current model's solution is no evidence
+        return Candidate(name, fitted, penalty, penalty, 0.0, not_better=True)
+    deff = max(noise.design_effect, 1.0)
+    n = len(rc_all)
+    delta = n * math.log(rss_c / rss_b) / deff + penalty
+    change = rc_all - rb_all  # the candidate's change of the prediction (ppm, weighed)
+    signature = np.abs(change) >= SIGNATURE_SHARE * noise.ppm
+    if signature.sum() < max(5, k + 2):
+        signature = np.abs(change) >= np.sort(np.abs(change))[-max(5, k + 2)] if n >= 5 else np.ones(n, bool)
+    rc, rb = rc_all[signature], rb_all[signature]
+    n_s = int(signature.sum())
+    delta_s = n_s * math.log(max(float(rc @ rc), 1e-300) / max(float(rb @ rb), 1e-300)) / deff + penalty
+    scale2 = max(noise.ppm**2, rss_c / n)
+    return Candidate(name, fitted, delta, delta_s, (rss_b - rss_c) / scale2 / deff)
+
+
+def check_candidate(candidate: Candidate) -> None:
+    """Fill ``checks`` and ``rejected``: evidence, identifiability, plausible size."""
+    reasons = candidate.rejected
+    checks = candidate.checks
+    checks["evidence"] = ((not candidate.not_better) and candidate.delta_bic_signature <= DECISIVE_DELTA_BIC
+                          and candidate.chi2_gain >= MIN_CHI2_GAIN)
+    if candidate.not_better:
+        reasons.append("the fit with it ends no better than without it")
+    elif not checks["evidence"]:
+        reasons.append(f"BIC gain {candidate.delta_bic_signature:+.1f} on its signature and chi-square gain "
+                       f"{candidate.chi2_gain:.1f} are not clear (needs {DECISIVE_DELTA_BIC:+g} and {MIN_CHI2_GAIN:g})")
+    determined, why = identified(candidate)
+    checks["identifiable"] = determined
+    reasons += why
+    in_range, why = plausible_size(candidate)
+    checks["plausible"] = in_range
+    reasons += why
+
+
+def identified(candidate: Candidate) -> tuple[bool, list[str]]:
+    """Key parameters free, off their bounds, and at least one clearly non-zero (|value| > MIN_Z stderr)."""
+    effect = candidate.effect_object
+    keys = effect.key_parameters or tuple(p.name for p in effect.parameters())
+    reasons, best_z = [], 0.0
+    for name in keys:
+        p = candidate.fit.parameter(name)
+        if p.fixed:
+            continue
+        span = p.upper - p.lower
+        if math.isfinite(span) and min(p.value - p.lower, p.upper - p.value) <= BOUND_MARGIN * span:
+            reasons.append(f"{name} sits at its bound ({p.value:.4g} {p.unit})")
+        stderr = candidate.fit.stderr.get(name, math.nan)
+        z = abs(p.value) / stderr if math.isfinite(stderr) and stderr > 0 else 0.0
+        best_z = max(best_z, z)
+    if best_z < MIN_Z:
+        reasons.append(f"its key parameter{'s' if len(keys) > 1 else ''} {', '.join(keys)} "
+                       f"{'are' if len(keys) > 1 else 'is'} not determined (|value| < {MIN_Z:g} standard errors)")
+    return not reasons, reasons
+
+
+def plausible_size(candidate: Candidate) -> tuple[bool, list[str]]:
+    """Every parameter with a declared physical range inside it."""
+    reasons = []
+    for name, (low, high) in candidate.effect_object.plausible.items():
+        value = candidate.fit.values.get(name)
+        if value is not None and not low <= value <= high:
+            unit, factor = DISPLAY_UNITS.get(name, (candidate.fit.parameter(name).unit, 1.0))
+            reasons.append(f"{name} = {value * factor:.4g} {unit} is outside the physically plausible "
+                           f"{low * factor:.4g}..{high * factor:.4g} {unit}")
+    return not reasons, reasons
+
+
+def tied(a: Candidate, b: Candidate) -> bool:
+    """The data cannot prefer one of two effects: their chi-square gains differ by less than
+    SEPARATION_CHI2 plus a tenth of the larger (the gains are estimates from the same noise)."""
+    return abs(a.chi2_gain - b.chi2_gain) < SEPARATION_CHI2 + 0.1 * max(a.chi2_gain, b.chi2_gain)
+
+
+def evidence_rank(candidate: Candidate) -> float:
+    return candidate.delta_bic_signature if math.isfinite(candidate.delta_bic_signature) else math.inf

@@ -1,0 +1,161 @@
+"""The diagnosis in words: the explanation, the suggested measurements and the text summary of the JSON."""
+
+from __future__ import annotations
+
+import math
+from itertools import pairwise
+from typing import Any
+
+from ecds_lab.analysis.diagnosis.result import DISPLAY_UNITS, Diagnosis
+from ecds_lab.analysis.diagnosis.verdict import FAILING_RATIO, STRUCTURE_SIGNIFICANCE, outside_library
+from ecds_lab.analysis.noise import noise_parts_text
+from ecds_lab.model.effects import EffectRegistry
+
+
+def _value_text(name: str, entry: dict[str, Any]) -> str:
+    unit, factor = DISPLAY_UNITS.get(name, (entry.get("unit", ""), 1.0))
+    value = entry["value"] * factor
+    stderr = entry.get("stderr")
+    spread = f" +/- {stderr * factor:.2g}" if stderr is not None else ""
+    return f"{name} = {value:.4g}{spread} {unit}".rstrip()
+
+
+def _where(result: Diagnosis) -> str:
+    strong = [a for a in result.associations if a.significance > STRUCTURE_SIGNIFICANCE][:2] or result.associations[:1]
+    return "; ".join(f"{a.variable} (explains {a.score:.0%}: {a.detail})" for a in strong)
+
+
+def explain(result: Diagnosis, registry: EffectRegistry | None = None) -> str:
+    """A plain-language account: where the residual lives, which effects explain it, by how much, what
+    the data cannot tell, and what the search left untested."""
+    noise = result.noise.ppm
+    first, final = result.steps[0], result.final
+    model = "the baseline model" + (f" with {', '.join(result.effects)}" if result.effects else "")
+    lines = []
+    if result.outliers:
+        lines.append(f"{len(result.outliers)} glitch reading(s) were excluded (listed under outliers).")
+    if result.released:
+        lines.append(f"The data determine {', '.join(result.released)}, which the rules would hold fixed: "
+                     "fitted free.")
+    ratio = first.rmse_ppm / noise if noise > 0 else math.inf
+    if result.verdict == "adequate" and not result.claimed and len(result.steps) == 1:
+        lines.append(f"{model[0].upper()}{model[1:]} explains the data to the noise level: residual "
+                     f"{first.rmse_ppm:.1f} ppm against {noise:.1f} ppm noise ({result.noise.source}).")
+        best = result.best
+        if best is not None:
+            why = "; ".join(best.rejected) or "no clear gain"
+            lines.append(f"No effect earns its keep (best: {best.effect}: {why}).")
+        lines += _limits_text(result)
+        return " ".join(lines)
+    lines.append(f"{model[0].upper()}{model[1:]} leaves {first.rmse_ppm:.1f} ppm of residual, "
+                 f"{ratio:.1f}x the {noise:.1f} ppm noise ({result.noise.source}).")
+    for before, step in pairwise(result.steps):
+        added = step.effects[-1]
+        candidate = next(c for c in before.candidates if c.effect == added)
+        effect = candidate.effect_object
+        values = "; ".join(_value_text(n, v) for n, v in step.fit.params_table().items()
+                           if n in {p.name for p in effect.parameters()} and v.get("stderr") is not None)
+        cv = (f", held-out {candidate.cv_rmse_ppm:.1f} vs {candidate.base_cv_rmse_ppm:.1f} ppm"
+              if candidate.cv_rmse_ppm is not None and candidate.base_cv_rmse_ppm is not None else "")
+        error = (f", position error {step.position_error_mm:.3g} mm" if step.position_error_mm is not None else "")
+        if step.stands_for:
+            others = [n for n in step.stands_for if n != added]
+            lines.append(f"The data cannot tell {' from '.join(step.stands_for)}: each explains them about equally "
+                         f"well, so none is claimed. {added} stands for the group while the search goes on "
+                         f"(from {before.rmse_ppm:.1f} to {step.rmse_ppm:.1f} ppm{error}); read it as "
+                         f"{' or '.join([added, *others])}.")
+            continue
+        lines.append(f"Adding {added} ({effect.explains}) brings it from {before.rmse_ppm:.1f} to "
+                     f"{step.rmse_ppm:.1f} ppm{error} (BIC gain on its signature "
+                     f"{candidate.delta_bic_signature:+.0f}{cv}); fitted {values}.")
+    if result.claimed:
+        lines.append(f"Fit with --effects {','.join(result.effects + result.claimed)}"
+                     + (" and one effect of each group the data cannot separate." if result.alternatives else "."))
+    if result.alternatives and len(result.steps) == 1:  # undetermined effects of the first round
+        for group in result.alternatives:
+            lines.append(f"The data cannot tell {' from '.join(group)}: each explains them about equally well "
+                         "(or neither is determined), so none is claimed.")
+    if (result.alternatives or result.undetermined) and result.suggested_measurements:
+        lines.append("To separate or determine them: " + "; or ".join(result.suggested_measurements) + ".")
+    for name in result.undetermined:
+        lines.append(f"{name} would explain part of it, but these data do not determine its size, so it is "
+                     "not claimed.")
+    for group in result.partial:
+        lines.append(f"{', '.join(group[:-1])} and {group[-1]} each explain part of the residual about equally, "
+                     "none of them well (a flexible smooth of the residual finds much more structure than any "
+                     "one takes): none is claimed.")
+    lines += _limits_text(result)
+    final_ratio = final.rmse_ppm / noise if noise > 0 else math.inf
+    structure = result.structure
+    outside = structure is not None and outside_library(final, result.noise, structure, result.associations)
+    if result.verdict == "inconclusive" and not result.alternatives and not result.limits_reached \
+            and not result.steps[0].candidates:
+        untested = "; ".join(f"{k}: {v}" for k, v in result.untestable.items())
+        lines.append(f"These data cannot test the library's effects ({untested}); the diagnosis is inconclusive.")
+    elif outside and not result.limits_reached and structure is not None:
+        rejected = [f"{c.effect} ({'; '.join(c.rejected)})" for c in final.candidates[:3] if c.rejected]
+        lines.append(("Even so the residual stays " if len(result.steps) > 1 else "The residual stays ")
+                     + f"{final_ratio:.1f}x the noise; every remaining library effect was refitted at the final "
+                     "model and none passes its checks" + (f" ({', '.join(rejected)})" if rejected else "")
+                     + ", while a flexible smooth of the residual finds structure beyond chance "
+                     f"({_significance(result):.0f} standard deviations): it lies outside the library. It lives in "
+                     + _where(result) + ".")
+    elif outside and structure is not None:
+        lines.append(f"The residual stays {final_ratio:.1f}x the noise with structure {_significance(result):.0f} "
+                     "standard deviations beyond chance; whether a library effect explains it is not known, since "
+                     "the search stopped first (see above). It lives in " + _where(result) + ".")
+    elif final_ratio > FAILING_RATIO:
+        lines.append(f"The residual is {final_ratio:.1f}x the noise estimate, but a flexible smooth finds no "
+                     "structure in it beyond chance: the readings scatter more than the noise estimate says; "
+                     "nothing outside the library is claimed.")
+    elif result.claimed:
+        lines.append(f"With {', '.join(result.claimed)} the model is adequate ({final.rmse_ppm:.1f} ppm, "
+                     f"{final_ratio:.2f}x the noise).")
+    return " ".join(lines)
+
+
+def _significance(result: Diagnosis) -> float:
+    """The strongest structure beyond chance: the smooth over every state or the bin means of one variable."""
+    smooth = result.structure.significance if result.structure is not None else 0.0
+    return max([smooth, *(a.significance for a in result.associations)])
+
+
+def _limits_text(result: Diagnosis) -> list[str]:
+    return [f"Note: {limit}." for limit in result.limits_reached]
+
+
+def format_diagnosis(report: dict[str, Any]) -> str:
+    """Readable summary of the JSON object."""
+    parts = noise_parts_text(report.get("noise") or {})
+    head = (f"verdict: {report['verdict']}   noise {report['noise_ppm']:.1f} ppm{f' ({parts})' if parts else ''}   "
+            f"baseline {report['baseline']['rmse_ppm']:.1f} ppm")
+    lines = [head, "", "steps:"]
+    for step in report.get("steps", []):
+        error = (f"  position error {step['position_error_mm']:.4f} mm ({step['position_error_fs_pct']:.3f} % FS)"
+                 if step.get("position_error_mm") is not None and step.get("position_error_fs_pct") is not None
+                 else "")
+        lines.append(f"  {' + '.join(['baseline'] + step['effects']):50s} {step['rmse_ppm']:9.1f} ppm{error}")
+    lines += ["", "candidates against the given model (best first):"]
+    for c in report["ranking"]:
+        cv = f"  held-out {c['cv_rmse_ppm']:.1f} ppm" if c.get("cv_rmse_ppm") is not None else ""
+        status = "passes" if c.get("passes") else "rejected: " + "; ".join(c.get("rejected_because", []))
+        lines.append(f"  {c['effect']:24s} {c['rmse_ppm']:9.1f} ppm  delta BIC {c['delta_bic']:+10.1f}{cv}  {status}")
+    lines += ["", "where the residual lives (strongest first):"]
+    lines += [f"  {a['variable']:20s} {a['score']:.2f}  {a['detail']}" for a in report["associations"]]
+    if report.get("outliers"):
+        lines += ["", "excluded readings:"] + [f"  row {o['row']}: {o['reason']}" for o in report["outliers"]]
+    if report.get("alternatives"):
+        lines += ["", "cannot be separated: " + "; ".join(" / ".join(a) for a in report["alternatives"])]
+    if report.get("partial"):
+        lines += ["each explains a part, none well (not claimed): "
+                  + "; ".join(" / ".join(g) for g in report["partial"])]
+    if report.get("undetermined"):
+        lines += ["evidence but size not determined (not claimed): " + ", ".join(report["undetermined"])]
+    if report.get("limits_reached"):
+        lines += ["", "limits reached:"] + [f"  - {limit}" for limit in report["limits_reached"]]
+    if report.get("untested"):
+        lines += ["not tested against the final model: " + ", ".join(report["untested"])]
+    if report.get("suggested_measurements"):
+        lines += ["suggested measurements:"] + [f"  - {s}" for s in report["suggested_measurements"]]
+    lines += ["", report["explanation"]]
+    return "\n".join(lines)

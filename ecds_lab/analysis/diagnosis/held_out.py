@@ -1,0 +1,113 @@
+"""Cross-validation: the screening subsample, grouped folds and the held-out error a claim must lower."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ecds_lab.analysis.diagnosis.result import Candidate
+from ecds_lab.analysis.fitting import FitResult, fit_model
+from ecds_lab.analysis.noise import NoiseEstimate
+from ecds_lab.analysis.phases import phase_labels
+from ecds_lab.data.measurements import Measurements
+
+FOLDS = 4
+#: Bands of distance (or stretches of time in air) per phase that are held out together.
+BLOCKS = 8
+#: A block whose target or coil temperature spans more than this (K) is held out visit by visit.
+VISIT_SPLIT_SPAN_K = 5.0
+#: Campaigns larger than this are screened on an even subsample of this many readings.
+SCREEN_ROWS = 2500
+#: A claim must lower the held-out sum of squares by at least this many noise variances (``held_out_gain``).
+HELD_OUT_CHI2 = 10.0
+
+
+def held_out_gain(base_cv: float, cv: float, n: int, noise: NoiseEstimate) -> float:
+    """The fall of the held-out sum of squares in noise variances (of the larger of the noise and the
+    candidate's held-out error, as for the fitted chi-square gain), divided by the design effect."""
+    scale2 = max(noise.ppm**2, cv**2)
+    return n * (base_cv**2 - cv**2) / scale2 / max(noise.design_effect, 1.0) if scale2 > 0 else 0.0
+
+
+def check_held_out(candidate: Candidate, base_cv: float | None, folds: np.ndarray, data: Measurements,
+                   noise: NoiseEstimate) -> None:
+    """The grouped held-out error must fall below the current model's by a margin in noise units:
+    its sum of squares by at least HELD_OUT_CHI2 noise variances (115.0 against 115.2 ppm over a few
+    hundred readings at 20 ppm noise is a fall of about 2: no evidence)."""
+    candidate.base_cv_rmse_ppm = base_cv
+    candidate.cv_rmse_ppm = cv_rmse(data, candidate.fit, folds)
+    gain = held_out_gain(base_cv, candidate.cv_rmse_ppm, len(data), noise) if base_cv is not None else 0.0
+    candidate.held_out_gain = gain
+    candidate.checks["held_out"] = base_cv is not None and gain >= HELD_OUT_CHI2
+    if not candidate.checks["held_out"]:
+        candidate.rejected.append(f"held-out error {candidate.cv_rmse_ppm:.1f} ppm against the current model's "
+                                  f"{base_cv:.1f} ppm is a fall of {gain:.1f} noise variances "
+                                  f"(needs {HELD_OUT_CHI2:g})")
+
+
+def screened(data: Measurements, limit: int) -> Measurements:
+    """The data themselves, or a random subsample of ``limit`` readings (fixed seed, time order kept):
+    every position, frequency and phase stays represented, which a fixed stride through sweeps of
+    equal length would not guarantee."""
+    if len(data) <= limit:
+        return data
+    rows = np.sort(np.random.default_rng(0).choice(len(data), limit, replace=False))
+    return data.select(rows)
+
+
+def folds_of(data: Measurements) -> np.ndarray | None:
+    """Fold number per row: blocks of neighbouring readings (a phase's readings in one band of distance,
+    or a stretch of time for the coil in air) dealt to the folds at random; None if too few readings.
+
+    Whole blocks are held out, so a fold is not predicted from its immediate neighbours, while every
+    fold keeps each phase's temperatures (held-out error measures interpolation, not extrapolation
+    of a temperature the fit never saw)."""
+    if len(data) < 8 * FOLDS:
+        return None
+    phases = phase_labels(data)
+    block = np.zeros(len(data), int)
+    finite = np.isfinite(data.x_m)
+    if finite.any():
+        edges = np.unique(np.quantile(data.x_m[finite], np.linspace(0, 1, BLOCKS + 1)))
+        block[finite] = np.clip(np.searchsorted(edges, data.x_m[finite], side="right") - 1, 0, BLOCKS - 1)
+    for phase in np.unique(phases[~finite]):
+        rows = np.flatnonzero((phases == phase) & ~finite)
+        rows = rows[np.argsort(data.time_s[rows], kind="stable")]
+        block[rows] = np.arange(len(rows)) * BLOCKS // max(len(rows), 1)
+    groups = np.unique(np.column_stack([phases, block, finite]), axis=0, return_inverse=True)[1].ravel()
+    groups = _split_visits(data, groups)
+    unique = np.unique(groups)
+    if len(unique) < 2 * FOLDS:
+        return None
+    rng = np.random.default_rng(0)
+    fold_of_group = rng.permutation(len(unique)) % FOLDS
+    return fold_of_group[groups]
+
+
+def _split_visits(data: Measurements, groups: np.ndarray) -> np.ndarray:
+    """Blocks whose temperatures change (a heating ramp at one distance, sweeps of one band at several
+    temperatures) split into their visits (stretches of consecutive readings in time): holding out the
+    whole block would hold out that temperature history, and the fit would extrapolate in temperature."""
+    order = np.argsort(data.time_s, kind="stable")
+    visit = np.zeros(len(data), int)
+    visit[order] = np.cumsum(np.concatenate([[0], groups[order][1:] != groups[order][:-1]]))
+    out = groups.copy()
+    for g in np.unique(groups):
+        rows = groups == g
+        span = max(float(np.ptp(data.t_target_c[rows])), float(np.ptp(data.t_coil_c[rows])))
+        if span > VISIT_SPLIT_SPAN_K:
+            out[rows] = -1 - visit[rows]  # a block per visit (negative: apart from the whole blocks)
+    return np.unique(out, return_inverse=True)[1].ravel()
+
+
+def cv_rmse(data: Measurements, full: FitResult, folds: np.ndarray) -> float:
+    """Held-out RMS (ppm): fit without one fold, predict it; the model still sees the whole history."""
+    squares, count = 0.0, 0
+    for k in np.unique(folds):
+        held = folds == k
+        trained = fit_model(full.model, data, start=full.values, multistart=False, rows=~held, screening=True)
+        r = (data.ls_h[held] / trained.predict(data)[held] - 1) * 1e6
+        squares += float(r @ r)
+        count += int(held.sum())
+    return math.sqrt(squares / max(count, 1))

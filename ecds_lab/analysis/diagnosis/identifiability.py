@@ -1,0 +1,167 @@
+"""What these data can tell, decided from the data: the Jacobian of the model's prediction.
+
+Two questions, both answered by projecting one Jacobian column out of others (readings weighed by
+their noise):
+
+- Is a baseline parameter the rules fix (``baseline_unidentifiable``: tau_T at one frequency, C_p...)
+  determined after all? Its column, with the calibration's columns (below) projected out, gives the
+  standard error a fit would reach; below half its value the parameter is released (``released``),
+  and kept free only if the fit confirms that standard error. (The fit's residuals are those of Ls:
+  at one frequency Ls alone ties tau_T to the coupling's gain exactly, so tau_T is released there only
+  once the loss holds what else determines it, e.g. Rs.)
+- Is an effect's signature absorbed by the calibration? A real calibration follows any smooth change
+  of the coupling with distance, shared by every frequency (the coil and plate are one); so the
+  calibration's space is the current model's free columns plus ``s(row) B_j(x)``: a cubic B-spline
+  basis in x times the reading's response to the squared coupling (d ln L / d ln k^2). An effect whose
+  key parameters' columns keep less than ``ABSORBED_SHARE`` of their norm after that projection moves
+  nothing these data could tell from a calibration (at one frequency a change of tau_T with distance
+  is one; at two it is not, the two frequencies respond to it differently): it is ``untestable`` here.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+from scipy.interpolate import BSpline
+
+from ecds_lab.analysis.noise import NoiseEstimate
+from ecds_lab.data.measurements import Measurements
+from ecds_lab.data.sensor import SensorConfig
+from ecds_lab.model.effects import Effect, EffectRegistry
+from ecds_lab.model.parameters import Parameter, values_of
+from ecds_lab.model.sensor_model import SensorModel
+
+#: A key parameter whose column keeps less than this share of its norm after the projection is absorbed.
+ABSORBED_SHARE = 0.1
+#: Baseline parameters the rules may fix that the data can still determine (positive by nature).
+RELEASABLE = ("tau_t", "C_p")
+#: A parameter is determined when its standard error is below this share of its value.
+DETERMINED_SHARE = 0.5
+#: Cubic B-spline functions of the calibration's smooth change of the coupling with x (at most).
+CALIBRATION_BASIS = 8
+
+
+class ReleasedModel(SensorModel):
+    """A sensor model whose ``released`` baseline parameters are free although its rules would fix them:
+    the data were found to determine them (``releasable``)."""
+
+    def __init__(self, sensor: SensorConfig | None, effects: Sequence[str | Effect], registry: EffectRegistry,
+                 released: frozenset[str] = frozenset()) -> None:
+        super().__init__(sensor, effects, registry=registry)
+        self.released = released
+
+    def unidentifiable(self, data: Measurements) -> dict[str, str]:
+        return {k: v for k, v in super().unidentifiable(data).items() if k not in self.released}
+
+
+def _log_prediction(model: SensorModel, data: Measurements, values: Mapping[str, float]) -> np.ndarray:
+    with np.errstate(all="ignore"):
+        return np.log(model.predict(data, values))
+
+
+def columns(model: SensorModel, data: Measurements, values: Mapping[str, float], names: Sequence[str],
+            steps: Mapping[str, float]) -> np.ndarray:
+    """d ln Ls / d parameter (ppm per unit of the parameter) at ``values``: central differences of ``steps``."""
+    out = np.zeros((len(data), len(names)))
+    for j, name in enumerate(names):
+        step = steps[name]
+        up = _log_prediction(model, data, {**values, name: values[name] + step})
+        down = _log_prediction(model, data, {**values, name: values[name] - step})
+        out[:, j] = np.nan_to_num((up - down) / (2 * step) * 1e6)
+    return out
+
+
+def _steps(parameters: Sequence[Parameter]) -> dict[str, float]:
+    return {p.name: 0.1 * p.prior_scale for p in parameters}
+
+
+def _project_out(basis: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """``target``'s columns minus their least-squares fit by ``basis``'s columns."""
+    if basis.shape[1] == 0:
+        return target
+    scale = np.linalg.norm(basis, axis=0)
+    usable = scale > 0
+    if not usable.any():
+        return target
+    b = basis[:, usable] / scale[usable]
+    coef, *_ = np.linalg.lstsq(b, target, rcond=1e-10)
+    return target - b @ coef
+
+
+def calibration_basis(model: SensorModel, data: Measurements, values: Mapping[str, float]) -> np.ndarray:
+    """s(row) B_j(x): smooth changes of the coupling with distance, shared by every frequency (see the
+    module docstring); none for the coil in air or with too few distinct positions."""
+    finite = np.isfinite(data.x_m)
+    positions = np.unique(np.round(data.x_m[finite], 6))
+    count = min(CALIBRATION_BASIS, len(positions) - 1)
+    if count < 4:
+        return np.zeros((len(data), 0))
+    gain = max(abs(values["p3"]), 1e-6)
+    response = columns(model, data, values, ["p3"], {"p3": 1e-4 * gain})[:, 0] * gain / 2.0  # d ln L / d ln k^2
+    inner = np.quantile(positions, np.linspace(0, 1, count - 2))[1:-1]
+    low, high = positions[0], positions[-1]
+    knots = np.r_[[low] * 4, inner, [high] * 4]
+    x = np.clip(np.where(finite, data.x_m, low), low, high)
+    basis = BSpline.design_matrix(x, knots, 3).toarray()
+    return np.where(finite[:, None], basis * response[:, None], 0.0)
+
+
+def calibration_space(model: SensorModel, data: Measurements, values: Mapping[str, float], free: Sequence[str],
+                      noise: NoiseEstimate) -> np.ndarray:
+    """The columns a calibration can follow (weighed by each reading's noise): the current model's free
+    parameters and the smooth change of the coupling with x (``calibration_basis``). One per round."""
+    steps = _steps(model.parameters())
+    block = np.hstack([columns(model, data, values, list(free), steps), calibration_basis(model, data, values)])
+    return block * _weights(data, noise)
+
+
+def _weights(data: Measurements, noise: NoiseEstimate) -> np.ndarray:
+    return (noise.ppm / noise.sigma_ppm(data))[:, None] if noise.ppm > 0 else np.ones((len(data), 1))
+
+
+def absorbed(model: SensorModel, data: Measurements, values: Mapping[str, float], space: np.ndarray,
+             noise: NoiseEstimate) -> str | None:
+    """Why the last effect of ``model`` is untestable here (its signature absorbed by ``space``, the
+    ``calibration_space`` of the current model), or None.
+
+    ``values``: the current solution with the effect's own parameters at their starts."""
+    effect = model.effects[-1]
+    own = effect.parameters()
+    keys = list(effect.key_parameters or [p.name for p in own])
+    target = columns(model, data, values, keys, _steps(own)) * _weights(data, noise)
+    norms = np.linalg.norm(target, axis=0)
+    if not (norms > 0).any():
+        return "its signature moves none of these readings"
+    left = np.linalg.norm(_project_out(space, target), axis=0)
+    share = float(np.max(np.divide(left, norms, out=np.zeros_like(left), where=norms > 0)))
+    if share >= ABSORBED_SHARE:
+        return None
+    return (f"its signature is absorbed by the calibration in these data (after the baseline and a smooth "
+            f"calibration curve in x take what they can, {share:.0%} of it is left)")
+
+
+def releasable(model: SensorModel, data: Measurements, values: Mapping[str, float], free: Sequence[str],
+               fixed: Mapping[str, str], noise: NoiseEstimate) -> list[str]:
+    """Baseline parameters the rules fixed (``fixed``) that these data determine: the standard error their
+    column reaches beside the free ones is below DETERMINED_SHARE of their value."""
+    names = [n for n in RELEASABLE if n in fixed and n not in {"R_p"} and abs(values.get(n, 0.0)) > 0]
+    if not names or not noise.ppm > 0:
+        return []
+    weights = (1.0 / noise.sigma_ppm(data))[:, None]
+    steps = _steps(model.parameters())
+    target = columns(model, data, values, names, steps) * weights
+    base = calibration_space(model, data, values, free, noise) / noise.ppm  # a calibration takes its share first
+    left = np.linalg.norm(_project_out(base, target), axis=0)
+    out = []
+    for name, information in zip(names, left, strict=True):
+        stderr = math.sqrt(noise.design_effect) / information if information > 0 else math.inf
+        if stderr < DETERMINED_SHARE * abs(values[name]):
+            out.append(name)
+    return out
+
+
+def start_values(model: SensorModel, current: Mapping[str, float]) -> dict[str, float]:
+    """Every parameter of ``model``: the current solution where it has one, the start value otherwise."""
+    return {**values_of(model.parameters()), **{k: v for k, v in current.items()}}

@@ -1,0 +1,202 @@
+"""What the diagnosis found: candidates with their checks, the chain of models, the whole result."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ecds_lab.analysis.associations import Association
+from ecds_lab.analysis.diagnosis.structure import ResidualStructure
+from ecds_lab.analysis.fitting import FitResult
+from ecds_lab.analysis.noise import NoiseEstimate
+from ecds_lab.analysis.outliers import Outlier
+from ecds_lab.data.measurements import Measurements
+from ecds_lab.model.effects import Effect
+
+#: Friendlier display units for parameters in explanations: name -> (unit, factor).
+DISPLAY_UNITS = {"bending": ("um/K", 1e6), "bending_quadratic": ("um/K^2", 1e6), "backlash": ("um", 1e6),
+                 "moist_dC": ("pF", 1e12), "moist_dG": ("uS", 1e6), "tau_tempco": ("%/K", 100.0),
+                 "lag_tau": ("s", 1.0), "drying_rate": ("1/h", 3600.0), "tau_t": ("us", 1e6),
+                 "former_alpha": ("ppm/K", 1e6), "screw_sin": ("um", 1e6), "screw_cos": ("um", 1e6),
+                 "screw_lead": ("mm", 1e3)}
+
+
+@dataclass
+class Candidate:
+    """The current model plus one more effect, fitted, and the checks a claim must pass."""
+
+    effect: str
+    fit: FitResult
+    delta_bic: float
+    delta_bic_signature: float = math.nan
+    chi2_gain: float = 0.0
+    cv_rmse_ppm: float | None = None
+    base_cv_rmse_ppm: float | None = None
+    #: fall of the held-out sum of squares in noise variances (``held_out.held_out_gain``)
+    held_out_gain: float | None = None
+    checks: dict[str, bool] = field(default_factory=dict)
+    rejected: list[str] = field(default_factory=list)
+    not_better: bool = False
+    fit_data: Measurements | None = None
+    #: Further starts the effect read off the residual (``Effect.starts_from_residual``), for ``_refined``.
+    from_residual: list[dict[str, float]] = field(default_factory=list)
+
+    @property
+    def rmse_ppm(self) -> float:
+        return self.fit.rms_ppm
+
+    @property
+    def passes(self) -> bool:
+        return bool(self.checks) and all(self.checks.values())
+
+    @property
+    def effect_object(self) -> Effect:
+        return next(e for e in self.fit.model.effects if e.name == self.effect)
+
+    def effect_params(self) -> dict[str, Any]:
+        own = {p.name for p in self.effect_object.parameters()}
+        return {k: v for k, v in self.fit.params_table().items() if k in own}
+
+    def to_json(self) -> dict[str, Any]:
+        return {"effect": self.effect, "rmse_ppm": round(self.rmse_ppm, 3), "delta_bic": round(self.delta_bic, 2),
+                "delta_bic_signature": rounded(self.delta_bic_signature, 2), "cv_rmse_ppm": rounded(self.cv_rmse_ppm),
+                "held_out_gain": rounded(self.held_out_gain, 1), "chi2_gain": round(self.chi2_gain, 1),
+                "passes": self.passes, "checks": dict(self.checks), "rejected_because": list(self.rejected),
+                "params": self.effect_params()}
+
+
+@dataclass
+class Step:
+    """One model of the chain baseline -> +effect -> ...: its fit and figures of merit."""
+
+    effects: list[str]
+    fit: FitResult
+    residual_mm: np.ndarray
+    full_scale_mm: float
+    candidates: list[Candidate] = field(default_factory=list)
+    #: When the effect added stands for a tied group (the data cannot tell its members apart): the group.
+    #: The search goes on with it in the model, but none of the group is claimed.
+    stands_for: list[str] = field(default_factory=list)
+
+    @property
+    def rmse_ppm(self) -> float:
+        return self.fit.rms_ppm
+
+    @property
+    def position_error_mm(self) -> float | None:
+        finite = self.residual_mm[np.isfinite(self.residual_mm)]
+        return float(np.sqrt(np.mean(finite**2))) if len(finite) else None
+
+    @property
+    def position_error_fs_pct(self) -> float | None:
+        error = self.position_error_mm
+        return None if error is None or not self.full_scale_mm > 0 else 100.0 * error / self.full_scale_mm
+
+    def to_json(self) -> dict[str, Any]:
+        return {"effects": list(self.effects), "rmse_ppm": round(self.rmse_ppm, 3), "bic": round(self.fit.bic, 2),
+                "position_error_mm": rounded(self.position_error_mm, 5),
+                "position_error_fs_pct": rounded(self.position_error_fs_pct, 4),
+                "stands_for": list(self.stands_for), "params": self.fit.params_table()}
+
+
+@dataclass
+class Diagnosis:
+    """Everything the diagnosis found; ``to_json`` gives DESIGN.md's JSON object."""
+
+    data: Measurements
+    effects: list[str]
+    noise: NoiseEstimate
+    steps: list[Step]
+    associations: list[Association]
+    verdict: str
+    explanation: str = ""
+    outliers: list[Outlier] = field(default_factory=list)
+    alternatives: list[list[str]] = field(default_factory=list)
+    suggested_measurements: list[str] = field(default_factory=list)
+    untestable: dict[str, str] = field(default_factory=dict)
+    baseline_cv_rmse_ppm: float | None = None
+    #: Limits the search reached (e.g. the step cap), in words; with them, the effects left untested.
+    limits_reached: list[str] = field(default_factory=list)
+    untested: list[str] = field(default_factory=list)
+    #: Groups of effects that each explain part of the residual about equally, none of them well: not a
+    #: tie between good explanations, so neither claimed nor offered as alternatives.
+    partial: list[list[str]] = field(default_factory=list)
+    #: Effects with clear evidence whose size these data do not determine (not claimed).
+    undetermined: list[str] = field(default_factory=list)
+    #: Baseline parameters the rules fix that the data were found to determine (name -> why released).
+    released: dict[str, str] = field(default_factory=dict)
+    #: The flexible smooth of the final residual (``structure.ResidualStructure``).
+    structure: ResidualStructure | None = None
+
+    @property
+    def noise_ppm(self) -> float:
+        return self.noise.ppm
+
+    @property
+    def baseline(self) -> FitResult:
+        return self.steps[0].fit
+
+    @property
+    def final(self) -> Step:
+        return self.steps[-1]
+
+    @property
+    def claimed(self) -> list[str]:
+        """Effects the diagnosis adds to the given model, in the order they were found (not those that
+        stand for a tied group: the data cannot tell which of the group it is)."""
+        return [step.effects[-1] for step in self.steps[1:] if not step.stands_for]
+
+    @property
+    def searched_with(self) -> list[str]:
+        """Every effect in the final model beyond the given ones: the claimed and the tie representatives."""
+        return self.final.effects[len(self.effects):]
+
+    @property
+    def candidates(self) -> list[Candidate]:
+        """The first round's ranking (candidates against the given model), best first."""
+        return self.steps[0].candidates
+
+    @property
+    def best(self) -> Candidate | None:
+        return self.candidates[0] if self.candidates else None
+
+    @property
+    def residual_mm(self) -> np.ndarray:
+        return self.steps[0].residual_mm
+
+    def to_json(self) -> dict[str, Any]:
+        first = self.steps[0]
+        return {
+            "noise_ppm": round(self.noise.ppm, 3),
+            "noise_method": self.noise.method,
+            "noise": self.noise.to_json(),
+            "baseline": {"effects": self.effects, "rmse_ppm": round(first.rmse_ppm, 3),
+                         "rmse_mm": rounded(first.position_error_mm, 5),
+                         "position_error_fs_pct": rounded(first.position_error_fs_pct, 4),
+                         "cv_rmse_ppm": rounded(self.baseline_cv_rmse_ppm), "bic": round(first.fit.bic, 2),
+                         "params": first.fit.params_table()},
+            "verdict": self.verdict,
+            "claimed": self.claimed,
+            "ranking": [c.to_json() for c in self.candidates],
+            "associations": [{"variable": a.variable, "score": a.score, "detail": a.detail,
+                              "significance": a.significance} for a in self.associations],
+            "explanation": self.explanation,
+            "outliers": [o.to_json() for o in self.outliers],
+            "alternatives": [list(a) for a in self.alternatives],
+            "suggested_measurements": list(self.suggested_measurements),
+            "untestable": dict(self.untestable),
+            "limits_reached": list(self.limits_reached),
+            "untested": list(self.untested),
+            "partial": [list(g) for g in self.partial],
+            "undetermined": list(self.undetermined),
+            "released": dict(self.released),
+            "residual_structure": self.structure.to_json() if self.structure is not None else None,
+            "steps": [s.to_json() for s in self.steps],
+        }
+
+
+def rounded(value: float | None, digits: int = 3) -> float | None:
+    return None if value is None or not math.isfinite(value) else round(value, digits)

@@ -1,0 +1,419 @@
+"""The search: a robust start, then forward selection over the effects of a registry.
+
+1. Robust start: fit the model (baseline plus any effects already given), estimate the noise
+   (``analysis.noise``), flag glitch readings (``analysis.outliers``), exclude them with the reason and
+   refit, until no new glitch appears. Baseline parameters the rules fix but the data determine
+   (``identifiability.releasable``: tau_T at one frequency where the data tell it) are then freed.
+2. Forward selection: fit the model plus each effect not yet in it, starting from the current solution
+   (and from the starts an effect reads off the residual, e.g. a screw's lead from a periodogram); an
+   effect whose signature the calibration absorbs in these data is ``untestable``. An effect is claimed
+   only when it passes every check (``checks``, ``held_out``). The best passing one is added and the
+   rest re-ranked against the new model. Effects the data cannot tell apart, each explaining the
+   residual well, are a tie: named as ``alternatives`` with the measurements that would separate them,
+   and ONE of them stands for the group in the model while the search goes on, so every separable
+   effect is still found. Effects that each explain only part of the residual, none well, are no tie
+   (``partial``): none is added. The search ends when no candidate passes (every remaining candidate
+   refitted at the final model), or at ``max_steps`` (then said, with the effects left untested).
+3. Verdict (``verdict``): ``adequate``, ``missing_effect`` (effects claimed, or a residual the library
+   does not explain and a flexible smooth finds structure in, with where it lives), ``inconclusive``.
+
+Large campaigns are screened on a random subsample of readings; what is claimed is refitted on all
+readings and must pass the evidence, identifiability and plausibility checks there too (a claim that
+does not is dropped from the candidates, and the search goes on).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ecds_lab.analysis.associations import residual_associations
+from ecds_lab.analysis.diagnosis.advice import suggestions
+from ecds_lab.analysis.diagnosis.checks import check_candidate, evidence_rank, score_candidate, tied, whitened
+from ecds_lab.analysis.diagnosis.explanation import explain
+from ecds_lab.analysis.diagnosis.held_out import SCREEN_ROWS, check_held_out, cv_rmse, folds_of, screened
+from ecds_lab.analysis.diagnosis.identifiability import (
+    ReleasedModel,
+    absorbed,
+    calibration_space,
+    releasable,
+    start_values,
+)
+from ecds_lab.analysis.diagnosis.result import Candidate, Diagnosis, Step
+from ecds_lab.analysis.diagnosis.structure import residual_structure
+from ecds_lab.analysis.diagnosis.verdict import ADEQUATE_RATIO, STRUCTURE_SIGNIFICANCE, verdict_of
+from ecds_lab.analysis.fitting import FitResult, fit_model
+from ecds_lab.analysis.noise import NoiseEstimate
+from ecds_lab.analysis.outliers import Outlier, describe, find_glitches
+from ecds_lab.data.measurements import Measurements
+from ecds_lab.data.sensor import SensorConfig
+from ecds_lab.model.effects import EffectRegistry, library
+from ecds_lab.model.sensor_model import SensorModel
+
+#: Alternative starts refitted with the whole model free, the best of their scouts (``_refined``).
+SCOUTS_REFITTED = 2
+#: Once the leading candidate is at the noise, others are refitted from their alternative starts only
+#: when their chi-square gain is at least this share of the leader's (they might tie with it).
+TIE_REACH = 0.5
+#: Candidates (best by evidence) refitted from their alternative starts, and cross-validated.
+LEADING = 3
+#: At most this many effects are added (the library has eight); reaching it is reported, never silent.
+MAX_STEPS = 8
+MAX_OUTLIER_ROUNDS = 3
+#: A tied group explains the residual well (a tie, not a set of partial explanations) when its best
+#: member's chi-square gain is at least this share of the structure a flexible smooth finds beyond chance.
+GOOD_SHARE = 0.6
+
+
+@dataclass
+class _Space:
+    """How the search builds its models: the sensor, the registry and the baseline parameters released."""
+
+    sensor: SensorConfig
+    registry: EffectRegistry
+    released: frozenset[str] = frozenset()
+
+    def model(self, effects: Sequence[str]) -> SensorModel:
+        return ReleasedModel(self.sensor, list(effects), self.registry, self.released)
+
+
+def run_diagnosis(data: Measurements, effects: Sequence[str] = (), sensor: SensorConfig | None = None, *,
+                  candidates: Sequence[str] | None = None, max_steps: int = MAX_STEPS,
+                  cross_validate: bool = True, screen_rows: int = SCREEN_ROWS,
+                  registry: EffectRegistry | None = None) -> Diagnosis:
+    """Diagnose ``data`` against the baseline plus ``effects``; see the module docstring.
+
+    ``registry``: the effects there are (default: the library and installed packages'; the command line
+    adds ``--effects-from`` files); ``candidates``: the effects to try (default: all of the registry's);
+    ``max_steps``: at most this many effects are added (reaching it is reported with what was left
+    untested); ``cross_validate`` False skips the held-out check (then it cannot refuse a claim).
+    """
+    registry = registry if registry is not None else library()
+    unknown = [e for e in [*effects, *(candidates or ())] if e not in registry]
+    if unknown:
+        raise ValueError(f"unknown effect(s) {', '.join(unknown)}; known: {', '.join(registry)}")
+    effects = list(effects)
+    space = _Space(sensor or SensorConfig(), registry)
+    clean, base, noise, outliers, released = _robust_fit(data, effects, space, screen_rows)
+    space = _Space(space.sensor, registry, frozenset(released))
+    names = [n for n in (candidates if candidates is not None else registry) if n not in effects]
+    screen = screened(clean, screen_rows)
+    folds = folds_of(screen) if cross_validate else None
+    full_scale = float(np.ptp(clean.x_mm[np.isfinite(clean.x_m)])) if np.isfinite(clean.x_m).any() else 0.0
+    steps = [Step(effects, base, residual_mm(base, clean), full_scale)]
+    alternatives: list[list[str]] = []
+    partial: list[list[str]] = []
+    undetermined: list[str] = []
+    untestable: dict[str, str] = {}
+    limits: list[str] = []
+    untested: list[str] = []
+    base_cv = None
+    claimed_cv: float | None = None
+    fresh = True  # a new model: its held-out error is not yet known from the round before
+    while True:
+        current = steps[-1]
+        if len(steps) > max_steps:
+            untested = list(names)
+            if untested:
+                limits.append(f"the search stopped at its limit of {max_steps} added effect(s) "
+                              f"(max_steps); not tested against the final model: {', '.join(untested)}")
+            break
+        ranked, blocked, current_cv = _round(screen, clean, current, names, space, noise, folds,
+                                             claimed_cv if fresh else None)
+        if not fresh:  # the same model again, fewer names: the candidates set aside stay in its ranking
+            ranked += [c for c in current.candidates if c.effect not in names]
+        if len(steps) == 1:
+            base_cv = current_cv if current_cv is not None else base_cv
+        for name, why in blocked.items():
+            untestable.setdefault(name, why)
+        current.candidates = ranked
+        passing = [c for c in ranked if c.passes]
+        if not passing:
+            undetermined += [c.effect for c in ranked if c.checks.get("evidence") and c.checks.get("plausible")
+                             and c.checks.get("held_out", True) and not c.checks.get("identifiable")
+                             and c.effect not in undetermined]
+            break
+        best = passing[0]
+        group = [best] + [c for c in passing[1:] if tied(best, c)]
+        if len(group) > 1 and not _explains_well(best, screen, current, noise):
+            partial.append([c.effect for c in group])  # each explains a part, none well: no tie, none added
+            names = [n for n in names if n not in {c.effect for c in group}]
+            fresh = False
+            continue
+        refit = _full_fit(clean, best)
+        if screen is not clean:  # the claim must hold on every reading, not only on the screened ones
+            confirmed = score_candidate(best.effect, refit, current.fit, noise, clean, len(clean))
+            check_candidate(confirmed)
+            if not confirmed.passes:
+                best.checks["confirmed_on_all_readings"] = False
+                best.rejected += ["on all readings: " + r for r in confirmed.rejected]
+                names = [n for n in names if n != best.effect]
+                fresh = False
+                continue
+        members = [c.effect for c in group] if len(group) > 1 else []
+        if members:
+            alternatives.append(members)
+        refit = _repolished(refit, clean, len(current.effects) - len(effects))
+        steps.append(Step([*current.effects, best.effect], refit, residual_mm(refit, clean), full_scale,
+                          stands_for=members))
+        names = [n for n in names if n not in {c.effect for c in group}]
+        # Screened on every reading, the claimed fit is the new current model: its held-out error is known.
+        claimed_cv = best.cv_rmse_ppm if refit is best.fit else None
+        fresh = True
+    final = steps[-1]
+    # Where the residual lives, each reading weighed by its noise, correlated readings counted as fewer.
+    associations = residual_associations(clean, whitened(final.fit.residuals_ppm, clean, noise),
+                                         noise.ppm * math.sqrt(max(noise.design_effect, 1.0)))
+    structure = residual_structure(clean, final.fit.residuals_ppm, noise)
+    if len(steps) == 1 and len(undetermined) > 1:
+        alternatives.append(list(undetermined))
+        undetermined = []
+    verdict = verdict_of(steps, effects, noise, structure, alternatives, untestable, limits, associations)
+    result = Diagnosis(clean, effects, noise, steps, associations, verdict, "", outliers, alternatives, [],
+                       untestable, base_cv, limits, untested, partial, undetermined,
+                       {name: "the data determine it (see docs/diagnosis.md)" for name in released}, structure)
+    result.suggested_measurements = suggestions(result, registry)
+    result.explanation = explain(result, registry)
+    return result
+
+
+def diagnose(data: Measurements, effects: Sequence[str] = (), sensor: SensorConfig | None = None, *,
+             registry: EffectRegistry | None = None) -> dict[str, Any]:
+    """The diagnosis as DESIGN.md's JSON object."""
+    return run_diagnosis(data, effects, sensor, registry=registry).to_json()
+
+
+def _explains_well(best: Candidate, screen: Measurements, current: Step, noise: NoiseEstimate) -> bool:
+    """A tied group's best member explains the residual well: it takes at least GOOD_SHARE of the structure
+    a flexible smooth of the current residual finds beyond chance, or leaves no such structure behind."""
+    before = residual_structure(screen, _residuals_on(current, screen), noise)
+    after = residual_structure(screen, best.fit.residuals_ppm, noise)
+    taken = before.excess_chi2 - after.excess_chi2
+    return taken >= GOOD_SHARE * before.excess_chi2 or not after.beyond(STRUCTURE_SIGNIFICANCE)
+
+
+def _residuals_on(step: Step, data: Measurements) -> np.ndarray:
+    if len(step.fit.residuals_ppm) == len(data):
+        return step.fit.residuals_ppm
+    return (data.ls_h / step.fit.predict(data) - 1) * 1e6
+
+
+def _robust_fit(data: Measurements, effects: list[str], space: _Space, screen_rows: int
+                ) -> tuple[Measurements, FitResult, NoiseEstimate, list[Outlier], list[str]]:
+    """Fit, flag glitches, exclude them and refit until none is new; then free the baseline parameters the
+    data determine. The clean data, the fit, its noise, the glitches and the parameters released."""
+    model = space.model(effects)
+    index = np.arange(len(data))
+    clean = data
+    if len(data) > screen_rows:  # the global search on a subsample, the polish on every reading
+        sample = fit_model(model, screened(data, screen_rows))
+        fitted = fit_model(model, clean, start=sample.values, multistart=False, screening=True)
+    else:
+        fitted = fit_model(model, clean)
+    noise = fitted.noise  # the fit's own estimate: fit and diagnose report the same noise
+    outliers: list[Outlier] = []
+    for _ in range(MAX_OUTLIER_ROUNDS):
+        glitches = find_glitches(clean, fitted.residuals_ppm, noise.reading_ppm)
+        if not glitches.any() or glitches.sum() > 0.02 * len(clean) + 2:
+            break
+        outliers += describe(clean, np.flatnonzero(glitches), fitted.residuals_ppm, noise.reading_ppm, index)
+        keep = ~glitches
+        clean, index = clean.select(keep), index[keep]
+        fitted = fit_model(model, clean, start=fitted.values, multistart=False, screening=True)
+        noise = fitted.noise  # the fit's own estimate: fit and diagnose report the same noise
+    outliers.sort(key=lambda o: o.row)
+    fitted, released = _released(fitted, clean, effects, space)
+    return clean, fitted, fitted.noise, outliers, released
+
+
+def _released(fitted: FitResult, data: Measurements, effects: list[str], space: _Space
+              ) -> tuple[FitResult, list[str]]:
+    """The fit with the baseline parameters the rules fixed but the data determine set free (kept free
+    only where the fit confirms a standard error below half the value), and their names."""
+    sample = screened(data, SCREEN_ROWS)
+    rows = fit_model(fitted.model, sample, start=fitted.values, multistart=False, screening=True) \
+        if sample is not data else fitted
+    names = releasable(fitted.model, sample, fitted.values, rows.free_names, fitted.fixed, fitted.noise)
+    if not names:
+        return fitted, []
+    model = ReleasedModel(space.sensor, effects, space.registry, frozenset(names))
+    trial = fit_model(model, data, start=fitted.values, multistart=False)
+    kept = [n for n in names if n in trial.free_names and trial.stderr.get(n, math.inf) < 0.5 * abs(trial.values[n])]
+    if not kept:
+        return fitted, []
+    if kept != names:
+        model = ReleasedModel(space.sensor, effects, space.registry, frozenset(kept))
+        trial = fit_model(model, data, start=trial.values, multistart=False)
+    return trial, kept
+
+
+def _round(screen: Measurements, clean: Measurements, current: Step, names: list[str], models: _Space,
+           noise: NoiseEstimate, folds: np.ndarray | None,
+           current_cv: float | None = None) -> tuple[list[Candidate], dict[str, str], float | None]:
+    """Fit and check every candidate against the current model; ranked best first (passing ones
+    first, then by evidence). Also: candidates these data cannot test (name -> why), and the
+    current model's held-out error."""
+    base = current.fit if screen is clean else _evaluate(current.fit, screen)
+    ranked, untestable = [], {}
+    shift_m, shift_weights = _distance_error(base, screen, noise)
+    space = calibration_space(base.model, screen, base.values, base.free_names, noise)
+    for name in names:
+        model = models.model([*current.effects, name])
+        effect = model.effects[-1]
+        fixed = model.unidentifiable(screen)
+        keys = effect.key_parameters or tuple(p.name for p in effect.parameters())
+        if all(k in fixed for k in keys):
+            untestable[name] = "; ".join(sorted({fixed[k] for k in keys}))
+            continue
+        from_residual = effect.starts_from_residual(screen, shift_m, shift_weights)
+        start = from_residual[0] if from_residual else None
+        why = absorbed(model, screen, start_values(model, {**base.values, **(start or {})}), space, noise)
+        if why is not None:
+            untestable[name] = why
+            continue
+        candidate = _candidate(screen, model, name, base, noise, len(clean), start)
+        candidate.from_residual = [dict(s) for s in from_residual[1:]]
+        ranked.append(candidate)
+    ranked.sort(key=evidence_rank)
+    # Alternative starts where another valley could change the outcome: not once the model is at the
+    # noise, and not for candidates far behind the leader; once the leader is at the noise, only for
+    # those close enough to tie with it (a tie is judged between each candidate's best fits).
+    leader_gain = max((c.chi2_gain for c in ranked), default=0.0)
+    solved = any(c.rmse_ppm <= ADEQUATE_RATIO * noise.ppm and not c.not_better for c in ranked[:1])
+    if current.rmse_ppm > ADEQUATE_RATIO * noise.ppm:
+        for i, candidate in enumerate(ranked[:LEADING]):
+            behind = candidate.rmse_ppm > ADEQUATE_RATIO * noise.ppm
+            if (candidate.not_better and not solved) or (
+                    behind and candidate.chi2_gain >= (TIE_REACH if solved else 0.1) * leader_gain):
+                ranked[i] = _refined(screen, candidate, base, noise, len(clean), candidate.from_residual)
+    for candidate in ranked:
+        check_candidate(candidate)
+    ranked.sort(key=lambda c: (not c.passes, evidence_rank(c)))
+    base_cv = None
+    if folds is not None and ranked and ranked[0].passes:  # the previous round's claim already has it
+        base_cv = current_cv if current_cv is not None else cv_rmse(screen, base, folds)
+    leader = None
+    for candidate in ranked:  # held-out error, lazily: for the leader and whatever might tie with it
+        if not candidate.passes or folds is None:
+            continue
+        if leader is not None and not tied(leader, candidate):
+            continue
+        check_held_out(candidate, base_cv, folds, screen, noise)
+        if candidate.passes and leader is None:
+            leader = candidate
+    ranked.sort(key=lambda c: (not c.passes, evidence_rank(c)))
+    return ranked, untestable, base_cv
+
+
+def _evaluate(result: FitResult, data: Measurements) -> FitResult:
+    """A fit's solution on other rows (no refit): the screening subsample's reference."""
+    residuals = (data.ls_h / result.predict(data) - 1) * 1e6
+    return FitResult(result.model, result.parameters, result.stderr, result.fixed, residuals, result.covariance,
+                     result.free_names, result.success, result.message, 0, 0, 0.0, result.noise)
+
+
+def _candidate(data: Measurements, model: SensorModel, name: str, base: FitResult, noise: NoiseEstimate,
+               n_full: int, start: dict[str, float] | None = None) -> Candidate:
+    """Fit model + effect from the current solution (and the effect's defaults or ``start``)."""
+    own = {p.name for p in model.effects[-1].parameters()}
+    values = {k: v for k, v in base.values.items() if k not in own}
+    fitted = fit_model(model, data, start={**values, **(start or {})}, multistart=False, screening=True)
+    fitted = _unreleased(fitted, base, data)
+    candidate = score_candidate(name, fitted, base, noise, data, n_full)
+    candidate.fit_data = data
+    return candidate
+
+
+def _unreleased(fitted: FitResult, base: FitResult, data: Measurements) -> FitResult:
+    """Baseline parameters the effect made free (``Effect.identifies``) are kept only when the data
+    constrain them (standard error below half the value), otherwise fixed where the fit left them;
+    secondary parameters of the effect the data leave wholly undetermined are fixed at their
+    defaults; its nuisance parameters (``Effect.nuisance_parameters``) the data determine poorly are
+    held where the fit left them. None then blurs the effect's key parameters."""
+    released = [n for n in fitted.free_names if n not in base.free_names and n in base.values]
+    loose = {n: fitted.values[n] for n in released
+             if not fitted.stderr.get(n, math.inf) < 0.5 * abs(fitted.values[n])}
+    effect = fitted.model.effects[-1]
+    keys = effect.key_parameters or ()
+    defaults = {q.name: q.value for q in effect.parameters()}
+    loose.update({n: defaults[n] for n in defaults  # secondary parameters the data cannot fix at all
+                  if n in fitted.free_names and n not in keys and n not in effect.nuisance_parameters
+                  and not math.isfinite(fitted.stderr.get(n, math.inf))})
+    loose.update({n: fitted.values[n] for n in effect.nuisance_parameters  # poorly determined shape parameters
+                  if n in fitted.free_names and not fitted.stderr.get(n, math.inf) < abs(fitted.values[n])})
+    if not loose:
+        return fitted
+    return fit_model(fitted.model, data, start=fitted.values, fixed=loose, multistart=False, screening=True)
+
+
+def _refined(data: Measurements, candidate: Candidate, base: FitResult, noise: NoiseEstimate, n_full: int,
+             from_residual: Sequence[dict[str, float]] = ()) -> Candidate:
+    """A leading candidate not yet at the noise level, refitted from its effect's alternative starts.
+
+    With more starts than SCOUTS_REFITTED, each is first scouted with only the effect's own parameters
+    free (the current model held where it is: a few columns instead of all), and the whole model is
+    refitted from the best scouts
+    (a valley whose depth shows only with the model free, a plate's thickness against tau_T, say,
+    need not lead the scouts)."""
+    model = candidate.fit.model
+    own = [p.name for p in model.effects[-1].parameters()]
+    starts = [dict(alternative) for alternative in (*model.effects[-1].alternative_starts, *from_residual)]
+    if len(starts) > SCOUTS_REFITTED:
+        held = {k: v for k, v in base.values.items() if k not in own}
+        scouts = sorted((fit_model(model, data, start=start, fixed=held, multistart=False, screening=True)
+                         for start in starts), key=lambda f: f.rms_ppm)
+        starts = [{name: scout.values[name] for name in own} for scout in scouts[:SCOUTS_REFITTED]]
+    best = candidate
+    for start in starts:
+        trial = _candidate(data, model, candidate.effect, base, noise, n_full, start)
+        if trial.fit.rms_ppm < best.fit.rms_ppm:
+            best = trial
+    return best
+
+
+def _repolished(fitted: FitResult, data: Measurements, earlier: int) -> FitResult:
+    """The new model refitted from the alternative starts of the effects found before the one just added
+    (the last ``earlier`` effects before it): a valley an earlier effect settled in alone (a plate's
+    thickness, say) may not be the best once the new effect takes its share. The better fit is kept."""
+    if earlier <= 0:
+        return fitted
+    best = fitted
+    for effect in fitted.model.effects[-1 - earlier:-1]:
+        for alternative in effect.alternative_starts:
+            start = {**best.values, **alternative}
+            trial = fit_model(fitted.model, data, start=start, multistart=False, screening=True)
+            if trial.rms_ppm < best.rms_ppm * (1 - 1e-3):
+                best = trial
+    return best
+
+
+def _full_fit(clean: Measurements, candidate: Candidate) -> FitResult:
+    """The claimed model on every reading, from the screening solution (itself, when no subsample was screened)."""
+    if clean is candidate.fit_data:
+        return candidate.fit
+    # From the screening solution a polish to a relative cost change of 1e-8 is all the claim needs;
+    # the last digits of a slow direction are not worth thousands of evaluations on every reading.
+    return fit_model(candidate.fit.model, clean, start=candidate.fit.values, multistart=False, screening=True)
+
+
+def _distance_error(result: FitResult, data: Measurements, noise: NoiseEstimate) -> tuple[np.ndarray, np.ndarray]:
+    """The residual as a distance error (m) and its weights (1/variance, 1/m^2: each reading's noise over
+    the sensitivity); NaN and 0 for the coil in air."""
+    sensitivity = result.model.relative_sensitivity(data, result.values)
+    finite = np.isfinite(data.x_m) & np.isfinite(sensitivity) & (np.abs(np.nan_to_num(sensitivity)) > 0)
+    with np.errstate(all="ignore"):
+        shift = np.where(finite, result.residuals_ppm * 1e-6 / sensitivity, np.nan)
+        weights = np.where(finite, (sensitivity * 1e6 / noise.sigma_ppm(data)) ** 2, 0.0)
+    return shift, np.nan_to_num(weights)
+
+
+def residual_mm(result: FitResult, data: Measurements) -> np.ndarray:
+    """Residual as a position error (mm): relative residual times L over the sensitivity dL/dx."""
+    sensitivity = result.model.relative_sensitivity(data, result.values)
+    with np.errstate(all="ignore"):
+        out = result.residuals_ppm * 1e-6 / sensitivity * 1e3
+    return np.where(np.isfinite(data.x_m) & (np.abs(sensitivity) > 0), out, np.nan)

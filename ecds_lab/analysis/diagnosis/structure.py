@@ -1,0 +1,71 @@
+"""Is there structure in a residual beyond chance? A flexible smooth of it, judged against the noise.
+
+The smooth is the residual's mean in each *state* of the campaign: one phase (``analysis.phases``),
+frequency, direction, commanded distance (or the coil in air), target and coil temperature in bins of
+``TEMPERATURE_BIN_K`` and a stretch of ``TIME_BIN_S`` of time within the phase. Whatever any smooth
+function of x, the temperatures and time within a phase would follow, these means follow as well; what
+they cannot follow is the scatter between readings of one state. For pure noise of the estimated size
+their energy (sum over states of count x mean^2, in noise variances) is chi-square with one degree of
+freedom per state; the excess, in standard deviations of that chi-square, is the ``significance``.
+Readings are weighed by their own noise (``NoiseEstimate.sigma_ppm``) and the energy divided by the
+design effect (``NoiseEstimate.design_effect``: correlated readings count as fewer independent ones).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ecds_lab.analysis.noise import NoiseEstimate
+from ecds_lab.analysis.phases import phase_labels
+from ecds_lab.data.measurements import Measurements
+
+#: Temperature bins (K) and time bins within a phase (s) of one state.
+TEMPERATURE_BIN_K = 2.0
+TIME_BIN_S = 1800.0
+
+
+@dataclass(frozen=True)
+class ResidualStructure:
+    """What a flexible smooth finds in a residual: its energy beyond chance (``excess_chi2``, in noise
+    variances, design effect applied), the states it used and how far beyond chance that is."""
+
+    excess_chi2: float
+    states: int
+    significance: float
+
+    def beyond(self, sigmas: float) -> bool:
+        return self.significance > sigmas
+
+    def to_json(self) -> dict[str, float | int]:
+        return {"excess_chi2": round(self.excess_chi2, 1), "states": self.states,
+                "significance": round(self.significance, 2)}
+
+
+def state_labels(data: Measurements) -> np.ndarray:
+    """State number of every reading (see the module docstring)."""
+    phases = phase_labels(data)
+    x = np.where(np.isfinite(data.x_commanded_m), np.round(data.x_commanded_m, 6), -1.0)
+    start = np.zeros(len(data))
+    for phase in np.unique(phases):
+        rows = phases == phase
+        start[rows] = data.time_s[rows].min()
+    columns = [phases, data.freq_hz, data.direction, x, np.floor(data.t_target_c / TEMPERATURE_BIN_K),
+               np.floor(data.t_coil_c / TEMPERATURE_BIN_K), np.floor((data.time_s - start) / TIME_BIN_S)]
+    return np.unique(np.column_stack(columns), axis=0, return_inverse=True)[1].ravel()
+
+
+def residual_structure(data: Measurements, residuals_ppm: np.ndarray, noise: NoiseEstimate) -> ResidualStructure:
+    """The flexible smooth's energy beyond chance (see the module docstring)."""
+    if not len(data) or not noise.ppm > 0:
+        return ResidualStructure(0.0, 0, 0.0)
+    whitened = np.asarray(residuals_ppm, float) / noise.sigma_ppm(data)
+    labels = state_labels(data)
+    counts = np.bincount(labels)
+    sums = np.bincount(labels, weights=whitened)
+    energy = float(np.sum(sums[counts > 0] ** 2 / counts[counts > 0])) / noise.design_effect
+    states = int((counts > 0).sum())
+    excess = energy - states
+    return ResidualStructure(max(excess, 0.0), states, excess / math.sqrt(2.0 * states))

@@ -1,0 +1,48 @@
+"""The verdict: adequate, missing_effect or inconclusive, from the chain of models and the residual."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+from ecds_lab.analysis.associations import Association
+from ecds_lab.analysis.diagnosis.result import Step
+from ecds_lab.analysis.diagnosis.structure import ResidualStructure
+from ecds_lab.analysis.noise import NoiseEstimate
+
+#: The residual is "at the noise level" below this multiple of the noise (the search refines candidates above it).
+ADEQUATE_RATIO = 1.2
+#: A residual above this multiple of the noise is clearly above it (said so in the explanation); whether it
+#: lies outside the library is decided by its structure (``outside_library``), not by its size alone.
+FAILING_RATIO = 1.5
+#: Residual structure this many standard deviations beyond chance (for pure noise of the estimated
+#: size) marks a missing effect once the residual is at least a little above the noise.
+STRUCTURE_SIGNIFICANCE = 8.0
+STRUCTURE_RATIO = 1.03
+
+
+def outside_library(final: Step, noise: NoiseEstimate, structure: ResidualStructure,
+                    associations: Sequence[Association] = ()) -> bool:
+    """The final residual holds what the library does not explain: a flexible smooth of it finds structure
+    STRUCTURE_SIGNIFICANCE standard deviations beyond chance (the smooth over every state, or the bin means
+    over one variable: x, a temperature, time within a phase, which see a trend the many states dilute),
+    and it is at least a little above the noise."""
+    ratio = final.rmse_ppm / noise.ppm if noise.ppm > 0 else math.inf
+    smooth = structure.beyond(STRUCTURE_SIGNIFICANCE) or any(a.significance > STRUCTURE_SIGNIFICANCE
+                                                              for a in associations)
+    return smooth and ratio > STRUCTURE_RATIO
+
+
+def verdict_of(steps: list[Step], effects: list[str], noise: NoiseEstimate, structure: ResidualStructure,
+               alternatives: list[list[str]], untestable: dict[str, str], limits: list[str],
+               associations: Sequence[Association] = ()) -> str:
+    """missing_effect when effects were claimed, or when every candidate was refitted at the final model
+    and the residual still holds structure (outside the library); inconclusive when the data cannot
+    separate the candidates, could test none of them, or the search stopped at a limit first."""
+    if any(not step.stands_for for step in steps[1:]):
+        return "missing_effect"
+    if alternatives:
+        return "inconclusive"
+    if not outside_library(steps[-1], noise, structure, associations):
+        return "adequate"
+    return "missing_effect" if steps[0].candidates and not limits else "inconclusive"

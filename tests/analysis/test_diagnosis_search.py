@@ -1,0 +1,131 @@
+"""The search of the diagnosis on the faithful lab (physics: field), one campaign per class of issue 23
+(1: a tie does not end the search; 3: what one frequency can tell; 4: no silent cap; 6: the lead screw
+over its whole range) and issue 24 point 6 (advice that knows the campaign). Each asserts the right
+behaviour and that nothing false is claimed."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+
+import numpy as np
+import pytest
+
+from ecds_lab.analysis.diagnosis import run_diagnosis
+from ecds_lab.analysis.diagnosis.advice import Design
+from ecds_lab.data.measurements import Measurements
+from ecds_lab.simulators import campaign
+
+POSITIONS_MM = (25.0, 30.0, 40.0, 50.0, 60.0, 70.0, 85.0, 100.0)
+#: The field solution's own change of tau_T with distance: a true finding wherever the data can test it.
+FIELD_SOLUTION = "tau_displacement"
+
+
+def one_frequency_heating(lab, freq_hz: float, directions=("forward", "backward"), setpoints=(70, 120)):
+    """A room-temperature sweep and target-heated sweeps at one frequency (a few hundred readings)."""
+    room = campaign.displacement_sweep(lab, POSITIONS_MM, (freq_hz,), directions=directions, repeats=2)
+    hot = campaign.target_heating(lab, setpoints, positions_mm=POSITIONS_MM, frequencies_hz=(freq_hz,),
+                                  directions=directions, repeats=2)
+    return Measurements.concatenate([room, hot])
+
+
+def assert_no_single_member_groups(result) -> None:
+    assert all(len(group) >= 2 for group in result.alternatives), result.alternatives
+    assert all(len(group) >= 2 for group in result.to_json()["alternatives"])
+
+
+# -- class 1: a tie does not end the search --------------------------------------------------------------
+def test_a_backlash_beside_a_bending_or_conductivity_tie_is_still_found(field_lab):
+    lab = field_lab(plate={"bending": {"enabled": True}}, slide={"backlash": {"enabled": True, "backlash_um": 30.0}})
+    result = run_diagnosis(one_frequency_heating(lab, 15000.0))
+    assert "slide_backlash" in result.claimed, result.explanation
+    assert any({"target_bending", "target_tau_temperature"} <= set(g) for g in result.alternatives), result.explanation
+    assert not {"target_bending", "target_tau_temperature"} & set(result.claimed)  # the tie is not a claim
+    assert set(result.claimed) <= {"slide_backlash", FIELD_SOLUTION}, result.explanation
+    assert_no_single_member_groups(result)
+    assert result.final.fit.values["backlash"] == pytest.approx(30e-6, rel=0.3)
+    assert "cannot tell" in result.explanation and "Adding slide_backlash" in result.explanation
+
+
+def test_a_drift_no_library_effect_describes_is_outside_the_library_not_a_tie(field_campaign):
+    """The bridge's gain drifting slowly with time (400 ppm over the campaign): it lives in time."""
+    data = field_campaign(frequencies_hz=(15000.0,))
+    span = np.ptp(data.time_s)
+    data = dataclasses.replace(data, ls_h=data.ls_h * (1 + 400e-6 * (data.time_s - data.time_s.min()) / span))
+    result = run_diagnosis(data)
+    assert result.verdict == "missing_effect", result.explanation
+    assert result.alternatives == [], result.explanation
+    assert "outside the library" in result.explanation
+    time = next(a for a in result.associations if a.variable == "time_s")
+    assert time.significance > 8  # structure in time within the campaign's phases
+    assert set(result.claimed) <= {FIELD_SOLUTION}, result.explanation
+
+
+# -- class 3: what one frequency can tell ------------------------------------------------------------------
+def test_at_one_frequency_tau_of_x_is_untestable_from_the_data(field_lab):
+    """The calibration absorbs any tau_T(x) at one frequency: decided from the Jacobian, not by a rule."""
+    lab = field_lab(plate={"conductivity": {"enabled": True}})
+    result = run_diagnosis(one_frequency_heating(lab, 15000.0, directions=("forward",)))
+    assert FIELD_SOLUTION not in result.claimed, result.explanation
+    assert "absorbed by the calibration" in result.untestable[FIELD_SOLUTION]
+    assert "target_bending" not in result.claimed
+
+
+# -- class 4: no silent cap ---------------------------------------------------------------------------------
+def test_a_limit_reached_is_said_with_what_was_left_untested(field_campaign):
+    data = field_campaign(plate={"bending": {"enabled": True}}, slide={"backlash": {"enabled": True}})
+    result = run_diagnosis(data, max_steps=1)
+    report = result.to_json()
+    assert len(result.claimed) == 1
+    assert report["limits_reached"] and "max_steps" in report["limits_reached"][0]
+    assert set(report["untested"]) >= {"slide_backlash", "target_bending"} - set(result.claimed)
+    assert "outside the library" not in report["explanation"]
+    assert "max_steps" in report["explanation"]
+    json.dumps(report)
+
+
+def test_on_a_1_mm_plate_tau_of_x_joins_the_conductivity_change_and_nothing_false(field_campaign):
+    """A 1 mm copper plate heated, two frequencies: tau(x)'s range once set for a thick plate refused it, and a
+    thickness settled alone in the thick valley left room for a false bending. Refitting the earlier effects
+    from their alternative starts once tau(x) joins finds the thin plate."""
+    data = field_campaign(plate={"thickness_m": 1e-3, "conductivity": {"enabled": True}})
+    result = run_diagnosis(data)
+    assert result.claimed == ["target_tau_temperature", FIELD_SOLUTION], result.explanation
+    assert result.final.fit.values["plate_thickness"] == pytest.approx(1e-3, rel=0.3)
+    assert result.final.rmse_ppm <= 1.5 * result.noise_ppm
+
+
+# -- class 6: the lead screw over its whole declared range ----------------------------------------------------
+def test_a_long_lead_is_found_by_the_scan_over_leads(faithful_sweep_with):
+    result = run_diagnosis(faithful_sweep_with(1, screw_um=12.0, lead_mm=17.0))
+    assert "slide_lead_screw" in result.claimed, result.explanation
+    values = result.final.fit.values
+    assert values["screw_lead"] == pytest.approx(17e-3, abs=0.5e-3)
+    assert np.hypot(values["screw_sin"], values["screw_cos"]) == pytest.approx(12e-6, rel=0.25)
+    assert set(result.claimed) <= {"slide_lead_screw", FIELD_SOLUTION}, result.explanation
+
+
+# -- issue 24 point 6: advice that knows the campaign ----------------------------------------------------------
+def test_advice_never_asks_for_what_the_campaign_already_holds(field_lab):
+    lab = field_lab(plate={"bending": {"enabled": True}})
+    data = one_frequency_heating(lab, 500.0, directions=("forward",), setpoints=(120,))
+    result = run_diagnosis(data)
+    assert not result.claimed or set(result.claimed) <= {FIELD_SOLUTION}, result.explanation
+    assert result.suggested_measurements, result.explanation
+    assert not any("500 Hz as well" in s for s in result.suggested_measurements), result.suggested_measurements
+    assert any("15000 Hz as well" in s for s in result.suggested_measurements), result.suggested_measurements
+    design = Design.of(data)
+    assert design.present_hz == (500.0,) and design.directions == 1
+    assert not design.meets({"frequencies_target_hot": 2}) and design.meets({"target_span_k": 50.0})
+
+
+# -- the held-out check's margin, in noise units --------------------------------------------------------------
+def test_the_held_out_check_needs_a_margin_in_noise_units():
+    from ecds_lab.analysis.diagnosis.held_out import HELD_OUT_CHI2, held_out_gain
+    from ecds_lab.analysis.noise import NoiseEstimate
+
+    noise = NoiseEstimate(20.0, "test", 0)
+    assert held_out_gain(115.2, 115.0, 700, noise) < HELD_OUT_CHI2  # 0.2 ppm of 115: no evidence
+    assert held_out_gain(30.0, 21.0, 700, noise) > HELD_OUT_CHI2  # a residual brought to the noise
+    correlated = NoiseEstimate(20.0, "test", 0, design_effect=4.0)
+    assert held_out_gain(30.0, 21.0, 700, correlated) == pytest.approx(held_out_gain(30.0, 21.0, 700, noise) / 4)
