@@ -8,7 +8,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from ecds_lab.analysis.diagnosis import FAILING_RATIO, MIN_CHI2_GAIN, run_diagnosis
+from ecds_lab.analysis.diagnosis import FAILING_RATIO, run_diagnosis
+from ecds_lab.analysis.diagnosis.checks import MIN_CHI2_GAIN
 from ecds_lab.analysis.fitting import fit, fit_model
 from ecds_lab.analysis.grouping import visit_labels
 from ecds_lab.analysis.noise import REGIMES, reading_groups
