@@ -66,8 +66,11 @@ def find_glitches(data: Measurements, residuals_ppm: np.ndarray, noise_ppm: floa
     deviation = (r - smooth_residual(data, r)) / sigma
     suspect = np.abs(deviation) > THRESHOLD
     neighbours = _time_neighbours(data)
-    return np.array([bool(suspect[i]) and not _in_structure(data, deviation, neighbours, i)
-                     for i in range(len(r))], bool)
+    positions = _PositionGroups.of(data)
+    out = np.zeros(len(r), bool)
+    for i in np.flatnonzero(suspect).tolist():
+        out[i] = not _in_structure(data, deviation, neighbours, i, positions.rows_like(i))
+    return out
 
 
 def _time_neighbours(data: Measurements) -> np.ndarray:
@@ -79,25 +82,44 @@ def _time_neighbours(data: Measurements) -> np.ndarray:
     return out
 
 
-def _same_position(data: Measurements, i: int) -> np.ndarray:
-    """Rows at the commanded distance of row ``i`` (or in air with it), in the same direction."""
-    x = data.x_commanded_m
-    return (data.direction == data.direction[i]) & ((x == x[i]) | (np.isinf(x) & np.isinf(x[i])))
+@dataclass(frozen=True)
+class _PositionGroups:
+    """The rows of each state of the slide: same commanded distance (or in air) and direction. Looked up per
+    suspect, so judging a suspect costs the size of its group, not of the data (the data hold thousands of
+    suspects where the model misses physics)."""
+
+    group: np.ndarray
+    order: np.ndarray
+    starts: np.ndarray
+
+    @classmethod
+    def of(cls, data: Measurements) -> _PositionGroups:
+        x = np.where(np.isinf(data.x_commanded_m), np.inf, data.x_commanded_m)
+        _, group = np.unique(np.column_stack([data.direction, x]), axis=0, return_inverse=True)
+        group = group.ravel()
+        order = np.argsort(group, kind="stable")
+        starts = np.searchsorted(group[order], np.arange(group.max(initial=-1) + 2))
+        return cls(group, order, starts)
+
+    def rows_like(self, i: int) -> np.ndarray:
+        """The rows of row ``i``'s state (itself included), in row order."""
+        g = self.group[i]
+        return self.order[self.starts[g]:self.starts[g + 1]]
 
 
-def _in_structure(data: Measurements, deviation: np.ndarray, neighbours: np.ndarray, i: int) -> bool:
-    """Whether the deviation of row ``i`` belongs to a run of structure (see the module docstring)."""
+def _in_structure(data: Measurements, deviation: np.ndarray, neighbours: np.ndarray, i: int,
+                  position: np.ndarray) -> bool:
+    """Whether the deviation of row ``i`` belongs to a run of structure (see the module docstring);
+    ``position``: the rows at its commanded distance (or in air with it) in the same direction."""
     sign = np.sign(deviation[i])
     for j in neighbours[i]:
         if j >= 0 and np.sign(deviation[j]) == sign and abs(deviation[j]) > REPEATED:
             return True
-    position = _same_position(data, i)
-    partners = (position & (data.segment == data.segment[i]) & (data.freq_hz != data.freq_hz[i])
-                & (np.abs(data.time_s - data.time_s[i]) <= PARTNER_GAP_S))
+    partners = position[(data.segment[position] == data.segment[i]) & (data.freq_hz[position] != data.freq_hz[i])
+                        & (np.abs(data.time_s[position] - data.time_s[i]) <= PARTNER_GAP_S)]
     if np.any(np.abs(deviation[partners]) > REPEATED):
         return True
-    same = position & (data.freq_hz == data.freq_hz[i])
-    same[i] = False
+    same = position[(data.freq_hz[position] == data.freq_hz[i]) & (position != i)]
     others = deviation[same]
     if not len(others):
         return False
