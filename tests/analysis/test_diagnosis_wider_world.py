@@ -61,6 +61,9 @@ WRONG = {
                          "so a drift in time correlates with the coil temperature",
     "metal_object": "claims tau_displacement and calls the model adequate (25 ppm, 0.83x the noise): over nine "
                     "positions the object's 15 mm bump at 45 mm is absorbed by the calibration and tau(x)",
+    "target_tilt": "claims target_bending (and tau_displacement), adequate at 0.48x the noise: a tilt about a pivot "
+                   "150 mm away brings the plate nearer in proportion to its temperature rise, which is bending's "
+                   "signature (the face-average term is 1.4 ppm)",
     "expansion_hysteresis": "claims tau_displacement, thermal_lag (lag_tau 496 s) and former_expansion, adequate at "
                             "0.68x the noise: the play operator's heating-below/cooling-above path is taken for the "
                             "winding lagging the thermocouple",

@@ -8,7 +8,7 @@ import math
 import numpy as np
 
 from ecds_lab.analysis.diagnosis.result import DISPLAY_UNITS, Candidate
-from ecds_lab.analysis.fitting import ROBUST_SIGMAS, FitResult, huber_residuals
+from ecds_lab.analysis.fitting import FitResult
 from ecds_lab.analysis.noise import NoiseEstimate
 from ecds_lab.data.measurements import Measurements
 
@@ -34,30 +34,12 @@ def whitened(residuals_ppm: np.ndarray, data: Measurements, noise: NoiseEstimate
     return np.asarray(residuals_ppm, float) * (noise.ppm / noise.sigma_ppm(data))
 
 
-def robust_residuals(residuals_ppm: np.ndarray, data: Measurements, noise: NoiseEstimate) -> np.ndarray:
-    """Residuals as the evidence fits weigh them: whitened once (``whitened``), then through Huber's loss at
-    ``ROBUST_SIGMAS`` noise sigmas (``fitting.huber_residuals``); their sum of squares is the robust cost. The
-    same as ``FitResult.effective_residuals_ppm`` of a fit made with this ``noise``, computed here from plain
-    residuals so a fit evaluated on other rows (the screening subsample) is weighed alike."""
-    r = whitened(residuals_ppm, data, noise)
-    return huber_residuals(r, ROBUST_SIGMAS * noise.ppm) if noise.ppm > 0 else r
-
-
-def robust_cost(fitted: FitResult, data: Measurements, noise: NoiseEstimate) -> float:
-    """The robust cost of a fit's residuals on ``data`` (which of two fits of one model is better)."""
-    r = robust_residuals(fitted.residuals_ppm, data, noise)
-    return float(r @ r)
-
-
 def score_candidate(name: str, fitted: FitResult, base: FitResult, noise: NoiseEstimate, data: Measurements,
                     n_full: int) -> Candidate:
     """Evidence of a fitted candidate against the current model: BIC overall and on its signature, and
-    its chi-square gain; residuals weighed by each reading's noise and through Huber's loss (the robust cost
-    the evidence fits minimise: one glitch the rules missed adds linearly, not as its square), gains divided
-    by the design effect (correlated readings count as fewer independent ones). The signature (which readings
-    the effect moves) is judged on the whitened residuals before the loss."""
-    rc_all, rb_all = robust_residuals(fitted.residuals_ppm, data, noise), robust_residuals(base.residuals_ppm, data,
-                                                                                           noise)
+    its chi-square gain; residuals weighed by each reading's noise, gains divided by the design effect
+    (correlated readings count as fewer independent ones)."""
+    rc_all, rb_all = whitened(fitted.residuals_ppm, data, noise), whitened(base.residuals_ppm, data, noise)
     rss_c, rss_b = float(rc_all @ rc_all), float(rb_all @ rb_all)
     k = len(fitted.free_names) - len(base.free_names)
     penalty = max(k, 1) * math.log(max(n_full, 2))
@@ -67,7 +49,7 @@ def score_candidate(name: str, fitted: FitResult, base: FitResult, noise: NoiseE
     deff = max(noise.design_effect, 1.0)
     n = len(rc_all)
     delta = n * math.log(rss_c / rss_b) / deff + penalty
-    change = whitened(fitted.residuals_ppm - base.residuals_ppm, data, noise)  # its change of the prediction
+    change = rc_all - rb_all  # the candidate's change of the prediction (ppm, weighed)
     signature = np.abs(change) >= SIGNATURE_SHARE * noise.ppm
     if signature.sum() < max(5, k + 2):
         signature = np.abs(change) >= np.sort(np.abs(change))[-max(5, k + 2)] if n >= 5 else np.ones(n, bool)

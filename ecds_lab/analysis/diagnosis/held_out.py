@@ -36,7 +36,7 @@ def check_held_out(candidate: Candidate, base_cv: float | None, folds: np.ndarra
     its sum of squares by at least HELD_OUT_CHI2 noise variances (115.0 against 115.2 ppm over a few
     hundred readings at 20 ppm noise is a fall of about 2: no evidence)."""
     candidate.base_cv_rmse_ppm = base_cv
-    candidate.cv_rmse_ppm = cv_rmse(data, candidate.fit, folds, noise)
+    candidate.cv_rmse_ppm = cv_rmse(data, candidate.fit, folds)
     gain = held_out_gain(base_cv, candidate.cv_rmse_ppm, len(data), noise) if base_cv is not None else 0.0
     candidate.held_out_gain = gain
     candidate.checks["held_out"] = base_cv is not None and gain >= HELD_OUT_CHI2
@@ -101,14 +101,12 @@ def _split_visits(data: Measurements, groups: np.ndarray) -> np.ndarray:
     return np.unique(out, return_inverse=True)[1].ravel()
 
 
-def cv_rmse(data: Measurements, full: FitResult, folds: np.ndarray, noise: NoiseEstimate | None = None) -> float:
-    """Held-out RMS (ppm): fit without one fold, predict it; the model still sees the whole history. With
-    ``noise`` each training fit uses the error model and Huber's loss, as the evidence fits do."""
+def cv_rmse(data: Measurements, full: FitResult, folds: np.ndarray) -> float:
+    """Held-out RMS (ppm): fit without one fold, predict it; the model still sees the whole history."""
     squares, count = 0.0, 0
     for k in np.unique(folds):
         held = folds == k
-        trained = fit_model(full.model, data, start=full.values, multistart=False, rows=~held, screening=True,
-                            noise=noise, robust=noise is not None)
+        trained = fit_model(full.model, data, start=full.values, multistart=False, rows=~held, screening=True)
         r = (data.ls_h[held] / trained.predict(data)[held] - 1) * 1e6
         squares += float(r @ r)
         count += int(held.sum())

@@ -33,14 +33,7 @@ import numpy as np
 
 from ecds_lab.analysis.associations import residual_associations
 from ecds_lab.analysis.diagnosis.advice import suggestions
-from ecds_lab.analysis.diagnosis.checks import (
-    check_candidate,
-    evidence_rank,
-    robust_cost,
-    score_candidate,
-    tied,
-    whitened,
-)
+from ecds_lab.analysis.diagnosis.checks import check_candidate, evidence_rank, score_candidate, tied, whitened
 from ecds_lab.analysis.diagnosis.explanation import explain
 from ecds_lab.analysis.diagnosis.held_out import SCREEN_ROWS, check_held_out, cv_rmse, folds_of, screened
 from ecds_lab.analysis.diagnosis.identifiability import (
@@ -151,7 +144,7 @@ def run_diagnosis(data: Measurements, effects: Sequence[str] = (), sensor: Senso
             names = [n for n in names if n not in {c.effect for c in group}]
             fresh = False
             continue
-        refit = _full_fit(clean, best, noise)
+        refit = _full_fit(clean, best)
         if screen is not clean:  # the claim must hold on every reading, not only on the screened ones
             confirmed = score_candidate(best.effect, refit, current.fit, noise, clean, len(clean))
             check_candidate(confirmed)
@@ -164,7 +157,7 @@ def run_diagnosis(data: Measurements, effects: Sequence[str] = (), sensor: Senso
         members = [c.effect for c in group] if len(group) > 1 else []
         if members:
             alternatives.append(members)
-        refit = _repolished(refit, clean, len(current.effects) - len(effects), noise)
+        refit = _repolished(refit, clean, len(current.effects) - len(effects))
         steps.append(Step([*current.effects, best.effect], refit, residual_mm(refit, clean), full_scale,
                           stands_for=members))
         names = [n for n in names if n not in {c.effect for c in group}]
@@ -224,8 +217,8 @@ def _robust_fit(data: Measurements, effects: list[str], space: _Space, screen_ro
     noise = fitted.noise  # the fit's own estimate: fit and diagnose report the same noise
     outliers: list[Outlier] = []
     for _ in range(MAX_OUTLIER_ROUNDS):
-        # Each reading judged against its own phase's noise; the refit is robust (Huber's loss), so a glitch
-        # the rules leave does not bend the model toward it and make its neighbours look like glitches.
+        # Each reading judged against its own phase's noise; the refits are robust (Huber's loss), so a glitch the
+        # rules leave does not bend the model toward it and make its neighbours look like glitches.
         sigma = noise.reading_sigma_ppm(clean)
         glitches = find_glitches(clean, fitted.residuals_ppm, sigma)
         if not glitches.any() or glitches.sum() > 0.02 * len(clean) + 2:
@@ -236,32 +229,32 @@ def _robust_fit(data: Measurements, effects: list[str], space: _Space, screen_ro
         fitted = fit_model(model, clean, start=fitted.values, multistart=False, screening=True, noise=noise,
                            robust=True)
         noise = fitted.noise  # the fit's own estimate: fit and diagnose report the same noise
+    if fitted.loss_scale_ppm is not None:  # the current model as the candidates are fitted (least squares)
+        fitted = fit_model(model, clean, start=fitted.values, multistart=False, screening=True)
+        noise = fitted.noise
     outliers.sort(key=lambda o: o.row)
-    # The current model as every candidate will be fitted (the same error model, Huber's loss): a candidate's
-    # gain is then what its effect explains, not what a robust refit alone would take from a plain one.
-    fitted = fit_model(model, clean, start=fitted.values, multistart=False, screening=True, noise=noise, robust=True)
-    fitted, released = _released(fitted, clean, effects, space, noise)
-    return clean, fitted, noise, outliers, released
+    fitted, released = _released(fitted, clean, effects, space)
+    return clean, fitted, fitted.noise, outliers, released
 
 
-def _released(fitted: FitResult, data: Measurements, effects: list[str], space: _Space, noise: NoiseEstimate
+def _released(fitted: FitResult, data: Measurements, effects: list[str], space: _Space
               ) -> tuple[FitResult, list[str]]:
     """The fit with the baseline parameters the rules fixed but the data determine set free (kept free
     only where the fit confirms a standard error below half the value), and their names."""
     sample = screened(data, SCREEN_ROWS)
-    rows = fit_model(fitted.model, sample, start=fitted.values, multistart=False, screening=True, noise=noise,
-                     robust=True) if sample is not data else fitted
+    rows = fit_model(fitted.model, sample, start=fitted.values, multistart=False, screening=True) \
+        if sample is not data else fitted
     names = releasable(fitted.model, sample, fitted.values, rows.free_names, fitted.fixed, fitted.noise)
     if not names:
         return fitted, []
     model = ReleasedModel(space.sensor, effects, space.registry, frozenset(names))
-    trial = fit_model(model, data, start=fitted.values, multistart=False, noise=noise, robust=True)
+    trial = fit_model(model, data, start=fitted.values, multistart=False)
     kept = [n for n in names if n in trial.free_names and trial.stderr.get(n, math.inf) < 0.5 * abs(trial.values[n])]
     if not kept:
         return fitted, []
     if kept != names:
         model = ReleasedModel(space.sensor, effects, space.registry, frozenset(kept))
-        trial = fit_model(model, data, start=trial.values, multistart=False, noise=noise, robust=True)
+        trial = fit_model(model, data, start=trial.values, multistart=False)
     return trial, kept
 
 
@@ -293,12 +286,6 @@ def _round(screen: Measurements, clean: Measurements, current: Step, names: list
         candidate.from_residual = [dict(s) for s in from_residual[1:]]
         ranked.append(candidate)
     ranked.sort(key=evidence_rank)
-    # The leading candidates' evidence from robust fits (Huber's loss, as the current model's): every candidate is
-    # scored by the robust cost, but a plain fit (cheaper) only bounds its gain from below; the leaders are refitted
-    # so that what can be claimed is judged on the fit the loss was made for (robust everywhere doubled the time).
-    for i, candidate in enumerate(ranked[:LEADING]):
-        ranked[i] = _robustly(screen, candidate, base, noise, len(clean))
-    ranked.sort(key=evidence_rank)
     # Alternative starts where another valley could change the outcome: not once the model is at the
     # noise, and not for candidates far behind the leader; once the leader is at the noise, only for
     # those close enough to tie with it (a tie is judged between each candidate's best fits).
@@ -315,7 +302,7 @@ def _round(screen: Measurements, clean: Measurements, current: Step, names: list
     ranked.sort(key=lambda c: (not c.passes, evidence_rank(c)))
     base_cv = None
     if folds is not None and ranked and ranked[0].passes:  # the previous round's claim already has it
-        base_cv = current_cv if current_cv is not None else cv_rmse(screen, base, folds, noise)
+        base_cv = current_cv if current_cv is not None else cv_rmse(screen, base, folds)
     leader = None
     for candidate in ranked:  # held-out error, lazily: for the leader and whatever might tie with it
         if not candidate.passes or folds is None:
@@ -336,31 +323,19 @@ def _evaluate(result: FitResult, data: Measurements) -> FitResult:
                      result.free_names, result.success, result.message, 0, 0, 0.0, result.noise)
 
 
-def _robustly(data: Measurements, candidate: Candidate, base: FitResult, noise: NoiseEstimate, n_full: int
-              ) -> Candidate:
-    """A candidate refitted with Huber's loss from its plain solution (its own parameters), and scored again."""
-    own = {p.name for p in candidate.effect_object.parameters()}
-    start = {k: v for k, v in candidate.fit.values.items() if k in own}
-    robust = _candidate(data, candidate.fit.model, candidate.effect, base, noise, n_full, start, robust=True)
-    robust.from_residual = candidate.from_residual
-    return robust
-
-
 def _candidate(data: Measurements, model: SensorModel, name: str, base: FitResult, noise: NoiseEstimate,
-               n_full: int, start: dict[str, float] | None = None, robust: bool = False) -> Candidate:
-    """Fit model + effect from the current solution (and the effect's defaults or ``start``); ``robust``: with
-    the error model and Huber's loss (the leading candidates), else by least squares (``_round``)."""
+               n_full: int, start: dict[str, float] | None = None) -> Candidate:
+    """Fit model + effect from the current solution (and the effect's defaults or ``start``)."""
     own = {p.name for p in model.effects[-1].parameters()}
     values = {k: v for k, v in base.values.items() if k not in own}
-    fitted = fit_model(model, data, start={**values, **(start or {})}, multistart=False, screening=True,
-                       noise=noise if robust else None, robust=robust)
-    fitted = _unreleased(fitted, base, data, noise if robust else None)
+    fitted = fit_model(model, data, start={**values, **(start or {})}, multistart=False, screening=True)
+    fitted = _unreleased(fitted, base, data)
     candidate = score_candidate(name, fitted, base, noise, data, n_full)
     candidate.fit_data = data
     return candidate
 
 
-def _unreleased(fitted: FitResult, base: FitResult, data: Measurements, noise: NoiseEstimate | None) -> FitResult:
+def _unreleased(fitted: FitResult, base: FitResult, data: Measurements) -> FitResult:
     """Baseline parameters the effect made free (``Effect.identifies``) are kept only when the data
     constrain them (standard error below half the value), otherwise fixed where the fit left them;
     secondary parameters of the effect the data leave wholly undetermined are fixed at their
@@ -379,8 +354,7 @@ def _unreleased(fitted: FitResult, base: FitResult, data: Measurements, noise: N
                   if n in fitted.free_names and not fitted.stderr.get(n, math.inf) < abs(fitted.values[n])})
     if not loose:
         return fitted
-    return fit_model(fitted.model, data, start=fitted.values, fixed=loose, multistart=False, screening=True,
-                     noise=noise, robust=noise is not None)
+    return fit_model(fitted.model, data, start=fitted.values, fixed=loose, multistart=False, screening=True)
 
 
 def _refined(data: Measurements, candidate: Candidate, base: FitResult, noise: NoiseEstimate, n_full: int,
@@ -398,17 +372,17 @@ def _refined(data: Measurements, candidate: Candidate, base: FitResult, noise: N
     if len(starts) > SCOUTS_REFITTED:
         held = {k: v for k, v in base.values.items() if k not in own}
         scouts = sorted((fit_model(model, data, start=start, fixed=held, multistart=False, screening=True)
-                         for start in starts), key=lambda f: robust_cost(f, data, noise))
+                         for start in starts), key=lambda f: f.rms_ppm)
         starts = [{name: scout.values[name] for name in own} for scout in scouts[:SCOUTS_REFITTED]]
     best = candidate
     for start in starts:
-        trial = _candidate(data, model, candidate.effect, base, noise, n_full, start, robust=True)
-        if robust_cost(trial.fit, data, noise) < robust_cost(best.fit, data, noise):
+        trial = _candidate(data, model, candidate.effect, base, noise, n_full, start)
+        if trial.fit.rms_ppm < best.fit.rms_ppm:
             best = trial
     return best
 
 
-def _repolished(fitted: FitResult, data: Measurements, earlier: int, noise: NoiseEstimate) -> FitResult:
+def _repolished(fitted: FitResult, data: Measurements, earlier: int) -> FitResult:
     """The new model refitted from the alternative starts of the effects found before the one just added
     (the last ``earlier`` effects before it): a valley an earlier effect settled in alone (a plate's
     thickness, say) may not be the best once the new effect takes its share. The better fit is kept."""
@@ -418,21 +392,19 @@ def _repolished(fitted: FitResult, data: Measurements, earlier: int, noise: Nois
     for effect in fitted.model.effects[-1 - earlier:-1]:
         for alternative in effect.alternative_starts:
             start = {**best.values, **alternative}
-            trial = fit_model(fitted.model, data, start=start, multistart=False, screening=True, noise=noise,
-                              robust=True)
-            if robust_cost(trial, data, noise) < robust_cost(best, data, noise) * (1 - 1e-3):
+            trial = fit_model(fitted.model, data, start=start, multistart=False, screening=True)
+            if trial.rms_ppm < best.rms_ppm * (1 - 1e-3):
                 best = trial
     return best
 
 
-def _full_fit(clean: Measurements, candidate: Candidate, noise: NoiseEstimate) -> FitResult:
+def _full_fit(clean: Measurements, candidate: Candidate) -> FitResult:
     """The claimed model on every reading, from the screening solution (itself, when no subsample was screened)."""
     if clean is candidate.fit_data:
         return candidate.fit
     # From the screening solution a polish to a relative cost change of 1e-8 is all the claim needs;
     # the last digits of a slow direction are not worth thousands of evaluations on every reading.
-    return fit_model(candidate.fit.model, clean, start=candidate.fit.values, multistart=False, screening=True,
-                     noise=noise, robust=True)
+    return fit_model(candidate.fit.model, clean, start=candidate.fit.values, multistart=False, screening=True)
 
 
 def _distance_error(result: FitResult, data: Measurements, noise: NoiseEstimate) -> tuple[np.ndarray, np.ndarray]:
