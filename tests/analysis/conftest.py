@@ -57,6 +57,12 @@ def field_lab():
     return lambda seed=3, **parts: SimulatedLab(field_lab_config(seed, **parts))
 
 
+@pytest.fixture
+def field_config():
+    """Factory: the faithful lab's config (``field_lab_config``), for campaigns built from a config."""
+    return field_lab_config
+
+
 def spread_rows(data, count: int, seed: int) -> list[int]:
     """Rows away from the ends of every sweep (where a glitch cannot be told from a turning point)."""
     rng = np.random.default_rng(seed)

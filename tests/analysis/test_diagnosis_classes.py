@@ -118,7 +118,11 @@ def test_a_three_part_truth_is_found_step_by_step(campaign_with):
     assert [len(s["effects"]) for s in report["steps"]] == [0, 1, 2, 3]
     rms = [s["rmse_ppm"] for s in report["steps"]]
     assert rms == sorted(rms, reverse=True)
-    assert report["steps"][-1]["position_error_mm"] < 0.6 * report["steps"][0]["position_error_mm"]
+    first, last = report["steps"][0], report["steps"][-1]
+    if first["position_error"]["status"] == "model fails here":  # no length for a failing model (issue 24.2)
+        assert last["position_error"]["status"] == "valid"
+    else:
+        assert last["position_error_mm"] < 0.6 * first["position_error_mm"]
 
 
 # -- class 5: where the residual lives, phases and noise ---------------------------------------------

@@ -6,18 +6,11 @@ import math
 from itertools import pairwise
 from typing import Any
 
-from ecds_lab.analysis.diagnosis.result import DISPLAY_UNITS, Diagnosis
+from ecds_lab.analysis.diagnosis.result import Diagnosis, figure_from_json
 from ecds_lab.analysis.diagnosis.verdict import FAILING_RATIO, STRUCTURE_SIGNIFICANCE, outside_library
 from ecds_lab.analysis.noise import noise_parts_text
+from ecds_lab.analysis.quantities import parameter_text
 from ecds_lab.model.effects import EffectRegistry
-
-
-def _value_text(name: str, entry: dict[str, Any]) -> str:
-    unit, factor = DISPLAY_UNITS.get(name, (entry.get("unit", ""), 1.0))
-    value = entry["value"] * factor
-    stderr = entry.get("stderr")
-    spread = f" +/- {stderr * factor:.2g}" if stderr is not None else ""
-    return f"{name} = {value:.4g}{spread} {unit}".rstrip()
 
 
 def _where(result: Diagnosis) -> str:
@@ -34,6 +27,7 @@ def explain(result: Diagnosis, registry: EffectRegistry | None = None) -> str:
     lines = []
     if result.outliers:
         lines.append(f"{len(result.outliers)} glitch reading(s) were excluded (listed under outliers).")
+    lines += [f"Noise: {warning}" for warning in result.noise.warnings]
     if result.released:
         lines.append(f"The data determine {', '.join(result.released)}, which the rules would hold fixed: "
                      "fitted free.")
@@ -53,11 +47,11 @@ def explain(result: Diagnosis, registry: EffectRegistry | None = None) -> str:
         added = step.effects[-1]
         candidate = next(c for c in before.candidates if c.effect == added)
         effect = candidate.effect_object
-        values = "; ".join(_value_text(n, v) for n, v in step.fit.params_table().items()
-                           if n in {p.name for p in effect.parameters()} and v.get("stderr") is not None)
+        values = "; ".join(parameter_text(step.fit, p.name) for p in effect.parameters()
+                           if not step.fit.parameter(p.name).fixed)
         cv = (f", held-out {candidate.cv_rmse_ppm:.1f} vs {candidate.base_cv_rmse_ppm:.1f} ppm"
               if candidate.cv_rmse_ppm is not None and candidate.base_cv_rmse_ppm is not None else "")
-        error = (f", position error {step.position_error_mm:.3g} mm" if step.position_error_mm is not None else "")
+        error = f", position error {step.position_error(noise).text('rms')}"
         if step.stands_for:
             others = [n for n in step.stands_for if n != added]
             lines.append(f"The data cannot tell {' from '.join(step.stands_for)}: each explains them about equally "
@@ -129,11 +123,12 @@ def format_diagnosis(report: dict[str, Any]) -> str:
     parts = noise_parts_text(report.get("noise") or {})
     head = (f"verdict: {report['verdict']}   noise {report['noise_ppm']:.1f} ppm{f' ({parts})' if parts else ''}   "
             f"baseline {report['baseline']['rmse_ppm']:.1f} ppm")
-    lines = [head, "", "steps:"]
+    lines = [head]
+    lines += [f"noise warning: {w}" for w in (report.get("noise_details") or {}).get("warnings", [])]
+    lines += ["", "steps:"]
     for step in report.get("steps", []):
-        error = (f"  position error {step['position_error_mm']:.4f} mm ({step['position_error_fs_pct']:.3f} % FS)"
-                 if step.get("position_error_mm") is not None and step.get("position_error_fs_pct") is not None
-                 else "")
+        error = (f"  position error {figure_from_json(step['position_error']).text('rms')}"
+                 if step.get("position_error") else "")
         lines.append(f"  {' + '.join(['baseline'] + step['effects']):50s} {step['rmse_ppm']:9.1f} ppm{error}")
     lines += ["", "candidates against the given model (best first):"]
     for c in report["ranking"]:

@@ -13,6 +13,7 @@ from ecds_lab.analysis.diagnosis.structure import ResidualStructure
 from ecds_lab.analysis.fitting import FitResult
 from ecds_lab.analysis.noise import NoiseEstimate
 from ecds_lab.analysis.outliers import Outlier
+from ecds_lab.analysis.quantities import PositionErrorFigure, params_json, position_error_figure
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.model.effects import Effect
 
@@ -58,7 +59,7 @@ class Candidate:
 
     def effect_params(self) -> dict[str, Any]:
         own = {p.name for p in self.effect_object.parameters()}
-        return {k: v for k, v in self.fit.params_table().items() if k in own}
+        return {k: v for k, v in fit_params_json(self.fit).items() if k in own}
 
     def to_json(self) -> dict[str, Any]:
         return {"effect": self.effect, "rmse_ppm": round(self.rmse_ppm, 3), "delta_bic": round(self.delta_bic, 2),
@@ -85,21 +86,19 @@ class Step:
     def rmse_ppm(self) -> float:
         return self.fit.rms_ppm
 
-    @property
-    def position_error_mm(self) -> float | None:
-        finite = self.residual_mm[np.isfinite(self.residual_mm)]
-        return float(np.sqrt(np.mean(finite**2))) if len(finite) else None
+    def position_error(self, noise_ppm: float | None) -> PositionErrorFigure:
+        """This model's position error over the readings it can speak for, or why it is no length: "model
+        fails here" when its residual is far above the noise, "out of range" without a calibrated reading
+        (``quantities.position_error_figure``; the one figure the JSON, the text and the report show)."""
+        positioned = self.residual_mm[~np.isnan(self.residual_mm)]  # NaN: no position (coil in air)
+        return position_error_figure(positioned, self.full_scale_mm, model_rms_ppm=self.rmse_ppm, noise_ppm=noise_ppm)
 
-    @property
-    def position_error_fs_pct(self) -> float | None:
-        error = self.position_error_mm
-        return None if error is None or not self.full_scale_mm > 0 else 100.0 * error / self.full_scale_mm
-
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self, noise_ppm: float | None = None) -> dict[str, Any]:
+        """The step's figures; ``position_error_mm`` (RMS) and its % FS are None unless the figure is valid."""
+        figure = self.position_error(noise_ppm)
         return {"effects": list(self.effects), "rmse_ppm": round(self.rmse_ppm, 3), "bic": round(self.fit.bic, 2),
-                "position_error_mm": rounded(self.position_error_mm, 5),
-                "position_error_fs_pct": rounded(self.position_error_fs_pct, 4),
-                "stands_for": list(self.stands_for), "params": self.fit.params_table()}
+                **position_error_json(figure),
+                "stands_for": list(self.stands_for), "params": fit_params_json(self.fit)}
 
 
 @dataclass
@@ -169,15 +168,19 @@ class Diagnosis:
 
     def to_json(self) -> dict[str, Any]:
         first = self.steps[0]
+        baseline = first.position_error(self.noise.ppm)
         return {
             "noise_ppm": round(self.noise.ppm, 3),
             "noise_method": self.noise.method,
             "noise": self.noise.to_json(),
+            "noise_details": self.noise.details_json(),
             "baseline": {"effects": self.effects, "rmse_ppm": round(first.rmse_ppm, 3),
-                         "rmse_mm": rounded(first.position_error_mm, 5),
-                         "position_error_fs_pct": rounded(first.position_error_fs_pct, 4),
+                         "rmse_mm": rounded(baseline.rms_mm if baseline.valid else None, 5),
+                         "position_error_fs_pct": rounded(baseline.fs_percent(baseline.rms_mm)
+                                                          if baseline.valid else None, 4),
+                         "position_error": baseline.to_json(),
                          "cv_rmse_ppm": rounded(self.baseline_cv_rmse_ppm), "bic": round(first.fit.bic, 2),
-                         "params": first.fit.params_table()},
+                         "params": fit_params_json(first.fit)},
             "verdict": self.verdict,
             "claimed": self.claimed,
             "ranking": [c.to_json() for c in self.candidates],
@@ -194,8 +197,28 @@ class Diagnosis:
             "undetermined": list(self.undetermined),
             "released": dict(self.released),
             "residual_structure": self.structure.to_json() if self.structure is not None else None,
-            "steps": [s.to_json() for s in self.steps],
+            "steps": [s.to_json(self.noise.ppm) for s in self.steps],
         }
+
+
+def position_error_json(figure: PositionErrorFigure) -> dict[str, Any]:
+    """``position_error_mm`` (RMS), its % FS (both None unless the figure is valid) and the whole figure."""
+    rms = figure.rms_mm if figure.valid else None
+    return {"position_error_mm": rounded(rms, 5), "position_error_fs_pct": rounded(figure.fs_percent(rms), 4),
+            "position_error": figure.to_json()}
+
+
+def figure_from_json(entry: dict[str, Any]) -> PositionErrorFigure:
+    """A position-error figure back from its JSON (``PositionErrorFigure.to_json``), to print it from a report."""
+    return PositionErrorFigure(entry["status"], entry["fs_mm"], entry["n"], entry.get("out_of_range", 0),
+                               entry.get("max_abs_mm"), entry.get("rms_mm"), entry.get("reason", ""))
+
+
+def fit_params_json(fit: FitResult) -> dict[str, dict[str, Any]]:
+    """A fit's parameters as every JSON output carries them (``quantities.params_json``: value, stderr, unit,
+    status, shown), with the ``fixed`` flag of ``FitResult.params_table`` kept for readers of older output."""
+    table = fit.params_table()
+    return {name: {**row, "fixed": table[name]["fixed"]} for name, row in params_json(fit).items()}
 
 
 def rounded(value: float | None, digits: int = 3) -> float | None:

@@ -217,14 +217,21 @@ def _robust_fit(data: Measurements, effects: list[str], space: _Space, screen_ro
     noise = fitted.noise  # the fit's own estimate: fit and diagnose report the same noise
     outliers: list[Outlier] = []
     for _ in range(MAX_OUTLIER_ROUNDS):
-        glitches = find_glitches(clean, fitted.residuals_ppm, noise.reading_ppm)
+        # Each reading judged against its own phase's noise; the refits are robust (Huber's loss), so a glitch the
+        # rules leave does not bend the model toward it and make its neighbours look like glitches.
+        sigma = noise.reading_sigma_ppm(clean)
+        glitches = find_glitches(clean, fitted.residuals_ppm, sigma)
         if not glitches.any() or glitches.sum() > 0.02 * len(clean) + 2:
             break
-        outliers += describe(clean, np.flatnonzero(glitches), fitted.residuals_ppm, noise.reading_ppm, index)
+        outliers += describe(clean, np.flatnonzero(glitches), fitted.residuals_ppm, sigma, index)
         keep = ~glitches
         clean, index = clean.select(keep), index[keep]
-        fitted = fit_model(model, clean, start=fitted.values, multistart=False, screening=True)
+        fitted = fit_model(model, clean, start=fitted.values, multistart=False, screening=True, noise=noise,
+                           robust=True)
         noise = fitted.noise  # the fit's own estimate: fit and diagnose report the same noise
+    if fitted.loss_scale_ppm is not None:  # the current model as the candidates are fitted (least squares)
+        fitted = fit_model(model, clean, start=fitted.values, multistart=False, screening=True)
+        noise = fitted.noise
     outliers.sort(key=lambda o: o.row)
     fitted, released = _released(fitted, clean, effects, space)
     return clean, fitted, fitted.noise, outliers, released
