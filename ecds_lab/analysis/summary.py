@@ -219,11 +219,10 @@ def calibration_cases(data: Measurements, model: SensorModel, result: FitResult,
             case.target_heated = HeatedErrors(position_errors(cal, at_f.select(target_hot)), target_rise[target_hot])
         if len(hot_coil):
             plain = calibrate(sweep, model.sensor, n_points=n_points, fixed={**held, "alpha": 0.0, "beta": 0.0},
-                              effects=model.effects, start=cal.fit.values)
+                              effects=model.effects)
             compensated = cal
             if eq4 is not None:
                 compensated = calibrate(sweep, model.sensor, n_points=n_points, effects=model.effects,
-                                        start=cal.fit.values,
                                         fixed={**held, "alpha": eq4.alpha_per_k, "beta": eq4.beta_per_k2})
                 case.compensation_method = eq4.method
             case.coil_compensated = HeatedErrors(position_errors(compensated, hot_coil), hot_coil_rise)

@@ -60,7 +60,7 @@ def test_columns_in_any_order_extra_columns_bom_crlf_blank_lines_quotes(tmp_path
     ("1.0,20,500,21,22,abc,50", "row 3, column ls_h: 'abc' is not a number"),
     ("1.0,20,500,nan,22,0.05,50", "row 3, column t_coil_c: 'nan' is not allowed"),
     ("1.0,20,500,21,inf,0.05,50", "row 3, column t_target_c: 'inf' is not allowed"),
-    ("1.0,nan,500,21,22,0.05,50", "row 3, column x_mm: 'nan' is not allowed"),
+    ("1.0,20,500,21,22,nan,50", "row 3, column ls_h: 'nan' is not allowed"),
     ("1.0,20,500", "row 3, column t_coil_c: '<missing>' is not a number"),
 ])
 def test_a_bad_cell_is_named_by_row_and_column(tmp_path: Path, row: str, message: str) -> None:
