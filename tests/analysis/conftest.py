@@ -12,6 +12,8 @@ import pytest
 from ecds_lab.simulators import campaign
 from ecds_lab.simulators.config import LabConfig
 from ecds_lab.simulators.lab import SimulatedLab
+from ecds_lab.study.campaigns import QUIET_LAB
+from ecds_lab.study.cases import merged
 
 #: 16 positions over 20-100 mm keep each campaign near 700 readings (fast, still every phase).
 POSITIONS_MM = tuple(float(x) for x in np.linspace(20.0, 100.0, 16))
@@ -29,26 +31,9 @@ def campaign_with():
     return hidden_effect_campaign
 
 
-#: The faithful lab with every imperfection off; a test switches on the one part it is about.
-QUIET_FIELD_LAB: dict = {
-    "former": {"moisture": {"enabled": False}, "expansion": {"enabled": False}},
-    "plate": {"conductivity": {"enabled": False}, "permeability": {"enabled": False},
-              "gradient": {"enabled": False}, "bending": {"enabled": False}},
-    "slide": {"backlash": {"enabled": False}, "lead_screw": {"enabled": False}, "repeatability": {"enabled": False}},
-    "bridge": {"accuracy": {"enabled": False}, "glitches": {"enabled": False}},
-}
-
-
-def _merged(base: dict, changes: dict) -> dict:
-    out = {key: dict(value) if isinstance(value, dict) else value for key, value in base.items()}
-    for key, value in changes.items():
-        out[key] = _merged(out.get(key, {}), value) if isinstance(value, dict) else value
-    return out
-
-
 def field_lab_config(seed: int = 3, **parts: dict) -> LabConfig:
     """The faithful lab (physics: field) with only ``parts`` switched on, e.g. plate={"bending": {...}}."""
-    return LabConfig(physics="field", seed=seed, **_merged(QUIET_FIELD_LAB, parts))
+    return LabConfig(physics="field", seed=seed, **merged(QUIET_LAB, parts))
 
 
 @pytest.fixture
