@@ -12,6 +12,14 @@ _CHUNK_ROWS = 64
 _FORGET_EFOLDS = 1e4
 
 
+def _lag_steps(time_s: np.ndarray, u: np.ndarray, tau_s: float) -> tuple[np.ndarray, ...]:
+    """Per interval of a first-order lag: its length dt, dt/tau, the decay a = exp(-dt/tau) and the input's slope."""
+    dt = np.maximum(np.diff(time_s), 0.0)
+    efolds = dt / tau_s
+    slope = np.divide(np.diff(u), dt, out=np.zeros_like(dt), where=dt > 0)
+    return dt, efolds, np.exp(-efolds), slope
+
+
 def first_order_lag(time_s: np.ndarray, u: np.ndarray, tau_s: float) -> np.ndarray:
     """Response y of dy/dt = (u - y)/tau to u linear between samples, starting in equilibrium.
 
@@ -21,10 +29,8 @@ def first_order_lag(time_s: np.ndarray, u: np.ndarray, tau_s: float) -> np.ndarr
     u = np.asarray(u, float)
     if len(u) == 0:
         return np.empty_like(u)
-    dt = np.maximum(np.diff(time_s), 0.0)
-    efolds = dt / tau_s
-    a = np.exp(-efolds)
-    slope_tau = np.divide(np.diff(u), dt, out=np.zeros_like(dt), where=dt > 0) * tau_s
+    _, efolds, a, slope = _lag_steps(time_s, u, tau_s)
+    slope_tau = slope * tau_s
     b = u[1:] - slope_tau - a * (u[:-1] - slope_tau)
     return linear_recurrence(efolds, b, float(u[0]))
 
@@ -35,10 +41,7 @@ def first_order_lag_tau_derivative(time_s: np.ndarray, u: np.ndarray, y: np.ndar
     u = np.asarray(u, float)
     if len(u) == 0:
         return np.empty_like(u)
-    dt = np.maximum(np.diff(time_s), 0.0)
-    efolds = dt / tau_s
-    a = np.exp(-efolds)
-    slope = np.divide(np.diff(u), dt, out=np.zeros_like(dt), where=dt > 0)
+    dt, efolds, a, slope = _lag_steps(time_s, u, tau_s)
     da = a * dt / tau_s**2
     db = -slope - da * (u[:-1] - slope * tau_s) + a * slope
     return linear_recurrence(efolds, da * y[:-1] + db, 0.0)
