@@ -131,3 +131,28 @@ def test_the_held_out_check_needs_a_margin_in_noise_units():
     assert held_out_gain(30.0, 21.0, 700, noise) > HELD_OUT_CHI2  # a residual brought to the noise
     correlated = NoiseEstimate(20.0, "test", 0, design_effect=4.0)
     assert held_out_gain(30.0, 21.0, 700, correlated) == pytest.approx(held_out_gain(30.0, 21.0, 700, noise) / 4)
+
+
+# -- a group set aside as partial is not judged again and again -------------------------------------------------
+def test_candidates_set_aside_as_partial_do_not_keep_the_search_going(monkeypatch):
+    """The validation study's case 0 of seed 1 (the former's expansion and a drifting bridge gain, 15 kHz, coil and
+    target heated): thermal_lag and former_expansion each explain part of the residual after the moisture. Set
+    aside, they stay in the ranking with their checks passed; when no other candidate passes the search must
+    end, not re-judge the same partial group round after round (it went on for more than 15 CPU-minutes)."""
+    from ecds_lab.analysis.diagnosis import search
+    from ecds_lab.study.campaigns import measure
+    from ecds_lab.study.cases import draw_case
+
+    rounds = []
+    real_round = search._round
+
+    def counted(*args, **kwargs):
+        rounds.append(1)
+        if len(rounds) > 20:
+            raise AssertionError("the search went round more than 20 times")
+        return real_round(*args, **kwargs)
+
+    monkeypatch.setattr(search, "_round", counted)
+    result = run_diagnosis(measure(draw_case(0, 1)))
+    assert result.partial == [["thermal_lag", "former_expansion"]], result.explanation
+    assert not {"thermal_lag", "former_expansion"} & set(result.claimed), result.explanation

@@ -132,6 +132,8 @@ def run_diagnosis(data: Measurements, effects: Sequence[str] = (), sensor: Senso
             untestable.setdefault(name, why)
         current.candidates = ranked
         passing = [c for c in ranked if c.passes]
+        if not any(c.effect in names for c in passing):  # only candidates set aside pass: judged already, nothing new
+            passing = []
         if not passing:
             undetermined += [c.effect for c in ranked if c.checks.get("evidence") and c.checks.get("plausible")
                              and c.checks.get("held_out", True) and not c.checks.get("identifiable")
