@@ -24,7 +24,6 @@ from functools import cache
 
 import numpy as np
 from scipy.optimize import brentq, minimize
-from scipy.signal import savgol_filter
 
 from ecds_lab.analysis.grouping import visit_labels
 from ecds_lab.analysis.phases import phase_labels
@@ -216,5 +215,8 @@ def _rank_within(order: np.ndarray, same: np.ndarray) -> np.ndarray:
 @cache
 def _smoother(n: int) -> np.ndarray:
     """The n x n operator of a local quadratic smooth (Savitzky-Golay, odd window up to ``SMOOTH_WINDOW``)."""
+    from scipy.signal import savgol_filter  # here, not at the top: scipy.signal (and scipy.stats with it) costs
+    # ~0.4 s CPU to import, paid otherwise by every command that imports the analysis (``ecds-lab fit`` too)
+
     window = min(SMOOTH_WINDOW, n if n % 2 else n - 1)
     return savgol_filter(np.eye(n), window, 2, axis=0, mode="interp")

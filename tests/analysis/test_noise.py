@@ -115,3 +115,18 @@ def test_without_repeats_the_positioning_share_is_not_counted_twice():
     assert estimate.reading_ppm == pytest.approx(20.0, rel=0.15)
     assert estimate_noise(data, residual + slope * errors * 1e6).reading_ppm > 1.3 * 20.0  # both, undeclared
     assert estimate.ppm == pytest.approx(total, rel=0.15)
+
+
+@pytest.mark.parametrize("window", [5, 7, 9, 21])
+def test_the_local_quadratic_is_scipy_s_savitzky_golay_filter(window):
+    """local_quadratic builds its operator with numpy (no scipy.signal import for every command); it must be
+    exactly scipy.signal.savgol_filter(values, window, 2, mode="interp"), edges included."""
+    from scipy.signal import savgol_filter
+
+    from ecds_lab.analysis.noise import local_quadratic
+
+    rng = np.random.default_rng(window)
+    for n in (window, window + 1, 200):
+        values = rng.normal(size=n) + 0.01 * np.arange(n) ** 2
+        assert np.allclose(local_quadratic(values, window), savgol_filter(values, window, 2, mode="interp"),
+                           rtol=0, atol=1e-10 * np.abs(values).max())

@@ -26,7 +26,6 @@ from collections.abc import Mapping
 from typing import ClassVar
 
 import numpy as np
-from scipy.signal import lombscargle
 
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.model.effects import Effect, register
@@ -87,6 +86,9 @@ class SlideLeadScrew(Effect):
                              weights: np.ndarray) -> tuple[dict[str, float], ...]:
         """The best peaks of a weighted Lomb-Scargle periodogram of the residual distance error over the
         resolvable leads (see the module docstring), each with its sine and cosine parts."""
+        from scipy.signal import lombscargle  # here: importing scipy.signal costs every command that loads the
+        # library ~0.4 s CPU, and only the diagnosis needs the periodogram
+
         count, closest = _positions(data)
         shortest = max(LEAD_RANGE_M[0], 1.02 * 2 * closest)
         if count < MIN_POSITIONS or shortest >= LEAD_RANGE_M[1]:
