@@ -228,13 +228,14 @@ def split_spectra(data: Measurements) -> list[np.ndarray]:
 
 
 def run_diagnosis_of(group: TargetGroup, registry: EffectRegistry | None = None) -> Any:
-    """The diagnosis of a target group's readings, or Omitted saying why there is none."""
+    """The diagnosis of a target group's readings, or Omitted saying why there is none. It starts from the
+    group's baseline fit (the report's): the same fit is not made twice."""
     try:
         from ecds_lab.analysis.diagnosis import run_diagnosis
     except ImportError as exc:
         return Omitted(f"the diagnosis is not available in this installation ({exc})")
     try:
-        return run_diagnosis(group.data, sensor=group.fit.model.sensor, registry=registry)
+        return run_diagnosis(group.data, sensor=group.fit.model.sensor, registry=registry, fitted=group.fit)
     except Exception as exc:
         log.warning("diagnosis failed", exc_info=True)
         return Omitted(f"the diagnosis failed: {type(exc).__name__}: {exc}")

@@ -129,3 +129,28 @@ def test_other_effects_outside_the_library_are_found_where_they_live(campaign_wi
 def test_pure_noise_shows_no_significant_structure(campaign_with):
     report = diagnose(campaign_with())
     assert max(a["significance"] for a in report["associations"]) < 5
+
+
+def test_a_baseline_fit_given_is_where_the_diagnosis_starts(campaign_with, monkeypatch):
+    """The report hands its baseline fit to the diagnosis: the diagnosis does not make it again, and decides as
+    it does alone; a fit of another model or other readings is refused with one clear line."""
+    from ecds_lab.analysis import fitting
+    from ecds_lab.analysis.diagnosis import search
+    from ecds_lab.model.sensor_model import SensorModel
+
+    data = campaign_with("slide_backlash")
+    alone = run_diagnosis(data).to_json()
+    given = fitting.fit_model(SensorModel(), data)
+    calls = []
+    real_fit = search.fit_model
+
+    def counted(model, fitted_data, **kwargs):
+        calls.append((model.effect_names, len(fitted_data), kwargs.get("start") is None))
+        return real_fit(model, fitted_data, **kwargs)
+
+    monkeypatch.setattr(search, "fit_model", counted)
+    shared = run_diagnosis(data, fitted=given).to_json()
+    assert ([], len(data), True) not in calls  # no fresh baseline fit of every reading
+    assert shared == alone
+    with pytest.raises(ValueError, match="the fit given to the diagnosis"):
+        run_diagnosis(data.select(slice(0, len(data) // 2)), fitted=given)
