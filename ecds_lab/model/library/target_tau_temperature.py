@@ -44,7 +44,7 @@ effect is the tau_T change alone, as before.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import ClassVar
 
 import numpy as np
@@ -72,20 +72,38 @@ def recession_m(delta_m: np.ndarray, thickness_m: float) -> np.ndarray:
     """Depth behind the face of the perfect conductor that screens like the plate: Re{coth(gamma d)/gamma},
     gamma = (1 + j)/delta (delta/2 for d >> delta)."""
     gamma = (1 + 1j) / delta_m
-    z = np.minimum(np.abs(gamma) * thickness_m, THICK_GAMMA_D) * (1 + 1j) / math.sqrt(2.0)
-    return (1.0 / (np.tanh(z) * gamma)).real
+    return (1.0 / (np.tanh(_screening_argument(gamma, thickness_m)) * gamma)).real
+
+
+def _screening_argument(gamma: np.ndarray, thickness_m: float) -> np.ndarray:
+    """gamma d, with |gamma d| held at THICK_GAMMA_D beyond it (coth is 1 there to double precision)."""
+    return np.minimum(np.abs(gamma) * thickness_m, THICK_GAMMA_D) * (1 + 1j) / math.sqrt(2.0)
 
 
 def recession_derivatives_m(delta_m: np.ndarray, thickness_m: float) -> tuple[np.ndarray, np.ndarray]:
     """d recession / d delta and d recession / d thickness (``recession_m`` = Re{coth(u) delta/(1 + j)},
     u = (1 + j) d/delta: d/dd = Re{-csch^2 u}, d/d delta = Re{coth(u)/(1 + j) + csch^2(u) d/delta});
     beyond THICK_GAMMA_D, where coth is held at 1, only the first term of d/d delta remains."""
+    return recession_and_derivatives_m(delta_m, thickness_m)[1:]
+
+
+def recession_and_derivatives_m(delta_m: np.ndarray, thickness_m: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``recession_m`` and ``recession_derivatives_m`` from one complex tanh (a Jacobian needs all three)."""
     q = 1 + 1j
-    thick = np.abs(q / delta_m) * thickness_m >= THICK_GAMMA_D
-    z = np.minimum(np.abs(q / delta_m) * thickness_m, THICK_GAMMA_D) * q / math.sqrt(2.0)
-    coth = 1.0 / np.tanh(z)
+    gamma = q / delta_m
+    tanh = np.tanh(_screening_argument(gamma, thickness_m))
+    thick = np.abs(gamma) * thickness_m >= THICK_GAMMA_D
+    coth = 1.0 / tanh
     csch2 = np.where(thick, 0.0, coth**2 - 1.0)
-    return (coth / q + csch2 * thickness_m / delta_m).real, (-csch2).real
+    return (1.0 / (tanh * gamma)).real, (coth / q + csch2 * thickness_m / delta_m).real, (-csch2).real
+
+
+def per_frequency(values_of: Callable[[np.ndarray], tuple[np.ndarray, ...]], delta_m: np.ndarray
+                  ) -> tuple[np.ndarray, ...]:
+    """``values_of(delta)`` for a skin depth that depends on the frequency only: computed once per frequency
+    (a campaign has two), then spread over the rows."""
+    unique, rows = np.unique(delta_m, return_inverse=True)
+    return tuple(np.asarray(v)[rows] for v in values_of(unique))
 
 
 @register
@@ -173,8 +191,8 @@ class TargetTauTemperature(Effect):
             return x_m
         log_ratio = self._log_tau_ratio(data.t_target_c, self.sensor.reference_temperature_c, p)
         delta = skin_depth_m(rho, data.freq_hz)  # rho(T)/rho_0 = tau_0/tau_T(T)
-        change = (recession_m(delta * np.exp(-0.5 * log_ratio), p["plate_thickness"])
-                  - recession_m(delta, p["plate_thickness"]))
+        (cold,) = per_frequency(lambda d: (recession_m(d, p["plate_thickness"]),), delta)
+        change = recession_m(delta * np.exp(-0.5 * log_ratio), p["plate_thickness"]) - cold
         return x_m + self._skin_share(data, p) * change
 
     def target_tau(self, tau_s: np.ndarray, inputs: Inputs, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
@@ -203,9 +221,9 @@ class TargetTauTemperature(Effect):
         delta = skin_depth_m(rho, data.freq_hz)
         hot = delta * np.exp(-0.5 * log_ratio)
         thickness = p["plate_thickness"]
-        change = recession_m(hot, thickness) - recession_m(delta, thickness)
-        hot_by_delta, hot_by_thickness = recession_derivatives_m(hot, thickness)
-        _, cold_by_thickness = recession_derivatives_m(delta, thickness)
+        hot_recession, hot_by_delta, hot_by_thickness = recession_and_derivatives_m(hot, thickness)
+        cold, _, cold_by_thickness = per_frequency(lambda d: recession_and_derivatives_m(d, thickness), delta)
+        change = hot_recession - cold
         share = self._skin_share(data, p)
         by_log_ratio = share * hot_by_delta * hot * -0.5
         own = {"tau_tempco": by_log_ratio * d_t, "tau_tempco2": by_log_ratio * d_t**2,
