@@ -34,14 +34,20 @@ def main() -> None:
         cases = draw_cases(args.cases, args.seed)
         for workers in (int(w) for w in args.scaling.split(",")):
             start = time.perf_counter()
-            run_study(args.cases, args.seed, workers=workers, cases=cases)
-            print(f"{args.cases} campaigns on {workers} worker(s): {time.perf_counter() - start:.1f} s wall")
+            judged = run_study(args.cases, args.seed, workers=workers, cases=cases)
+            cpu = sum(j.diagnosis_cpu_s or 0.0 for j in judged)
+            print(f"{args.cases} campaigns on {workers} worker(s): {time.perf_counter() - start:.1f} s wall "
+                  f"(diagnoses {cpu:.1f} CPU s in all)", flush=True)
         return
     start = time.perf_counter()
     judgements = run_study(args.cases, args.seed, scheduler=args.scheduler, workers=args.workers)
     wall = time.perf_counter() - start
     print(format_study(judgements, args.seed))
     print(f"\nwall time {wall:.1f} s ({wall / max(len(judgements), 1):.2f} s per campaign)")
+    timed = sorted((j.diagnosis_cpu_s, j.case.number) for j in judgements if j.diagnosis_cpu_s is not None)
+    if timed:
+        print(f"diagnosis CPU time per campaign: median {timed[len(timed) // 2][0]:.1f} s, "
+              f"longest {timed[-1][0]:.1f} s (case {timed[-1][1]})")
     if args.json:
         args.json.write_text(json.dumps({"seed": args.seed, "rates": rates(judgements).to_json(),
                                          "cases": [j.to_json() for j in judgements]}, indent=1))

@@ -7,6 +7,7 @@ tabulates. ``benchmarks/validation_study.py`` runs the large study; ``tests/stud
 
 from __future__ import annotations
 
+import time
 from collections.abc import Sequence
 
 from ecds_lab.errors import EcdsLabError
@@ -21,10 +22,14 @@ def study_case(case: Case) -> Judgement:
     from ecds_lab.study.campaigns import measure
 
     try:
-        report = diagnose(measure(case))
+        data = measure(case)
+        began = time.process_time()
+        report = diagnose(data)
     except (EcdsLabError, ValueError, ArithmeticError) as error:
         return judge(case, None, f"{type(error).__name__}: {error}")
-    return judge(case, report)
+    judgement = judge(case, report)
+    judgement.diagnosis_cpu_s = time.process_time() - began
+    return judgement
 
 
 def run_study(count: int, seed: int, *, scheduler: str | None = None, workers: int | None = None,

@@ -40,12 +40,15 @@ class Judgement:
     false_alarm: bool = False
     right: bool = False
     error: str | None = None
+    #: CPU seconds the diagnosis took on its worker (the campaign's simulation not counted)
+    diagnosis_cpu_s: float | None = None
 
     def to_json(self) -> dict[str, Any]:
         return {**self.case.to_json(), "verdict": self.verdict, "claimed": self.claimed,
                 "alternatives": self.alternatives, "wrong_claims": self.wrong_claims, "found": self.found,
                 "missed": self.missed, "revealable": self.revealable, "null": self.null,
-                "false_alarm": self.false_alarm, "right": self.right, "error": self.error}
+                "false_alarm": self.false_alarm, "right": self.right, "error": self.error,
+                "diagnosis_cpu_s": self.diagnosis_cpu_s}
 
 
 def judge(case: Case, report: dict[str, Any] | None, error: str | None = None) -> Judgement:

@@ -41,6 +41,8 @@ def judgements():
 def test_every_case_is_diagnosed_in_order_on_two_workers(judgements):
     assert [j.case for j in judgements] == CASES
     assert all(j.error is None for j in judgements), format_study(judgements, 0)
+    assert all(j.diagnosis_cpu_s is not None and j.diagnosis_cpu_s > 0 for j in judgements)  # each one's cost is kept
+    assert all(j.to_json()["diagnosis_cpu_s"] == j.diagnosis_cpu_s for j in judgements)
 
 
 def test_clear_cases_are_judged_right(judgements):
