@@ -138,7 +138,7 @@ def run_diagnosis(data: Measurements, effects: Sequence[str] = (), sensor: Senso
                              and c.effect not in undetermined]
             break
         best = passing[0]
-        group = [best] + [c for c in passing[1:] if tied(best, c)]
+        group = [best] + [c for c in ranked if c is not best and _rival(best, c)]
         if len(group) > 1 and not _explains_well(best, screen, current, noise):
             partial.append([c.effect for c in group])  # each explains a part, none well: no tie, none added
             names = [n for n in names if n not in {c.effect for c in group}]
@@ -185,6 +185,14 @@ def diagnose(data: Measurements, effects: Sequence[str] = (), sensor: SensorConf
              registry: EffectRegistry | None = None) -> dict[str, Any]:
     """The diagnosis as DESIGN.md's JSON object."""
     return run_diagnosis(data, effects, sensor, registry=registry).to_json()
+
+
+def _rival(best: Candidate, other: Candidate) -> bool:
+    """``other`` ties with the claim ``best``: as clear evidence and a plausible size, a chi-square gain the data
+    cannot tell from the claim's, and no worse held out. Its parameters need not be determined on their own:
+    an explanation as good as the claim's is a rival whether or not its size trades off with the baseline's."""
+    return (other.checks.get("evidence", False) and other.checks.get("plausible", False)
+            and other.checks.get("held_out", True) and tied(best, other))
 
 
 def _explains_well(best: Candidate, screen: Measurements, current: Step, noise: NoiseEstimate) -> bool:
