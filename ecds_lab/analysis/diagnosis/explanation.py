@@ -100,8 +100,10 @@ def explain(result: Diagnosis, registry: EffectRegistry | None = None) -> str:
                      "the search stopped first (see above). It lives in " + _where(result) + ".")
     elif final_ratio > FAILING_RATIO:
         lines.append(f"The residual is {final_ratio:.1f}x the noise estimate, but a flexible smooth finds no "
-                     "structure in it beyond chance: the readings scatter more than the noise estimate says; "
-                     "nothing outside the library is claimed.")
+                     "structure in it beyond chance: the readings scatter more than the noise estimate says "
+                     f"({result.noise.source}), so the diagnosis is inconclusive and claims nothing outside the "
+                     "library. Scatter between moves is invisible to repeated readings of one visit: declare the "
+                     "slide's repeatability, or revisit positions from the same direction so it can be measured.")
     elif result.claimed:
         lines.append(f"With {', '.join(result.claimed)} the model is adequate ({final.rmse_ppm:.1f} ppm, "
                      f"{final_ratio:.2f}x the noise).")
