@@ -59,6 +59,12 @@ def explain(result: Diagnosis, registry: EffectRegistry | None = None) -> str:
                          f"(from {before.rmse_ppm:.1f} to {step.rmse_ppm:.1f} ppm{error}); read it as "
                          f"{' or '.join([added, *others])}.")
             continue
+        if step.leaves_structure is not None:
+            lines.append(f"Adding {added} ({effect.explains}) brings it from {before.rmse_ppm:.1f} to "
+                         f"{step.rmse_ppm:.1f} ppm, but where it acts the final residual keeps structure "
+                         f"{step.leaves_structure:.0f} standard deviations beyond chance: it takes only part of "
+                         "something the library does not describe, so it is not claimed.")
+            continue
         lines.append(f"Adding {added} ({effect.explains}) brings it from {before.rmse_ppm:.1f} to "
                      f"{step.rmse_ppm:.1f} ppm{error} (BIC gain on its signature "
                      f"{candidate.delta_bic_signature:+.0f}{cv}); fitted {values}.")
@@ -74,7 +80,7 @@ def explain(result: Diagnosis, registry: EffectRegistry | None = None) -> str:
     for name in result.undetermined:
         lines.append(f"{name} would explain part of it, but these data do not determine its size, so it is "
                      "not claimed.")
-    for group in result.partial:
+    for group in (g for g in result.partial if len(g) > 1):
         lines.append(f"{', '.join(group[:-1])} and {group[-1]} each explain part of the residual about equally, "
                      "none of them well (a flexible smooth of the residual finds much more structure than any "
                      "one takes): none is claimed.")

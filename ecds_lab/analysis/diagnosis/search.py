@@ -27,13 +27,21 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from itertools import pairwise
 from typing import Any
 
 import numpy as np
 
 from ecds_lab.analysis.associations import residual_associations
 from ecds_lab.analysis.diagnosis.advice import suggestions
-from ecds_lab.analysis.diagnosis.checks import check_candidate, evidence_rank, score_candidate, tied, whitened
+from ecds_lab.analysis.diagnosis.checks import (
+    SIGNATURE_SHARE,
+    check_candidate,
+    evidence_rank,
+    score_candidate,
+    tied,
+    whitened,
+)
 from ecds_lab.analysis.diagnosis.explanation import explain
 from ecds_lab.analysis.diagnosis.held_out import SCREEN_ROWS, check_held_out, cv_rmse, folds_of, screened
 from ecds_lab.analysis.diagnosis.identifiability import (
@@ -45,7 +53,7 @@ from ecds_lab.analysis.diagnosis.identifiability import (
 )
 from ecds_lab.analysis.diagnosis.result import Candidate, Diagnosis, Step
 from ecds_lab.analysis.diagnosis.structure import residual_structure
-from ecds_lab.analysis.diagnosis.verdict import ADEQUATE_RATIO, STRUCTURE_SIGNIFICANCE, verdict_of
+from ecds_lab.analysis.diagnosis.verdict import ADEQUATE_RATIO, STRUCTURE_SIGNIFICANCE, outside_library, verdict_of
 from ecds_lab.analysis.fitting import FitResult, fit_model
 from ecds_lab.analysis.noise import NoiseEstimate
 from ecds_lab.analysis.outliers import Outlier, describe, find_glitches
@@ -169,6 +177,9 @@ def run_diagnosis(data: Measurements, effects: Sequence[str] = (), sensor: Senso
     associations = residual_associations(clean, whitened(final.fit.residuals_ppm, clean, noise),
                                          noise.ppm * math.sqrt(max(noise.design_effect, 1.0)))
     structure = residual_structure(clean, final.fit.residuals_ppm, noise)
+    if not limits and outside_library(final, noise, structure, associations):
+        _mark_partial(steps, clean, noise)
+        partial += [[step.effects[-1]] for step in steps[1:] if step.leaves_structure is not None]
     if len(steps) == 1 and len(undetermined) > 1:
         alternatives.append(list(undetermined))
         undetermined = []
@@ -185,6 +196,22 @@ def diagnose(data: Measurements, effects: Sequence[str] = (), sensor: SensorConf
              registry: EffectRegistry | None = None) -> dict[str, Any]:
     """The diagnosis as DESIGN.md's JSON object."""
     return run_diagnosis(data, effects, sensor, registry=registry).to_json()
+
+
+def _mark_partial(steps: list[Step], data: Measurements, noise: NoiseEstimate) -> None:
+    """With a residual outside the library left at the end, an effect claimed on the way that leaves structure
+    beyond chance where it acts (the readings whose prediction it moved by SIGNATURE_SHARE of the noise) only
+    took a part of what the library does not describe (a lag taking part of a hysteresis, a bending part of a
+    drift in time): it is not claimed (``Step.leaves_structure``). Tie representatives stay as they are."""
+    final = steps[-1].fit.residuals_ppm
+    for before, step in pairwise(steps):
+        if step.stands_for:
+            continue
+        change = (step.fit.predict(data) / before.fit.predict(data) - 1) * 1e6
+        acts = np.abs(change) >= SIGNATURE_SHARE * noise.sigma_ppm(data)
+        left = residual_structure(data, final, noise, rows=acts)
+        if left.beyond(STRUCTURE_SIGNIFICANCE):
+            step.leaves_structure = left.significance
 
 
 def _rival(best: Candidate, other: Candidate) -> bool:

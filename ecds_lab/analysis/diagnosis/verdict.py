@@ -40,7 +40,7 @@ def verdict_of(steps: list[Step], effects: list[str], noise: NoiseEstimate, stru
     and the residual still holds structure (outside the library); inconclusive when the data cannot
     separate the candidates, could test none of them, the search stopped at a limit first, or the residual is
     clearly above the noise without structure a model could take (scatter the noise estimate misses)."""
-    if any(not step.stands_for for step in steps[1:]):
+    if any(step.claims for step in steps[1:]):
         return "missing_effect"
     if alternatives:
         return "inconclusive"
