@@ -27,8 +27,6 @@ MAX_BINS = 10
 TIME_MARGIN = 1.25
 #: Scored on the variation within each phase of the campaign.
 WITHIN_PHASE = ("time_s", "coil_rate_k_per_min")
-#: The strongest this many variables are ranked by what each explains beyond the others.
-CONFOUNDED = 4
 
 
 @dataclass(frozen=True)
@@ -99,56 +97,20 @@ def _describe(variable: Variable, data: Measurements, values: np.ndarray, r: np.
 
 
 def residual_associations(data: Measurements, residuals_ppm: np.ndarray, noise_ppm: float) -> list[Association]:
-    """Score every variable by how much of the residual it explains; strongest first.
-
-    Variables that rise together along a campaign (time and the coil's temperature when the coil is heated
-    last) each explain much of a residual that lives in one of them. The CONFOUNDED strongest are therefore
-    ranked by what each explains beyond every other one of them: its score on the residual left after the
-    other's bin means are taken out (``significance`` stays the variable's own)."""
+    """Score every variable by how much of the residual it explains; strongest first."""
     full = np.asarray(residuals_ppm, float)
-    scorer = _Scorer(data, full, noise_ppm)
-    out = [scorer.association(variable, full) for variable in VARIABLES.values()]
-    marginal = sorted(out, key=lambda a: -(a.score / TIME_MARGIN if a.variable == "time_s" else a.score))
-    strong = [a for a in marginal[:CONFOUNDED] if a.variable != "freq_hz" and a.significance > 3]
-    if len(strong) < 2:
-        return marginal
-    beyond = {a.variable: min(scorer.association(VARIABLES[a.variable], scorer.without(VARIABLES[b.variable], full)
-                                                 ).significance for b in strong if b is not a) for a in strong}
-    head = sorted(strong, key=lambda a: -beyond[a.variable])
-    return head + [a for a in marginal if a not in head]
-
-
-class _Scorer:
-    """The bin-means statistic of each variable on a residual (per frequency; time-like variables within phases)."""
-
-    def __init__(self, data: Measurements, full: np.ndarray, noise_ppm: float) -> None:
-        self.data, self.noise_ppm = data, noise_ppm
-        self.total = float(np.sum((full - full.mean()) ** 2)) or 1.0
-        self.within = sum(float(np.sum((full[g] - full[g].mean()) ** 2))
-                          for g in (data.freq_hz == f for f in np.unique(data.freq_hz))) or 1.0
-        self.labels = phase_labels(data)
-        self.frequencies = [data.freq_hz == f for f in np.unique(data.freq_hz)]
-
-    def without(self, variable: Variable, r: np.ndarray) -> np.ndarray:
-        """``r`` minus its mean in each bin of ``variable`` (per frequency): what the variable does not explain."""
-        values = variable.values(self.data)
-        out = r.copy()
-        for group in self.frequencies:
-            rows = group & np.isfinite(values)
-            if rows.sum() < 3:
-                continue
-            index, bins = _bin_index(values[rows], variable.categorical)
-            counts = np.bincount(index, minlength=bins)
-            means = np.bincount(index, weights=r[rows], minlength=bins) / np.maximum(counts, 1)
-            out[rows] = r[rows] - means[index]
-        return out
-
-    def association(self, variable: Variable, full: np.ndarray) -> Association:
-        data, noise_ppm = self.data, self.noise_ppm
+    total = float(np.sum((full - full.mean()) ** 2)) or 1.0
+    within = sum(float(np.sum((full[g] - full[g].mean()) ** 2))
+                 for g in (data.freq_hz == f for f in np.unique(data.freq_hz)))
+    labels = phase_labels(data)
+    in_phase = within_phase(full, labels, data.freq_hz)
+    out = []
+    for variable in VARIABLES.values():
         values = variable.values(data)
-        r = within_phase(full, self.labels, data.freq_hz) if variable.name in WITHIN_PHASE else full
+        r = in_phase if variable.name in WITHIN_PHASE else full
         between, dof = 0.0, 0
-        groups = [np.ones(len(r), bool)] if variable.name == "freq_hz" else self.frequencies
+        groups = [np.ones(len(r), bool)] if variable.name == "freq_hz" else \
+            [data.freq_hz == f for f in np.unique(data.freq_hz)]
         for group in groups:
             rows = group & np.isfinite(values)
             if rows.sum() < 3:
@@ -163,6 +125,7 @@ class _Scorer:
         significance = (between / noise_ppm**2 - dof) / np.sqrt(2 * dof) if dof and noise_ppm > 0 else 0.0
         # Frequency is scored against all the residual, every other variable against what is
         # left within each frequency (an offset between frequencies is the frequency's to explain).
-        score = min(1.0, explained / (self.total if variable.name == "freq_hz" else self.within))
-        return Association(variable.name, round(score, 4), _describe(variable, data, values, r),
-                           round(float(significance), 1))
+        score = min(1.0, explained / (total if variable.name == "freq_hz" else (within or 1.0)))
+        out.append(Association(variable.name, round(score, 4), _describe(variable, data, values, r),
+                               round(float(significance), 1)))
+    return sorted(out, key=lambda a: -(a.score / TIME_MARGIN if a.variable == "time_s" else a.score))

@@ -72,6 +72,9 @@ LEADING = 3
 #: At most this many effects are added (the library has eight); reaching it is reported, never silent.
 MAX_STEPS = 8
 MAX_OUTLIER_ROUNDS = 3
+#: An effect leaving at least this share of its own chi-square gain as structure where it acts, with the residual
+#: outside the library, explained only part of something else (``_mark_partial``).
+PARTIAL_SHARE = 0.5
 #: A tied group explains the residual well (a tie, not a set of partial explanations) when its best
 #: member's chi-square gain is at least this share of the structure a flexible smooth finds beyond chance.
 GOOD_SHARE = 0.6
@@ -200,9 +203,11 @@ def diagnose(data: Measurements, effects: Sequence[str] = (), sensor: SensorConf
 
 def _mark_partial(steps: list[Step], data: Measurements, noise: NoiseEstimate) -> None:
     """With a residual outside the library left at the end, an effect claimed on the way that leaves structure
-    beyond chance where it acts (the readings whose prediction it moved by SIGNATURE_SHARE of the noise) only
-    took a part of what the library does not describe (a lag taking part of a hysteresis, a bending part of a
-    drift in time): it is not claimed (``Step.leaves_structure``). Tie representatives stay as they are."""
+    beyond chance where it acts (the readings whose prediction it moved by SIGNATURE_SHARE of the noise), at
+    least PARTIAL_SHARE of what it took (its chi-square gain), only took a part of what the library does not
+    describe (a bending a part of a drift in time): it is not claimed (``Step.leaves_structure``). An effect
+    that took nearly all of what lives where it acts (moisture drying written another way) stays claimed.
+    Tie representatives stay as they are."""
     final = steps[-1].fit.residuals_ppm
     for before, step in pairwise(steps):
         if step.stands_for:
@@ -210,7 +215,8 @@ def _mark_partial(steps: list[Step], data: Measurements, noise: NoiseEstimate) -
         change = (step.fit.predict(data) / before.fit.predict(data) - 1) * 1e6
         acts = np.abs(change) >= SIGNATURE_SHARE * noise.sigma_ppm(data)
         left = residual_structure(data, final, noise, rows=acts)
-        if left.beyond(STRUCTURE_SIGNIFICANCE):
+        gain = next(c.chi2_gain for c in before.candidates if c.effect == step.effects[-1])
+        if left.beyond(STRUCTURE_SIGNIFICANCE) and left.excess_chi2 > PARTIAL_SHARE * gain:
             step.leaves_structure = left.significance
 
 
