@@ -167,7 +167,9 @@ def coil_rows(air: Measurements, room: Measurements, reference_c: float = 20.0) 
     alpha = {f"eq4.alpha_per_k.{eq4.freq_hz:g}Hz": eq4.alpha_per_k}
     how = (f"{eq4.method}: {len(t)} steady coil temperatures in air up to {span:.0f} K above room, "
            f"alpha {eq4.alpha_per_k * 1e6:+.3g} ppm/K; e_pos = (dL_coil / L_coil) L(x) / S(x) with L(x), S(x) from "
-           f"the room sweep (paper Sec. 4.3); FS = {fs * 1e3:.4g} mm, the calibrated span")
+           f"the room sweep (paper Sec. 4.3); FS = {fs * 1e3:.4g} mm, the calibrated span"
+           + (f"; {eq4.glitches_excluded} glitch reading(s) left out of the steady means"
+              if eq4.glitches_excluded else ""))
     rows.append(_row(f"coil heated {span:.0f} K, 500 Hz, compensated with Eq. 4, max |e_pos| (ΔL/S)", "< 0.2 (Fig. 23)",
                      max_comp / fs * 100, "% FS", max_comp / fs * 100 < 0.2, how) | {"quantities": alpha})
     ts = max_comp / fs / span * 1e6

@@ -81,7 +81,8 @@ def fit_summary(data: Measurements, effects: Sequence[str] = (), sensor: SensorC
         summary["quantities"][f"eq4.alpha_per_k.{e.freq_hz:g}Hz"] = e.alpha_per_k
     summary["eq4_steady"] = [{"freq_hz": e.freq_hz, "method": e.method, "reference_c": e.reference_c,
                               "alpha_per_k": e.alpha_per_k, "beta_per_k2": e.beta_per_k2, "l0_h": e.l0_h,
-                              "span_k": e.span_k} for e in coil.eq4.values()]
+                              "span_k": e.span_k, "glitches_excluded": e.glitches_excluded}
+                             for e in coil.eq4.values()]
     return summary
 
 

@@ -61,9 +61,6 @@ def test_one_full_scale_everywhere(outputs):
     assert quoted == fs
 
 
-@pytest.mark.xfail(strict=True, reason="open after the merge (issue 24, point 1): the paper's Eq. (4) compensation at "
-                   "500 Hz leaves 2.70 mm max against 4.30 mm uncompensated on this fixture (ratio 0.63, the test asks "
-                   "< 0.5; 0.087 on the branch that wrote it); not yet traced to the merge that moved it")
 def test_the_coil_compensation_is_the_papers_and_better_than_none_in_every_output(outputs):
     fit, rows, html = outputs
     at_500 = next(c for c in fit["calibration"] if c["freq_hz"] == 500.0)["all_points"]["coil_heated"]
