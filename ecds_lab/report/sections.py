@@ -22,7 +22,6 @@ from ecds_lab.analysis.quantities import (
     format_quantity,
     model_fails,
     parameter_rows,
-    position_error_figure,
 )
 from ecds_lab.analysis.summary import (
     CalibrationCase,
@@ -242,7 +241,8 @@ def diagnosis_section(findings: Findings) -> Parts:
     verdict = str(diagnosis.verdict)
     parts: Parts = [Html(f'<p>{badge(verdict.replace("_", " "), "good" if verdict == "adequate" else "bad")} '
                   f"noise {diagnosis.noise_ppm:.1f} ppm ({diagnosis.noise.source}), baseline residual "
-                  f"{diagnosis.baseline.rms_ppm:.1f} ppm of L ({main.material if main else ''} target data)</p>"),
+                  f"{diagnosis.baseline.rms_ppm:.1f} ppm of L ({main.material if main else ''} target data"
+                  f"{_glitches_note(diagnosis, main)})</p>"),
              paragraph(diagnosis.explanation, "explanation")]
     steps = list(getattr(diagnosis, "steps", []))
     if steps:
@@ -297,12 +297,12 @@ def _other_diagnoses(findings: Findings) -> Parts:
                               + (diagnosis.reason if isinstance(diagnosis, Omitted) else "no readings")))
             continue
         verdict = str(diagnosis.verdict)
-        fit = group.fit
-        failure = model_fails(fit.rms_ppm, fit.noise.ppm)
+        failure = model_fails(diagnosis.final.rmse_ppm, diagnosis.noise_ppm)  # the figures of this very line
         parts.append(Html(f'<h3>The {html_text(material)} target</h3><p>'
                           f'{badge(verdict.replace("_", " "), "good" if verdict == "adequate" else "bad")} '
                           f"noise {diagnosis.noise_ppm:.1f} ppm ({diagnosis.noise.source}), baseline residual "
                           f"{diagnosis.baseline.rms_ppm:.1f} ppm of L"
+                          + (f" ({_glitches_note(diagnosis, group).lstrip('; ')})" if diagnosis.outliers else "")
                           + (f"; {MODEL_FAILS}: {html_text(failure)}" if failure else "") + "</p>"))
         parts.append(paragraph(diagnosis.explanation, "explanation"))
         steps = list(getattr(diagnosis, "steps", []))
@@ -315,14 +315,25 @@ def _other_diagnoses(findings: Findings) -> Parts:
     return parts
 
 
+def _glitches_note(diagnosis: Any, group: TargetGroup | None) -> str:
+    """Why the diagnosis' baseline residual differs from the model-fit section's fit of the same readings:
+    the glitch readings the diagnosis leaves out (that fit takes every reading)."""
+    outliers = getattr(diagnosis, "outliers", None)
+    if not outliers or group is None:
+        return ""
+    return (f"; {len(outliers)} glitch reading(s) left out: the model fit section's baseline fit, which "
+            f"takes every reading, leaves {group.fit.rms_ppm:.1f} ppm with them")
+
+
 def _chain_label(effects: Sequence[str]) -> str:
     return " + ".join(["baseline", *effects])
 
 
 def step_error(step: Any, noise_ppm: float) -> PositionErrorFigure:
-    """The RMS position error of one model of the chain, or why it is no length (``quantities``)."""
-    return position_error_figure(step.residual_mm, step.full_scale_mm, model_rms_ppm=step.rmse_ppm,
-                                 noise_ppm=noise_ppm)
+    """The RMS position error of one model of the chain, or why it is no length: the step's own figure
+    (``Step.position_error``, the one the diagnosis JSON and text show), over the readings with a position
+    (a coil-in-air reading has none; it is not a reading out of range)."""
+    return step.position_error(noise_ppm)
 
 
 def _step_error_text(step: Any, noise_ppm: float) -> str:
