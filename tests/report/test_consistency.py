@@ -129,3 +129,20 @@ def test_the_chain_position_error_counts_no_coil_in_air_reading_as_out_of_range(
     assert figure.n_out_of_range == 0 and figure.n == 3
     assert figure.to_json() == step.position_error(30.0).to_json()
     assert "out of range" not in figure.text("rms")
+
+
+def test_a_target_rise_the_paper_rows_quote_is_the_tables_or_is_named_as_another(outputs, campaign_report):
+    """The position table gives the copper plate's largest rise (108 K); the paper rows quoted '107 K' for the same
+    heating without saying it is the mean of the hot sweep over the room sweep. Each paper row quoting a target rise
+    either quotes the table's figure or names its own."""
+    _, rows, _ = outputs
+    position = _section(campaign_report.html, "position")
+    table_rise = {material: int(rise) for material, rise in
+                  re.findall(r"<td>target heated<br>(\w+) target, [0-9]+ Hz</td><td>([0-9]+) K</td>", position)}
+    assert "copper" in table_rise
+    quoted = [(r["quantity"], int(m.group(1))) for r in rows
+              if (m := re.search(r"(?:copper )?target[^,]*?(?:heated|ΔT)[^0-9,]*([0-9]+) K", r["quantity"]))]
+    assert quoted, [r["quantity"] for r in rows]
+    for label, rise in quoted:
+        assert rise == table_rise["copper"] or "mean" in label, (label, table_rise)
+    assert all("mean target temperature" in r["how"] for r in rows if "mean rise" in r["quantity"])
