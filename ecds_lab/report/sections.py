@@ -413,7 +413,7 @@ def _ts_rows(group: TargetGroup, with_coil: bool) -> list[tuple[object, ...]]:
     for freq, cases in group.cases.items():
         room = [f"n = {c.calibration.n_points}: "
                 + quantity_span(quantity_key("room", group.material, freq, c.label),
-                                (figure := _figure_of(c.room, c.calibration)).max_abs_mm, text_shown=figure.text())
+                                (figure := _figure_of(c.room, c)).max_abs_mm, text_shown=figure.text())
                 for c in cases]
         rows.append((lines(["room temperature (the calibration's own error)", f"{group.material} target, {freq:g} Hz"]),
                      "—", *(Html(r) for r in room), "—"))
@@ -425,7 +425,7 @@ def _ts_rows(group: TargetGroup, with_coil: bool) -> list[tuple[object, ...]]:
             cells: list[object] = [lines([_case_name(kind, found[0][0]), f"{group.material} target, {freq:g} Hz"]),
                                    f"{float(np.max(found[0][1].rise_k)):.0f} K"]
             for case, heated in found:
-                figure = heated_figure(heated, case.calibration)
+                figure = heated_figure(heated, case.calibration, case.noise_ppm)
                 key = quantity_key(kind, group.material, freq, case.label)
                 shown = quantity_span(key, figure.max_abs_mm, text_shown=figure.text())
                 top = temperature_stability_top_step(heated.errors, heated.rise_k) if figure.valid else None
@@ -437,9 +437,9 @@ def _ts_rows(group: TargetGroup, with_coil: bool) -> list[tuple[object, ...]]:
     return rows
 
 
-def _figure_of(errors: Any, calibration: Any) -> PositionErrorFigure:
-    """The figure of room-temperature readings under their calibration (as ``ecds-lab fit`` shows it)."""
-    return heated_figure(HeatedErrors(errors, np.zeros(len(errors.x_ref_m))), calibration)
+def _figure_of(errors: Any, case: CalibrationCase) -> PositionErrorFigure:
+    """The figure of room-temperature readings under their case's calibration (as ``ecds-lab fit`` shows it)."""
+    return heated_figure(HeatedErrors(errors, np.zeros(len(errors.x_ref_m))), case.calibration, case.noise_ppm)
 
 
 def position_section(findings: Findings) -> Parts:

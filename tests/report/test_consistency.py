@@ -146,3 +146,30 @@ def test_a_target_rise_the_paper_rows_quote_is_the_tables_or_is_named_as_another
     for label, rise in quoted:
         assert rise == table_rise["copper"] or "mean" in label, (label, table_rise)
     assert all("mean target temperature" in r["how"] for r in rows if "mean rise" in r["quantity"])
+
+
+def test_a_calibration_without_repeats_is_judged_against_the_measured_noise(campaign_files):
+    """No position error without a valid calibration: the steel sweep at 15 kHz has no repeated readings, so its
+    calibration's own noise was its residual's spread and no residual could fail against it. With the sweep
+    distorted by 3 % along x (a calibration the model cannot follow) the figure read as a length (37.6 mm); it is
+    judged against the noise the repeated readings measured and reads "model fails here"."""
+    from dataclasses import replace
+
+    from ecds_lab.analysis.quantities import MODEL_FAILS, VALID
+
+    steel = next(open_data(p) for p in campaign_files if open_data(p).sensor.target == "steel")
+    air = next(open_data(p).data for p in campaign_files if open_data(p).run.kind == "coil_heating")
+    d = steel.data
+    sweep = np.isfinite(d.x_m) & (d.freq_hz == 15000.0)
+
+    def room_15k(amplitude: float) -> dict:
+        bump = np.where(sweep, 1 + amplitude * np.sin(np.nan_to_num(d.x_m) * 2 * np.pi / 0.03), 1.0)
+        summary = fit_summary(Measurements.concatenate([replace(d, ls_h=d.ls_h * bump), air]), [], steel.sensor)
+        assert summary["noise_method"] == "repeated readings"
+        return next(c for c in summary["calibration"] if c["freq_hz"] == 15000.0)["all_points"]
+
+    assert room_15k(0.0)["room_temperature"]["status"] == VALID
+    distorted = room_15k(0.03)
+    assert distorted["room_temperature"]["status"] == MODEL_FAILS, distorted["room_temperature"]
+    assert distorted["room_temperature"]["max_abs_mm"] is None
+    assert distorted.get("target_heated", {}).get("max_abs_mm") is None
