@@ -95,6 +95,7 @@ def _quantities(calibrations: list[dict[str, Any]], material: str) -> dict[str, 
             entry = cal[label]
             out[f"full_scale_mm.{material}.{f:g}Hz"] = entry["fs_mm"]
             out[quantity_key("room", material, f, label)] = entry["room_temperature"]["max_abs_mm"]
+            out[rms_key(quantity_key("room", material, f, label))] = entry["room_temperature"]["rms_mm"]
             heated = {"target_heated": entry.get("target_heated")}
             if "coil_heated" in entry:
                 heated.update({f"coil_{kind}": entry["coil_heated"][kind] for kind in ("compensated", "uncompensated")})
@@ -107,6 +108,11 @@ def _quantities(calibrations: list[dict[str, Any]], material: str) -> dict[str, 
                     out[ts_key(key, "min")] = figure["ts_ppm_fs_per_k_min"]
                     out[ts_key(key, "max")] = figure["ts_ppm_fs_per_k_max"]
     return out
+
+
+def rms_key(error_key: str) -> str:
+    """The key of the RMS position error that goes with a max |e_pos| figure's key."""
+    return error_key.replace("position_error.max_abs_mm", "position_error.rms_mm")
 
 
 def ts_key(error_key: str, end: str) -> str:
