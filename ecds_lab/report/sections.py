@@ -517,7 +517,9 @@ def heating_section(findings: Findings) -> Parts:
         rows.append((f"{freq:g} Hz", STEADY_EQ4_LABEL,
                      Html(quantity_span(f"eq4.alpha_per_k.{freq:g}Hz", eq4.alpha_per_k, "1/K")),
                      format_quantity(eq4.beta_per_k2, "1/K^2"), format_quantity(eq4.l0_h, "H"),
-                     f"{len(eq4.t_coil_c)} steady temperatures over {eq4.span_k:.0f} K"))
+                     f"{len(eq4.t_coil_c)} steady temperatures over {eq4.span_k:.0f} K"
+                     + (f"; {eq4.glitches_excluded} glitch reading(s) left out of the steady means"
+                        if eq4.glitches_excluded else "")))
     failure = model_fails(fit.rms_ppm, fit.noise.ppm)
     joint = [format_quantity(fit.values[n], fit.parameter(n).unit, fit.stderr.get(n)) for n in ("alpha", "beta", "L0")]
     if failure:

@@ -176,3 +176,16 @@ def test_a_calibration_without_repeats_is_judged_against_the_measured_noise(camp
     assert distorted["room_temperature"]["status"] == MODEL_FAILS, distorted["room_temperature"]
     assert distorted["room_temperature"]["max_abs_mm"] is None
     assert distorted.get("target_heated", {}).get("max_abs_mm") is None
+
+
+def test_every_output_of_the_steady_eq4_says_how_many_glitch_readings_it_left_out(outputs, campaign_report):
+    """The demo's coil heating has a glitch in a steady step at 500 Hz (the one that moved alpha, issue 24 point 1):
+    the fit JSON, the paper row and the report's Eq. (4) table each say it was left out, with one count."""
+    fit, rows, html = outputs
+    counts = {e["freq_hz"]: e["glitches_excluded"] for e in fit["eq4_steady"]}
+    assert counts.get(500.0, 0) >= 1, counts
+    coil = next(r for r in rows if r["quantity"].startswith("coil heated")
+                and "compensated with Eq. 4" in r["quantity"])
+    assert f"{counts[500.0]} glitch reading(s) left out of the steady means" in coil["how"]
+    heating = _section(html, "heating")
+    assert f"{counts[500.0]} glitch reading(s) left out of the steady means" in heating
