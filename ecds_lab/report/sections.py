@@ -19,6 +19,7 @@ from ecds_lab.analysis.quantities import (
     MODEL_FAILS,
     MODEL_FAILS_FACTOR,
     PositionErrorFigure,
+    chain_position_error,
     format_quantity,
     model_fails,
     parameter_rows,
@@ -333,7 +334,7 @@ def step_error(step: Any, noise_ppm: float) -> PositionErrorFigure:
     """The RMS position error of one model of the chain, or why it is no length: the step's own figure
     (``Step.position_error``, the one the diagnosis JSON and text show), over the readings with a position
     (a coil-in-air reading has none; it is not a reading out of range)."""
-    return step.position_error(noise_ppm)
+    return chain_position_error(step.residual_mm, step.full_scale_mm, step.rmse_ppm, noise_ppm)
 
 
 def _step_error_text(step: Any, noise_ppm: float) -> str:
