@@ -30,6 +30,7 @@ from ecds_lab.analysis.fitting import FitResult, fit_model
 from ecds_lab.analysis.noise import REPEATED, noise_parts_text
 from ecds_lab.analysis.quantities import (
     MODEL_FAILS,
+    MODEL_FAILS_FACTOR,
     VALID,
     PositionErrorFigure,
     format_quantity,
@@ -47,6 +48,12 @@ HEATED_K = 5.0
 #: The paper's reduced calibration set.
 FEW_POINTS = 4
 _CALIBRATED = ("L0", "p1", "p2", "p3", "p4")
+#: What the paper-style calibrations take from the full fit, said wherever that fit fails: its parameters give no
+#: positions themselves, the calibrations' positions stand or fall with the calibrations' own residuals.
+CALIBRATIONS_FROM_FIT = ("its parameters describe no coil and give no positions of their own; each calibration "
+                         "refits L0 and p1..p4 on its room-temperature sweep, holds the others at this fit's values "
+                         f"and gives positions only while its own residual stays within {MODEL_FAILS_FACTOR:g}x "
+                         "the noise")
 #: The Eq. (4) coefficients of the joint model fit (every reading, every frequency), named where shown.
 JOINT_EQ4_METHOD = "alpha, beta of the joint model fit of every reading at every frequency"
 
@@ -379,8 +386,8 @@ def format_fit_summary(summary: dict[str, Any]) -> str:
              + f", dof {summary['dof']}, BIC {summary['bic']:.1f}"]
     model = summary.get("model", {})
     if model.get("status") == MODEL_FAILS:
-        lines.append(f"  {MODEL_FAILS}: {model['reason']}; the parameters below describe no coil and give no "
-                     "positions (ecds-lab diagnose finds what the model lacks)")
+        lines.append(f"  {MODEL_FAILS}: {model['reason']}; {CALIBRATIONS_FROM_FIT} (ecds-lab diagnose finds what "
+                     "the model lacks)")
     lines += [f"  warning: {text}" for text in summary.get("noise_warnings", [])]
     lines.append("  parameters:")
     for name, p in summary["params"].items():

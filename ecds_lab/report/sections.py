@@ -25,6 +25,7 @@ from ecds_lab.analysis.quantities import (
     parameter_rows,
 )
 from ecds_lab.analysis.summary import (
+    CALIBRATIONS_FROM_FIT,
     CalibrationCase,
     HeatedErrors,
     heated_figure,
@@ -183,8 +184,7 @@ def _params_table(group: TargetGroup) -> Html:
     rows = _param_rows(fit)
     noise = f", noise {fit.noise.ppm:.1f} ppm (from {fit.noise.source})"
     failure = model_fails(fit.rms_ppm, fit.noise.ppm)
-    verdict = (f"; {MODEL_FAILS}: {failure}, so these parameters describe no coil and give no positions"
-               if failure else "")
+    verdict = f"; {MODEL_FAILS}: {failure}, so {CALIBRATIONS_FROM_FIT}" if failure else ""
     caption = (f"{group.material} target: baseline fit of {fit.n} readings, residual RMS {fit.rms_ppm:.1f} ppm of L"
                f"{noise}{verdict}")
     return table(("parameter", "value", "status"), rows, caption=caption, css="params")
@@ -454,8 +454,11 @@ def position_section(findings: Findings) -> Parts:
         return list(skipped) or [note("no calibration: no room-temperature sweep with five or more positions "
                                       "at one frequency")]
     parts.append(paragraph("Each frequency is calibrated on its room-temperature sweep (Eq. 5) with all positions "
-                           "and with the paper's n = 4 points in the sensitive near range; the heated readings are "
-                           "then turned into positions and compared with the slide's."))
+                           "and with the paper's n = 4 points in the sensitive near range: L0 and p1..p4 are fitted, "
+                           "the other parameters held at the model fit's values above; the heated readings are "
+                           "then turned into positions and compared with the slide's. A calibration whose own "
+                           f"residual exceeds {MODEL_FAILS_FACTOR:g}x the noise gives no position error (\"model fails "
+                           "here\")."))
     parts.extend(skipped)
     target_panels = [(g.material, f, cases) for g in with_cases for f, cases in g.cases.items()
                      if any(c.target_heated is not None for c in cases)]

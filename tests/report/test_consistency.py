@@ -189,3 +189,16 @@ def test_every_output_of_the_steady_eq4_says_how_many_glitch_readings_it_left_ou
     assert f"{counts[500.0]} glitch reading(s) left out of the steady means" in coil["how"]
     heating = _section(html, "heating")
     assert f"{counts[500.0]} glitch reading(s) left out of the steady means" in heating
+
+
+def test_a_failing_fit_does_not_deny_the_positions_its_calibrations_give(campaign_report):
+    """The fit section said the failing baseline's parameters 'describe no coil and give no positions', while the
+    position table, a section later, gave lengths from calibrations holding those parameters. Both now say what the
+    calibrations take from that fit and on what their positions rest (their own residual)."""
+    html = campaign_report.html
+    fit, position = _section(html, "fit"), _section(html, "position")
+    lengths = re.findall(r'data-q="position_error\.max_abs_mm\.[^"]+" data-v="([0-9.eE+-]+)"', position)
+    assert lengths and "model fails here" in fit
+    assert "give no positions" not in fit.replace("give no positions of their own", "")
+    assert "refits L0 and p1..p4 on its room-temperature sweep" in fit
+    assert "the other parameters held at the model fit" in position
