@@ -272,7 +272,8 @@ def table2_rows(spectroscopy: Measurements) -> list[Row]:
         fits.append((float(np.mean(part.t_coil_c)), fit))
     for t_paper, (l_p, c_p, r_p) in TABLE_2.items():
         t, fit = min(fits, key=lambda item: abs(item[0] - t_paper))
-        where = f"parallel RLC fit of the spectrum at {t:.0f} °C (analysis.spectroscopy)"
+        where = (f"parallel RLC fit of the spectrum at {t:.0f} °C (analysis.spectroscopy), which leaves "
+                 f"{fit.rms_ppm:.0f} ppm of |Z|")
         dl = fit.inductance_h / l_p - 1
         change = fits[-1][1].inductance_h / fits[0][1].inductance_h - 1
         rows.append(_row(f"Table 2 L_p at {t_paper:.0f} °C", round(l_p * 1e3, 4), fit.inductance_h * 1e3, "mH",
@@ -284,8 +285,8 @@ def table2_rows(spectroscopy: Measurements) -> list[Row]:
                          abs(dc) < 0.1, where + "; within 10 % to agree"))
         rows.append(_row(f"Table 2 R_p at {t_paper:.0f} °C", round(r_p * 1e-3, 4), fit.parallel_resistance_ohm * 1e-3,
                          "kΩ", _approx(fit.parallel_resistance_ohm, r_p), where + "; within a factor 1.5 to agree",
-                         f"the parallel RLC circuit with a constant R_p leaves {fit.rms_ppm:.3g} ppm of |Z| on this "
-                         "spectrum, so its R_p summarises a loss that is not constant over frequency"))
+                         "the parallel RLC circuit with a constant R_p does not follow this spectrum (the residual "
+                         "above), so its R_p summarises a loss that is not constant over frequency"))
     return rows
 
 

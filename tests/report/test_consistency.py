@@ -202,3 +202,17 @@ def test_a_failing_fit_does_not_deny_the_positions_its_calibrations_give(campaig
     assert "give no positions" not in fit.replace("give no positions of their own", "")
     assert "refits L0 and p1..p4 on its room-temperature sweep" in fit
     assert "the other parameters held at the model fit" in position
+
+
+def test_every_table_2_row_says_what_its_circuit_fit_leaves(outputs, campaign_report):
+    """The spectroscopy table shows each parallel RLC fit's residual (8 % of |Z| at room temperature in the demo);
+    the paper rows quoting that fit's L_p, C_p and R_p said it only where R_p differed, so a C_p 'agrees' came
+    without it. Each row now names the residual of the fit it quotes, the figure the spectroscopy table shows."""
+    _, rows, html = outputs
+    table2 = [r for r in rows if r["quantity"].startswith("Table 2")]
+    assert table2
+    spectroscopy = _section(html, "spectroscopy")
+    for row in table2:
+        residual = re.search(r"which leaves ([0-9]+) ppm of \|Z\|", row["how"])
+        assert residual, row
+        assert f"<td>{residual.group(1)}</td>" in spectroscopy, (row["how"], residual.group(1))
