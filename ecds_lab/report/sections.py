@@ -540,8 +540,22 @@ def heating_section(findings: Findings) -> Parts:
                                "per frequency to the steady coil temperatures (first rows); the position errors of "
                                "this report and the paper comparison use those. The former's expansion alone "
                                f"({fit.model.sensor.former}, {format_quantity(expansion, '1/K')}, ΔL ∝ area) gives "
-                               f"α ≈ {format_quantity(2 * expansion, '1/K')}.", css="params"))
+                               f"α ≈ {format_quantity(2 * expansion, '1/K')}"
+                               f"{_expansion_note(heating.eq4, 2 * expansion)}.", css="params"))
     return parts
+
+
+def _expansion_note(eq4: dict[float, Any], expected_per_k: float) -> str:
+    """Where the measured α is far from the former's expansion alone, say so beside it, so the two figures do not
+    stand side by side without a word."""
+    far = {f: e.alpha_per_k for f, e in sorted(eq4.items())
+           if abs(e.alpha_per_k - expected_per_k) > 0.5 * abs(expected_per_k)}
+    if not far:
+        return ""
+    shown = ", ".join(f"{format_quantity(a, '1/K')} at {f:g} Hz" for f, a in far.items())
+    return (f"; the steady points give {shown}: at {'these frequencies' if len(far) > 1 else 'this frequency'} "
+            "the coil's inductance follows temperature otherwise than the former's expansion alone would make it; "
+            "what else acts, these data alone do not separate")
 
 
 # -- spectroscopy --------------------------------------------------------------------------------

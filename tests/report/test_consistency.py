@@ -216,3 +216,13 @@ def test_every_table_2_row_says_what_its_circuit_fit_leaves(outputs, campaign_re
         residual = re.search(r"which leaves ([0-9]+) ppm of \|Z\|", row["how"])
         assert residual, row
         assert f"<td>{residual.group(1)}</td>" in spectroscopy, (row["how"], residual.group(1))
+
+
+def test_the_measured_alpha_and_the_expansion_estimate_are_not_left_side_by_side_without_a_word(campaign_report):
+    """The Eq. (4) table gave alpha 2.741 ppm/K at 500 Hz and -192.6 ppm/K at 15 kHz, and its caption 'the former's
+    expansion alone gives alpha = 15 ppm/K' with nothing between them. The caption now names the frequencies whose
+    alpha is far from it."""
+    heating = _section(campaign_report.html, "heating").replace("&#x27;", "'")
+    caption = heating[heating.index("The former's expansion alone"):]
+    caption = caption[:caption.index("</caption>")]
+    assert "the steady points give" in caption and "15000 Hz" in caption, caption
