@@ -14,7 +14,7 @@ import numpy as np
 
 from ecds_lab.analysis.calibration import PositionErrors, calibrate, position_errors
 from ecds_lab.analysis.fitting import FitResult, fit_model
-from ecds_lab.analysis.outliers import THRESHOLD
+from ecds_lab.analysis.outliers import REPEATED, THRESHOLD
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.model.sensor_model import SensorModel
@@ -128,18 +128,28 @@ def steady_coil_steps(air: Measurements, band_k: float = STEP_BAND_K,
 
 
 def step_level(values: np.ndarray) -> tuple[float, np.ndarray]:
-    """The level of one steady step: the mean of its readings without glitches, and the indices left out.
+    """The level of one steady step: the mean of its readings (in time order) without glitches, and the indices
+    left out.
 
     A glitch is a single reading more than ``outliers.THRESHOLD`` robust sigmas (1.4826 MAD) from the
-    step's median: the bridge erring once, not the coil. One such reading in a step of ten moves a
-    plain mean by a tenth of its size (a 1.6 % glitch: 1600 ppm, dozens of times the coil's change
-    per kelvin at 500 Hz), and every figure built on the step with it. A drifting step spreads its
-    readings evenly, which this test never cuts.
+    step's median while neither neighbour in time deviates the same way by more than ``outliers.REPEATED``
+    sigmas: the bridge erring once, not the coil. One such reading in a step of ten moves a plain mean by
+    a tenth of its size (a 1.6 % glitch: 1600 ppm, more than the coil changes over 100 K at 500 Hz), and
+    every figure built on the step with it. Readings that deviate together (a step still settling at its
+    start) are the coil's and stay in the mean.
     """
     values = np.asarray(values, float)
-    deviation = np.abs(values - np.median(values))
-    sigma = 1.4826 * float(np.median(deviation))
-    glitch = deviation > THRESHOLD * sigma if sigma > 0 else np.zeros(len(values), bool)
+    signed = values - np.median(values)
+    sigma = 1.4826 * float(np.median(np.abs(signed)))
+    if not sigma > 0:
+        return float(np.mean(values)), np.zeros(0, int)
+    z = signed / sigma
+    suspect = np.abs(z) > THRESHOLD
+    before = np.concatenate([[0.0], z[:-1]])
+    after = np.concatenate([z[1:], [0.0]])
+    repeated = (np.sign(before) == np.sign(z)) & (np.abs(before) > REPEATED)
+    repeated |= (np.sign(after) == np.sign(z)) & (np.abs(after) > REPEATED)
+    glitch = suspect & ~repeated
     return float(np.mean(values[~glitch])), np.flatnonzero(glitch)
 
 
