@@ -13,7 +13,7 @@ from ecds_lab.analysis.diagnosis.structure import ResidualStructure
 from ecds_lab.analysis.fitting import FitResult
 from ecds_lab.analysis.noise import NoiseEstimate
 from ecds_lab.analysis.outliers import Outlier
-from ecds_lab.analysis.quantities import PositionErrorFigure, params_json, position_error_figure
+from ecds_lab.analysis.quantities import PositionErrorFigure, chain_position_error, params_json
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.model.effects import Effect
 
@@ -98,8 +98,7 @@ class Step:
         """This model's position error over the readings it can speak for, or why it is no length: "model
         fails here" when its residual is far above the noise, "out of range" without a calibrated reading
         (``quantities.position_error_figure``; the one figure the JSON, the text and the report show)."""
-        positioned = self.residual_mm[~np.isnan(self.residual_mm)]  # NaN: no position (coil in air)
-        return position_error_figure(positioned, self.full_scale_mm, model_rms_ppm=self.rmse_ppm, noise_ppm=noise_ppm)
+        return chain_position_error(self.residual_mm, self.full_scale_mm, self.rmse_ppm, noise_ppm)
 
     def to_json(self, noise_ppm: float | None = None) -> dict[str, Any]:
         """The step's figures; ``position_error_mm`` (RMS) and its % FS are None unless the figure is valid."""
