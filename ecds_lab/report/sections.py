@@ -351,15 +351,21 @@ def _chain_table(steps: Sequence[Any], noise_ppm: float) -> Html:
             f"{figure.status} ({figure.reason})", "—")
         rows.append((_chain_label(s.effects) + _tie_note(s), number(s.rmse_ppm, 4), *error, f"{s.fit.bic:.1f}"))
     return table(("model", "RMS (ppm of L)", "position error RMS (mm)", "position error (% FS)", "BIC"), rows,
-                 caption="Watch the error fall: each step adds the effect the diagnosis claimed, or one that stands "
-                         "for a group the data cannot tell apart (not claimed); a model that leaves "
+                 caption="Watch the error fall: each step adds the effect the diagnosis claimed, one that stands "
+                         "for a group the data cannot tell apart, or one that took only part of a residual outside "
+                         "the library (these two not claimed); a model that leaves "
                          f"more than {MODEL_FAILS_FACTOR:g}x the noise gives no position error", css="chain")
 
 
 def _tie_note(step: Any) -> str:
-    """For a step whose effect stands for a tied group: which group (none of it is claimed)."""
+    """For a step whose effect is not claimed: the tied group it stands for, or the structure it leaves where it
+    acts (a part of a residual outside the library)."""
     group = getattr(step, "stands_for", None)
-    return f" (stands for {' / '.join(group)}: not claimed)" if group else ""
+    if group:
+        return f" (stands for {' / '.join(group)}: not claimed)"
+    left = getattr(step, "leaves_structure", None)
+    return f" (only part of a residual outside the library: {left:.0f} sd left where it acts; not claimed)" \
+        if left is not None else ""
 
 
 def _step_plot(diagnosis: Any, before: Any, after: Any) -> Html | Plot:
