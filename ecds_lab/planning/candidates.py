@@ -9,6 +9,7 @@ its lab time is the plan's own estimate (``runner.progress``, from the station's
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -21,7 +22,7 @@ from ecds_lab.config.station import StationConfig
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.drivers.hm8118 import FREQUENCIES_HZ
 from ecds_lab.errors import ConfigError
-from ecds_lab.planning.conditions import room_temperature_c
+from ecds_lab.planning.conditions import room_temperature_c, slide_approach
 from ecds_lab.runner.plan import Plan, build_plan
 from ecds_lab.runner.progress import PlanEstimate
 
@@ -35,6 +36,9 @@ DEFAULT_HOT_C = {"target": 75.0, "coil": 60.0}
 HOLDS_S = (3600.0, 7200.0)
 #: Finer positions: a band this long (mm) at this step (mm).
 FINE_BAND_MM, FINE_STEP_MM = 15.0, 0.5
+#: A direction counts as measured when at least this many distances were approached from it (the first move
+#: from home approaches its first distance from above, whatever the sweep).
+MIN_APPROACHED = 3
 STEADY = {"slope_k_per_min": 0.1, "window_s": 300.0, "tolerance_k": 1.0, "interval_s": 10.0, "timeout_s": 21600.0}
 
 
@@ -68,7 +72,8 @@ class CampaignReach:
     def of(cls, data: Measurements) -> CampaignReach:
         target = np.isfinite(data.x_m)
         positions = np.unique(np.round(data.x_commanded_m[target] * 1e3, 3))
-        signs = set(np.unique(data.direction[target & (data.direction != 0)]).tolist())
+        signs = {sign for sign in (1, -1) if len(np.unique(data.x_commanded_m[target & (data.direction == sign)]))
+                 >= MIN_APPROACHED}
         directions = "both" if signs == {1, -1} else "backward" if signs == {-1} else "forward"
         room = room_temperature_c(data)
         hot_target = float(np.nanmax(data.t_target_c)) if len(data) else room
@@ -108,7 +113,7 @@ def candidate_settings(data: Measurements, station: StationConfig) -> list[tuple
                                         "heating": {"setpoints_c": [warm, target_hot], "steady": STEADY,
                                                     "log_interval_s": 120.0},
                                         "sweep": _sweep(reach, [f])}))
-        if reach.directions != "both":
+        if reach.directions != "both" and slide_approach(station) == 0:  # the slide can approach from both sides
             out.append(("both_directions", "a sweep approaching from both directions at room temperature",
                         {"kind": "displacement_sweep", "name": "sweep in both directions",
                          "sweep": _sweep(reach, freqs, direction="both")}))
@@ -136,10 +141,10 @@ def candidate_settings(data: Measurements, station: StationConfig) -> list[tuple
     return out
 
 
-def station_candidates(data: Measurements, station: StationConfig, max_hours: float | None = None
-                       ) -> tuple[list[CandidateExperiment], dict[str, str]]:
-    """The candidates that validate, fit the station and (with ``max_hours``) fit the time; and those refused
-    (name -> why)."""
+def station_candidates(data: Measurements, station: StationConfig, max_hours: float | None = None,
+                       done: Sequence[dict[str, Any]] = ()) -> tuple[list[CandidateExperiment], dict[str, str]]:
+    """The candidates that validate, fit the station and (with ``max_hours``) fit the time, and are not among the
+    experiments ``done`` already (their settings); and those refused (name -> why)."""
     kept, refused = [], {}
     for name, what, settings in candidate_settings(data, station):
         try:
@@ -149,6 +154,9 @@ def station_candidates(data: Measurements, station: StationConfig, max_hours: fl
             refused[name] = str(error).splitlines()[0]
             continue
         plan = build_plan(experiment, station.thermal, station.regulation)
+        if CandidateExperiment(name, what, experiment, plan, 0.0).settings() in done:
+            refused[name] = "already measured in an earlier round"
+            continue
         hours = PlanEstimate(plan).total_s() / 3600.0
         if max_hours is not None and hours > max_hours:
             refused[name] = f"{hours:.2f} h of lab time, more than the {max_hours:g} h allowed"

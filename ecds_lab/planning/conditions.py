@@ -77,9 +77,21 @@ def planned_readings(plan: Plan, station: StationConfig, room_c: float, campaign
     rs = np.array([_median_rs(campaign, f) for f in table[:, 2]])
     return Measurements(time_s=table[:, 0], x_m=x_m, freq_hz=table[:, 2], t_coil_c=table[:, 3],
                         t_target_c=table[:, 4], ls_h=np.full(len(table), np.nan), rs_ohm=rs,
-                        segment=np.zeros(len(table), int), x_commanded_m=x_m,
+                        segment=np.zeros(len(table), int), x_commanded_m=x_m, **_approach(station, x_m),
                         slide_repeatability_m=np.full(len(table), (station.slide.repeatability_um or 0.0) * 1e-6),
                         source="planned")
+
+
+def slide_approach(station: StationConfig) -> int:
+    """+1 / -1 when the slide finishes every move from one side (the GRBL driver's ``approach`` option, positive by
+    default), 0 when it approaches from the side it comes from (``direct``)."""
+    return {"positive": 1, "negative": -1}.get(str(station.slide.options.get("approach", "positive")), 0)
+
+
+def _approach(station: StationConfig, x_m: np.ndarray) -> dict[str, np.ndarray]:
+    """The direction column when the slide always approaches from one side (else derived from the moves)."""
+    side = slide_approach(station)
+    return {"direction": np.where(np.isfinite(x_m), side, 0).astype(int)} if side else {}
 
 
 def _median_rs(campaign: Measurements, freq_hz: float) -> float:

@@ -22,7 +22,7 @@ from ecds_lab.config.references import station_path as find_station
 from ecds_lab.config.station import StationConfig
 from ecds_lab.model.effects import EffectRegistry, library
 from ecds_lab.planning.choice import NextPlan, plan_next, write_experiment
-from ecds_lab.planning.discrimination import measured_separation
+from ecds_lab.planning.discrimination import expected, measured_separation
 from ecds_lab.runner.session import run_experiment
 from ecds_lab.storage.data_file import open_campaign
 
@@ -58,11 +58,14 @@ def _measured(plan: NextPlan, result: Diagnosis) -> dict[str, Any] | None:
     ordered = sorted(chi2.items(), key=lambda item: item[1])
     winner, best = ordered[0]
     runner_up = ordered[1][1] if len(ordered) > 1 else best
-    predicted = {s.truth: s.delta_chi2 for s in plan.chosen.separations[index]} if plan.chosen else {}
+    separations = plan.chosen.separations[index] if plan.chosen else []
     return {"chi2": {k: round(v, 1) for k, v in chi2.items()}, "winner": winner,
             "delta_chi2": round(runner_up - best, 1),
-            "predicted_if_winner": round(min((v for k, v in predicted.items() if k == winner), default=float("nan")), 1)
-            if winner in predicted else None}
+            "predicted_if_winner": _rounded(expected(separations, winner))}
+
+
+def _rounded(value: float | None) -> float | None:
+    return None if value is None else round(value, 1)
 
 
 def investigate(data: Sequence[Path], station: Path, output: Path, *, budget_hours: float | None = None,
@@ -74,11 +77,12 @@ def investigate(data: Sequence[Path], station: Path, output: Path, *, budget_hou
     config = validate(str(station_file), parse_yaml(read_text(station_file), str(station_file)), StationConfig)
     output.mkdir(parents=True, exist_ok=True)
     state = Investigation(files=[Path(p) for p in data])
+    done: list[dict[str, Any]] = []
     try:
         result, report = _diagnose(state.files, registry)
         for number in range(1, max_rounds + 1):
             remaining = None if budget_hours is None else budget_hours - state.hours_spent
-            plan = plan_next(result, registry, config, remaining)
+            plan = plan_next(result, registry, config, remaining, done)
             entry: dict[str, Any] = {"round": number, "open_questions": [q.to_json() for q in plan.questions],
                                      "candidates": plan.to_json()["candidates"],
                                      "chosen": plan.to_json()["chosen"], "why": plan.why,
@@ -90,6 +94,11 @@ def investigate(data: Sequence[Path], station: Path, output: Path, *, budget_hou
                                               for q in plan.questions):
                 state.stopped = plan.why
                 break
+            if not plan.decides:
+                state.stopped = ("no experiment the station can do within the budget decides the open questions ("
+                                 + "; ".join(q.text for q in plan.questions) + ")")
+                break
+            done.append(plan.chosen.candidate.settings())
             yaml_path = write_experiment(plan, output / f"round-{number}.yaml")
             what = plan.chosen.candidate.what
             say(f"round {number}: {what} ({plan.chosen.candidate.hours:.2f} h), predicted Delta chi-square "

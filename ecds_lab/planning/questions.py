@@ -1,6 +1,8 @@
 """The diagnosis's open questions, each as the effects it is about and what kind of question it is.
 
 - ``tie``: effects that explain the data equally well (``alternatives``): which one is it?
+  A claim whose round had a rival explaining the data as well (``checks.tied``: chi-square gains within the
+  diagnosis's tie margin) that failed only a check the claim passed (held-out error, say) is contested: a tie too.
 - ``undetermined``: clear evidence, size not determined (``undetermined``): how large is it?
 - ``not_excluded``: an effect these data cannot test (``untestable``) in a part of the set-up the campaign
   exercised: present or not? An effect whose every need lies in a part the campaign never moved (the coil never
@@ -20,6 +22,7 @@ from dataclasses import dataclass
 from ecds_lab.analysis.diagnosis import Diagnosis
 from ecds_lab.analysis.diagnosis.advice import HOT_K
 from ecds_lab.analysis.diagnosis.advice import Design as CampaignDesign
+from ecds_lab.analysis.diagnosis.checks import tied
 from ecds_lab.analysis.diagnosis.verdict import outside_library as library_outside
 from ecds_lab.model.effects import EffectRegistry
 
@@ -67,12 +70,13 @@ def open_questions(result: Diagnosis, registry: EffectRegistry) -> list[OpenQues
     """Every open question of ``result``, ties first."""
     out = [OpenQuestion("tie", tuple(group), f"which of {' or '.join(group)}: they explain the data equally well")
            for group in result.alternatives]
+    out += contested_claims(result)
     out += [OpenQuestion("undetermined", (name,), f"how large is {name}: clear evidence, size not determined")
             for name in result.undetermined]
     parts = exercised_parts(result)
-    tied = {name for group in result.alternatives for name in group}
+    grouped = {name for question in out for name in question.effects}
     for name, why in result.untestable.items():
-        if name in tied or not asked_about(registry, name, parts):
+        if name in grouped or not asked_about(registry, name, parts):
             continue
         out.append(OpenQuestion("not_excluded", (name,), f"is {name} present: these data cannot test it ({why})"))
     if result.untested:
@@ -82,6 +86,28 @@ def open_questions(result: Diagnosis, registry: EffectRegistry) -> list[OpenQues
     if outside_library(result):
         where = "; ".join(f"{a.variable} ({a.detail})" for a in result.associations[:2])
         out.append(OpenQuestion("outside_library", (), f"a residual no library effect explains; it lives in {where}"))
+    return out
+
+
+def contested_claims(result: Diagnosis) -> list[OpenQuestion]:
+    """Claims with a rival of equal chi-square gain, plausible and with evidence, that failed a check the claim
+    passed: the data prefer the claim on one check alone, so it is asked as a tie."""
+    out = []
+    for before, after in zip(result.steps, result.steps[1:], strict=False):
+        if after.stands_for:
+            continue
+        claimed = after.effects[-1]
+        best = next((c for c in before.candidates if c.effect == claimed), None)
+        if best is None:
+            continue
+        rivals = [c.effect for c in before.candidates if c.effect != claimed and not c.passes
+                  and c.checks.get("evidence") and c.checks.get("plausible", True) and tied(best, c)]
+        if rivals:
+            group = (claimed, *rivals)
+            out.append(OpenQuestion("tie", group, f"which of {' or '.join(group)}: {claimed} is claimed, but "
+                                    f"{' and '.join(rivals)} explain(s) the data as well and failed only on "
+                                    + ", ".join(sorted({k for c in before.candidates if c.effect in rivals
+                                                        for k, ok in c.checks.items() if not ok}))))
     return out
 
 

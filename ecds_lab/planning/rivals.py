@@ -3,7 +3,10 @@
 A tie: the diagnosis's final model with the effect that stands for the group swapped for each member. An effect
 with evidence but undetermined size, or one the data cannot test yet: the final model without it and with it;
 an untestable effect has no fitted size, so it enters at a plausible one (``hypothetical_size``) held fixed while
-the model is fitted to the campaign (its calibration then takes what these data cannot tell from it).
+the model is fitted to the campaign (its calibration then takes what the data cannot tell from it). An effect with
+clear evidence and an undetermined size is present; the question is its size: the rivals are the effect a standard
+error either side of its fitted size (``size_rivals``). A held parameter is part of a rival's hypothesis and stays
+held when the rival is refitted to a candidate's predicted readings.
 
 Every fit here weighs each reading by its own noise (``NoiseEstimate.sigma_ppm``) and counts chi-square in noise
 variances over the readings' design effect, as the diagnosis's evidence does (docs/diagnosis.md).
@@ -25,6 +28,11 @@ from ecds_lab.data.measurements import Measurements
 from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.model.effects import EffectRegistry
 from ecds_lab.model.sensor_model import SensorModel
+
+#: Two sizes of an undetermined effect are rivals only while the campaign cannot tell them apart: each fits it
+#: within this many noise variances of the best size (else the offsets are halved, at most SIZE_HALVINGS times).
+TOLD_APART_CHI2 = 25.0
+SIZE_HALVINGS = 8
 
 
 @dataclass
@@ -100,6 +108,32 @@ def tie_rivals(result: Diagnosis, group: Sequence[str], registry: EffectRegistry
         rivals.append(fitted_rival(f"{member}", effects, result, registry,
                                    {**result.final.fit.values, **effect_start(result, member)}))
     return rivals
+
+
+def size_rivals(result: Diagnosis, effect: str, registry: EffectRegistry) -> list[Rival]:
+    """An effect whose size is undetermined, at two sizes a standard error either side of its fitted one (each
+    key parameter held there, the rest fitted): the experiment that tells them apart determines the size."""
+    fitted = next((c.fit for step in reversed(result.steps) for c in step.candidates if c.effect == effect), None)
+    if fitted is None:
+        return []
+    prior = hypothetical_size(registry, effect, result.final.fit.model.sensor)
+    sizes = {}
+    for name in prior:
+        error = fitted.stderr.get(name, math.inf)
+        sizes[name] = (fitted.values[name], error if math.isfinite(error) and error > 0 else abs(prior[name]))
+    effects = [*result.final.effects, effect]
+    start = {**result.final.fit.values, **fitted.values}
+    best = fitted_rival(effect, effects, result, registry, start)
+    for _ in range(SIZE_HALVINGS):
+        rivals = []
+        for sign, word in ((-1, "smaller"), (1, "larger")):
+            held = {name: value + sign * error for name, (value, error) in sizes.items()}
+            label = f"{effect} {word} (" + ", ".join(f"{k} = {v:.3g}" for k, v in held.items()) + ")"
+            rivals.append(fitted_rival(label, effects, result, registry, start, held))
+        if all(r.chi2 - best.chi2 < TOLD_APART_CHI2 for r in rivals):
+            return rivals
+        sizes = {name: (value, error / 2) for name, (value, error) in sizes.items()}
+    return []
 
 
 def nested_rivals(result: Diagnosis, effect: str, registry: EffectRegistry, *, hypothetical: bool) -> list[Rival]:
