@@ -7,9 +7,11 @@ imperfection off), so the truth is exactly what was switched on plus the field s
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import pytest
 import yaml
 
 from ecds_lab import shipped
@@ -20,7 +22,7 @@ from ecds_lab.study.cases import merged
 STEADY = {"slope_k_per_min": 0.1, "window_s": 300, "tolerance_k": 1.0, "interval_s": 10, "timeout_s": 21600}
 
 
-def truth_station(folder: Path, truth: dict[str, Any], *, slide: dict[str, Any] | None = None,
+def _truth_station(folder: Path, truth: dict[str, Any], *, slide: dict[str, Any] | None = None,
                   safety: dict[str, Any] | None = None, name: str = "station.yaml") -> Path:
     """The shipped simulated station, quiet but for ``truth``, its slide options and safety limits changed."""
     station = yaml.safe_load(shipped.station().read_text(encoding="utf-8"))
@@ -34,7 +36,7 @@ def truth_station(folder: Path, truth: dict[str, Any], *, slide: dict[str, Any] 
     return path
 
 
-def target_start(frequencies: list[float], direction: str = "both") -> dict[str, Any]:
+def _target_start(frequencies: list[float], direction: str = "both") -> dict[str, Any]:
     """A short one-temperature target heating: a sweep at room temperature and at 75 C, 9 positions."""
     return {"kind": "target_heating", "name": "start", "heating": {"setpoints_c": [24.0, 75.0], "steady": STEADY,
                                                                   "log_interval_s": 120},
@@ -42,10 +44,69 @@ def target_start(frequencies: list[float], direction: str = "both") -> dict[str,
                       "direction": direction, "readings_per_point": 2, "settle_s": 2.0}}
 
 
-def measured(folder: Path, station: Path, experiment: dict[str, Any], name: str = "start") -> Path:
+def _measured(folder: Path, station: Path, experiment: dict[str, Any], name: str = "start") -> Path:
     """Run ``experiment`` on ``station``; the run file."""
     path = folder / f"{name}.yaml"
     path.write_text(yaml.safe_dump(experiment, sort_keys=False), encoding="utf-8")
     result = run_experiment(path, station, folder / f"{name}.h5", progress=False)
     assert result.status == "completed", result.error
     return folder / f"{name}.h5"
+
+
+STEADY_START = {"slope_k_per_min": 0.1, "window_s": 300, "tolerance_k": 1.0, "interval_s": 10, "timeout_s": 21600}
+BENDING = {"plate": {"bending": {"enabled": True, "centre_rise_um_per_k": 1.0}}}
+
+
+def starting_cases() -> dict[str, tuple[dict[str, Any], dict[str, Any], dict[str, Any]]]:
+    """The issue's starting campaigns: case -> (truth, slide options, starting experiment)."""
+    coil = {"kind": "coil_heating", "name": "start", "park_mm": 160.0, "frequencies_hz": [500, 15000], "readings": 3,
+            "heating": {"setpoints_c": [60.0], "steady": STEADY_START, "log_interval_s": 120, "cool_down_to_c": 30.0}}
+    sweep = {"kind": "displacement_sweep", "name": "start",
+             "sweep": {"positions_mm": [20, 30, 40, 50, 60, 70, 80, 90, 100], "frequencies_hz": [500, 15000],
+                       "direction": "both", "readings_per_point": 2}}
+    return {
+        # (a) one frequency, target heated, truth a bending
+        "a": (BENDING, {}, _target_start([15000.0])),
+        # (b) the same, truth a conductivity change
+        "b": ({"plate": {"conductivity": {"enabled": True}}}, {}, _target_start([15000.0])),
+        # (c) sweeps in one direction only (a slide that approaches directly), a backlash beside a bending
+        "c": ({**BENDING, "slide": {"backlash": {"enabled": True, "backlash_um": 40.0}}}, {"approach": "direct"},
+              _target_start([500.0, 15000.0], "forward")),
+        # (d) a short coil heating, truth the former's moisture drying (the winding's lag is always there)
+        "d": ({"former": {"moisture": {"enabled": True, "initial": 1.0}}}, {}, coil),
+        # (e) a truth outside the library: a metal object beside the slide
+        "e": ({"imperfections": {"metal_object": {"enabled": True, "position_mm": 45.0, "radius_mm": 3.0}}}, {},
+              sweep),
+    }
+
+
+@pytest.fixture(name="starting_cases")
+def starting_cases_fixture() -> dict[str, tuple[dict[str, Any], dict[str, Any], dict[str, Any]]]:
+    return starting_cases()
+
+
+@pytest.fixture
+def truth_station() -> Callable[..., Path]:
+    return _truth_station
+
+
+@pytest.fixture
+def measured() -> Callable[..., Path]:
+    return _measured
+
+
+@pytest.fixture
+def target_start() -> Callable[..., dict[str, Any]]:
+    return _target_start
+
+
+@pytest.fixture
+def started(tmp_path: Path) -> Callable[[str], tuple[Path, Path]]:
+    """``started(case)``: the case's station YAML and its starting run file, in tmp_path."""
+
+    def make(case: str) -> tuple[Path, Path]:
+        truth, slide, experiment = starting_cases()[case]
+        station = _truth_station(tmp_path, truth, slide=slide)
+        return station, _measured(tmp_path, station, experiment)
+
+    return make
