@@ -147,5 +147,5 @@ def _write(output: Path, state: Investigation, final: dict[str, Any] | None) -> 
 
 def _plain(value: object) -> object:
     if hasattr(value, "item"):
-        return value.item()  # type: ignore[no-any-return]
+        return value.item()
     return str(value)

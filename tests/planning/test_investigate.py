@@ -1,0 +1,106 @@
+"""investigate: the loop diagnose -> plan-next -> run -> diagnose on the faithful simulated lab (issue 26), its
+``investigate.json``, the budget, and Ctrl-C during a round's run (every file readable, heaters off)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+import ecds_lab.runner.session
+from ecds_lab.cli import main
+from ecds_lab.clock import SimulatedClock
+from ecds_lab.storage.reader import read_run
+
+ROUND_KEYS = {"open_questions", "candidates", "chosen", "why", "predicted_delta_chi2", "measured_delta_chi2",
+              "run_file", "diagnosis"}
+
+
+def investigated(started: Any, case: str, folder: Path, budget: float) -> tuple[int, dict[str, Any]]:
+    station, run = started(case)
+    code = main(["investigate", str(run), "--station", str(station), "--budget-hours", f"{budget:g}", "--yes",
+                 "-o", str(folder / "loop")])
+    return code, json.loads((folder / "loop" / "investigate.json").read_text(encoding="utf-8"))
+
+
+def test_investigate_decides_moisture_against_lag_with_a_hold_within_budget(tmp_path, started, capsys):
+    code, record = investigated(started, "d", tmp_path, 3.0)
+    assert code == 0
+    first = record["rounds"][0]
+    assert ROUND_KEYS <= set(first)
+    assert first["chosen"]["name"].startswith("coil_hold")
+    assert {"parasitic_capacitance", "thermal_lag"} == set(first["open_questions"][0]["effects"])
+    assert Path(first["run_file"]).exists() and read_run(first["run_file"]).status == "completed"
+    assert first["diagnosis"]["verdict"] == "inconclusive"  # the starting diagnosis, in the diagnose --json form
+    predicted = first["measured"]["predicted_if_winner"]
+    assert first["measured"]["winner"] == "parasitic_capacitance"
+    assert predicted / 3 <= first["measured_delta_chi2"] <= predicted * 3
+    assert "parasitic_capacitance" in record["final"]["claimed"]
+    assert {"verdict", "claimed", "ranking", "steps", "noise_ppm"} <= set(record["final"])
+    assert record["hours_spent"] <= 3.0
+    assert "final verdict" in capsys.readouterr().out
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "the hold decides moisture against lag (parasitic_capacitance claimed), but the winding's lag stays open with "
+    "clear evidence and an undetermined size (always present with the coil heated), and no candidate within the "
+    "budget decides its size: the loop stops with that question open"))
+def test_investigate_d_ends_with_no_open_question(tmp_path, started):
+    _, record = investigated(started, "d", tmp_path, 3.0)
+    assert record["final"]["verdict"] == "missing_effect" and not record["final"]["undetermined"]
+    assert not record["final"]["alternatives"]
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "round 1 runs the target hot at 500 Hz and the bending wins against the conductivity change (measured Delta "
+    "chi-square ~58 against ~150 predicted), but on the joined campaign the diagnosis ties target_bending with "
+    "tau_displacement far above the noise, and later rounds do not resolve it within the budget"))
+def test_investigate_a_ends_with_bending_claimed_and_no_open_question(tmp_path, started):
+    _, record = investigated(started, "a", tmp_path, 2.0)
+    assert record["rounds"][0]["measured"]["winner"] == "target_bending"
+    assert "target_bending" in record["final"]["claimed"] and not record["final"]["alternatives"]
+
+
+def test_investigate_outside_the_library_stops_without_running_and_says_where(tmp_path, started):
+    code, record = investigated(started, "e", tmp_path, 2.0)
+    assert code == 0 and len(record["rounds"]) == 1 and record["rounds"][0]["run_file"] is None
+    assert "no experiment can make a library effect explain the residual" in record["stopped"]
+    assert "x_mm" in record["stopped"]
+    assert not list((tmp_path / "loop").glob("*.h5"))
+
+
+def test_ctrl_c_during_a_round_keeps_every_file_readable_and_the_heaters_off(tmp_path, started, monkeypatch):
+    station, run = started("a")
+    stations: list[Any] = []
+    real_open = ecds_lab.runner.session.open_station
+
+    def keep(*args: Any, **kwargs: Any) -> Any:
+        stations.append(real_open(*args, **kwargs))
+        return stations[-1]
+
+    monkeypatch.setattr(ecds_lab.runner.session, "open_station", keep)
+    real_sleep = SimulatedClock.sleep
+    fired: list[float] = []
+
+    def sleep(self: SimulatedClock, seconds: float) -> None:  # Ctrl-C 20 min into the round's run, while heating
+        real_sleep(self, seconds)
+        if not fired and self.now() >= 1200.0:
+            fired.append(self.now())
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(SimulatedClock, "sleep", sleep)
+    loop = tmp_path / "loop"
+    code = main(["investigate", str(run), "--station", str(station), "--yes", "-o", str(loop)])
+    assert fired and code == 130
+    record = json.loads((loop / "investigate.json").read_text(encoding="utf-8"))
+    last = record["rounds"][-1]
+    assert last["run_status"] == "aborted" and "aborted" in record["stopped"]
+    interrupted = read_run(last["run_file"])
+    assert interrupted.status == "aborted" and len(interrupted.points) > 0
+    assert read_run(run).status == "completed"
+    assert {n: out.on for n, out in stations[-1].lab.supply.items()} == {n: False for n in stations[-1].lab.supply}
+    sent = [e.text for e in interrupted.transcripts["heater"] if e.kind == "sent"]
+    assert "OUTP:GEN OFF" in sent and sent[-1] == "MEAS:CURR?"
+    assert record["final"]["verdict"] in ("adequate", "missing_effect", "inconclusive")
