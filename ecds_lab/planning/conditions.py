@@ -37,21 +37,25 @@ def planned_readings(plan: Plan, station: StationConfig, room_c: float, campaign
     temperature = {"coil": room_c, "target": room_c}
     x_mm = math.inf
     clock = 0.0
-    rows: list[tuple[float, float, float, float, float]] = []
+    rows: list[tuple[float, float, float, float, float, int]] = []
+    side = slide_approach(station)
+    direction = side
     for step, estimate in zip(plan.steps, estimates, strict=True):
         if isinstance(step, Home):
             x_mm = float(station.slide.options.get("origin_mm", math.inf))
             clock += estimate.seconds
         elif isinstance(step, Park):
+            direction = _approached(side, direction, x_mm, step.x_mm)
             x_mm = step.x_mm
             clock += estimate.seconds
         elif isinstance(step, MeasurePoint):
             if step.in_air:
                 x_mm = math.inf
             elif step.x_mm is not None:
+                direction = _approached(side, direction, x_mm, step.x_mm)
                 x_mm = step.x_mm
             clock += estimate.seconds
-            rows.append((clock, x_mm, step.freq_hz, temperature["coil"], temperature["target"]))
+            rows.append((clock, x_mm, step.freq_hz, temperature["coil"], temperature["target"], direction))
         elif isinstance(step, WaitSteady | CoolDown):
             part = getattr(thermal, step.heater)
             start_c = temperature[step.heater]
@@ -66,18 +70,19 @@ def planned_readings(plan: Plan, station: StationConfig, room_c: float, campaign
                 reading_c = goal_c + (start_c - goal_c) * math.exp(-t / tau)
                 temps = {**temperature, step.heater: reading_c}
                 for f in frequencies:
-                    rows.append((clock + t, x_mm, f, temps["coil"], temps["target"]))
+                    rows.append((clock + t, x_mm, f, temps["coil"], temps["target"], direction))
             clock += estimate.seconds
             end_c = goal_c + (start_c - goal_c) * math.exp(-estimate.seconds / tau)
             temperature[step.heater] = end_c if isinstance(step, CoolDown) else step.setpoint_c
         else:
             clock += estimate.seconds
-    table = np.array(rows, float).reshape(-1, 5)
+    table = np.array(rows, float).reshape(-1, 6)
     x_m = np.full(len(table), np.inf) if coil_in_air else table[:, 1] * 1e-3
     rs = np.array([_median_rs(campaign, f) for f in table[:, 2]])
     return Measurements(time_s=table[:, 0], x_m=x_m, freq_hz=table[:, 2], t_coil_c=table[:, 3],
                         t_target_c=table[:, 4], ls_h=np.full(len(table), np.nan), rs_ohm=rs,
-                        segment=np.zeros(len(table), int), x_commanded_m=x_m, **_approach(station, x_m),
+                        segment=np.zeros(len(table), int), x_commanded_m=x_m,
+                        direction=np.where(np.isfinite(x_m), table[:, 5], 0).astype(int),
                         slide_repeatability_m=np.full(len(table), (station.slide.repeatability_um or 0.0) * 1e-6),
                         source="planned")
 
@@ -88,10 +93,13 @@ def slide_approach(station: StationConfig) -> int:
     return {"positive": 1, "negative": -1}.get(str(station.slide.options.get("approach", "positive")), 0)
 
 
-def _approach(station: StationConfig, x_m: np.ndarray) -> dict[str, np.ndarray]:
-    """The direction column when the slide always approaches from one side (else derived from the moves)."""
-    side = slide_approach(station)
-    return {"direction": np.where(np.isfinite(x_m), side, 0).astype(int)} if side else {}
+def _approached(side: int, last: int, from_mm: float, to_mm: float) -> int:
+    """The direction a move ends in: the slide's fixed side, else the sign of the move (the last one if none)."""
+    if side:
+        return side
+    if not (math.isfinite(from_mm) and math.isfinite(to_mm)) or to_mm == from_mm:
+        return last
+    return 1 if to_mm > from_mm else -1
 
 
 def _median_rs(campaign: Measurements, freq_hz: float) -> float:
