@@ -243,7 +243,8 @@ def _cmd_report(args: argparse.Namespace) -> int:
     registry = _load_user_effects(args.effects_from)
     inputs = [Path(p) for p in args.data]
     check_output(args.output, inputs, overwrite=args.overwrite)  # before minutes of analysis
-    write_output(args.output, inputs, args.overwrite, lambda path: write_report(inputs, path, effects=registry))
+    write_output(args.output, inputs, args.overwrite,
+                 lambda path: write_report(inputs, path, effects=registry, investigation=args.investigation))
     print(f"report -> {args.output}")
     return 0
 
@@ -436,6 +437,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--effects-from", type=Path, action="append", metavar="FILE.py",
                    help="a Python file of your own effects (Effect subclasses); may be given several times")
     p.add_argument("--overwrite", action="store_true", help="replace an existing output file (never an input)")
+    p.add_argument("--investigation", type=Path, metavar="investigate.json", help="the record of an "
+                   "ecds-lab investigate loop, for the chapter 'How the question was decided' (default: one found "
+                   "beside the data files)")
 
     p = command("plan-next", _cmd_plan_next, "design the experiment that best separates the models the diagnosis "
                 "of DATA leaves open (T-optimal, per hour of lab time); write it as an experiment YAML")

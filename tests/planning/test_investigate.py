@@ -104,3 +104,15 @@ def test_ctrl_c_during_a_round_keeps_every_file_readable_and_the_heaters_off(tmp
     sent = [e.text for e in interrupted.transcripts["heater"] if e.kind == "sent"]
     assert "OUTP:GEN OFF" in sent and sent[-1] == "MEAS:CURR?"
     assert record["final"]["verdict"] in ("adequate", "missing_effect", "inconclusive")
+
+
+def test_a_run_not_confirmed_is_not_run_and_the_loop_says_so(tmp_path, started):
+    from ecds_lab.planning.investigate import investigate
+
+    station, run = started("a")
+    asked: list[str] = []
+    state = investigate([run], station, tmp_path / "loop", confirm=lambda q: asked.append(q) is not None,
+                        say=lambda line: None)
+    assert len(asked) == 1 and "round-1.yaml" in asked[0]
+    assert "not confirmed" in state.stopped and not list((tmp_path / "loop").glob("*.h5"))
+    assert (tmp_path / "loop" / "round-1.yaml").exists()
