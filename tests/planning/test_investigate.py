@@ -116,3 +116,32 @@ def test_a_run_not_confirmed_is_not_run_and_the_loop_says_so(tmp_path, started):
     assert len(asked) == 1 and "round-1.yaml" in asked[0]
     assert "not confirmed" in state.stopped and not list((tmp_path / "loop").glob("*.h5"))
     assert (tmp_path / "loop" / "round-1.yaml").exists()
+
+
+def test_the_loop_keeps_inside_tight_station_limits_and_its_budget(tmp_path, truth_station, measured,
+                                                                   starting_cases):
+    import numpy as np
+    import yaml
+
+    from ecds_lab.data.columns import INDEX
+
+    truth, _, experiment = starting_cases["a"]
+    station = truth_station(tmp_path, truth, slide={"max_mm": 90.0},
+                            safety={"max_temperature_c": {"target": 60.0, "coil": 50.0}})
+    experiment = {**experiment, "heating": {**experiment["heating"], "setpoints_c": [24.0, 45.0]},
+                  "sweep": {**experiment["sweep"], "positions_mm": [20, 30, 40, 50, 60, 70, 80, 90]}}
+    run = measured(tmp_path, station, experiment)
+    loop = tmp_path / "loop"
+    assert main(["investigate", str(run), "--station", str(station), "--budget-hours", "1.5", "--yes",
+                 "-o", str(loop)]) == 0
+    record = json.loads((loop / "investigate.json").read_text(encoding="utf-8"))
+    runs = [Path(r["run_file"]) for r in record["rounds"] if r["run_file"]]
+    assert runs, record["stopped"]
+    assert record["hours_spent"] <= 1.5
+    for path in runs:
+        settings = yaml.safe_load(path.with_suffix(".yaml").read_text(encoding="utf-8"))
+        assert all(20.0 <= x <= 90.0 for x in settings.get("sweep", {}).get("positions_mm", []))
+        points = read_run(path).points
+        assert float(max(points[:, INDEX["t_target_c"]])) < 60.0 and float(max(points[:, INDEX["t_coil_c"]])) < 50.0
+        commanded = points[:, INDEX["x_commanded_mm"]]
+        assert float(np.nanmax(commanded[np.isfinite(commanded)])) <= 90.0
