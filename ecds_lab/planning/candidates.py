@@ -131,6 +131,14 @@ def candidate_settings(data: Measurements, station: StationConfig) -> list[tuple
         out.append(("repeat", "the campaign's sweep once more at room temperature",
                     {"kind": "displacement_sweep", "name": "repeat sweep", "sweep": _sweep(reach, freqs)}))
     coil_hot = _hot(station, "coil", reach.coil_hot_c)
+    middle = round((reach.room_c + coil_hot) / 2.0, 1)
+    cool_c = round(reach.room_c + 10.0, 1)
+    out.append(("coil_ramps", f"the coil in air stepped to {middle:g} C and {coil_hot:g} C and cooled to "
+                f"{cool_c:g} C, logged every minute through the ramps",
+                {"kind": "coil_heating", "name": f"coil ramps to {coil_hot:g} C", "park_mm": high,
+                 "frequencies_hz": freqs, "readings": 3,
+                 "heating": {"setpoints_c": [middle, coil_hot], "steady": STEADY, "log_interval_s": 60.0,
+                             "cool_down_to_c": cool_c}}))
     for hold in HOLDS_S:
         out.append((f"coil_hold_{hold / 3600:g}h", f"the coil in air held at {coil_hot:g} C for {hold / 3600:g} h, "
                     "logged every 5 min", {"kind": "coil_heating", "name": f"coil hold at {coil_hot:g} C",
@@ -138,6 +146,12 @@ def candidate_settings(data: Measurements, station: StationConfig) -> list[tuple
                                            "heating": {"setpoints_c": [coil_hot],
                                                        "steady": {**STEADY, "window_s": hold},
                                                        "log_interval_s": 300.0, "cool_down_to_c": None}}))
+    if reach.positions_mm:  # the coil hot at the target needs the campaign's own sweep at room temperature beside it
+        out.append(("coil_hot_sweep", f"the coil at {coil_hot:g} C with the target in place, a sweep there",
+                    {"kind": "coil_heating", "name": f"coil at {coil_hot:g} C, sweep", "frequencies_hz": freqs,
+                     "coil_in_air": False,
+                     "heating": {"setpoints_c": [coil_hot], "steady": STEADY, "log_interval_s": 120.0},
+                     "sweep": _sweep(reach, freqs)}))
     return out
 
 

@@ -63,6 +63,8 @@ class NextPlan:
     chosen: Scored | None
     why: str
     not_asked: dict[str, str] = field(default_factory=dict)
+    #: questions (indices) no candidate of this station decides at any lab time: the station cannot answer them
+    unanswerable: list[int] = field(default_factory=list)
 
     @property
     def designable(self) -> list[int]:
@@ -93,6 +95,7 @@ class NextPlan:
                 "rivals": {self.questions[i].text: [r.to_json() for r in rs] for i, rs in self.rivals.items()},
                 "candidates": [s.to_json(self.questions) for s in self.scored],
                 "refused": dict(self.refused), "not_asked": dict(self.not_asked),
+                "unanswerable": [self.questions[i].text for i in self.unanswerable],
                 "chosen": chosen, "why": self.why,
                 "predicted_delta_chi2": None if self.predicted_delta_chi2 is None
                 else round(self.predicted_delta_chi2, 1)}
@@ -116,11 +119,11 @@ def plan_next(result: Diagnosis, registry: EffectRegistry, station: StationConfi
     if any(q.kind == "outside_library" for q in questions) and all(questions[i].kind == "not_excluded"
                                                                    for i in designable):
         designable = []  # an effect these data cannot test cannot explain their residual: the answer stands
-        why = _nothing_to_design(questions)
-        return NextPlan(questions, {}, [], {}, None, why, asked)
+    if not designable:
+        return NextPlan(questions, {}, [], {}, None, _nothing_to_design(questions), asked)
     rivals = {i: rivals_of(questions[i], result, registry) for i in designable}
     rivals = {i: r for i, r in rivals.items() if len(r) >= 2}
-    candidates, refused = station_candidates(result.data, station, max_hours, done)
+    candidates, refused = station_candidates(result.data, station, None, done)
     room = room_temperature_c(result.data)
     scored = []
     for candidate in candidates:
@@ -134,6 +137,11 @@ def plan_next(result: Diagnosis, registry: EffectRegistry, station: StationConfi
         decides = sum(min(max(decisive(s), 0.0), DECISIVE_CHI2) / DECISIVE_CHI2 for s in separations.values())
         scored.append(Scored(candidate, separations, decides, decides / (candidate.hours + SETUP_HOURS)))
     scored.sort(key=lambda s: (-s.per_hour, s.candidate.hours))
+    unanswerable = [i for i in rivals if not any(s.guaranteed(i) >= DECISIVE_CHI2 for s in scored)]
+    over = [s for s in scored if max_hours is not None and s.candidate.hours > max_hours]
+    for s in over:
+        refused[s.candidate.name] = f"{s.candidate.hours:.2f} h of lab time, more than the {max_hours:g} h allowed"
+    scored = [s for s in scored if s not in over]
     deciding: list[Scored] = []
     for index in rivals:  # questions in order of priority: ties first, then sizes, then effects not excluded
         deciding = [s for s in scored if s.guaranteed(index) >= DECISIVE_CHI2]
@@ -143,13 +151,17 @@ def plan_next(result: Diagnosis, registry: EffectRegistry, station: StationConfi
         chosen: Scored | None = deciding[0]
         why = (f"decides '{questions[index].text}' (T-criterion: Delta chi-square >= {DECISIVE_CHI2:g} noise "
                "variances) and, among those that do, the most open questions per hour of lab time")
+    elif len(unanswerable) == len(rivals):
+        chosen, why = None, ("no open question this station can answer; no experiment plan-next can build for it "
+                             "decides: "
+                             + "; ".join(questions[i].text for i in unanswerable))
     elif scored:
         chosen = max(scored, key=lambda s: max((s.guaranteed(i) for i in s.separations), default=0.0))
         why = (f"no candidate within {'the time allowed' if max_hours is not None else 'reach'} reaches Delta "
                f"chi-square {DECISIVE_CHI2:g}: this one separates most, but is not expected to decide")
     else:
         chosen, why = None, "the station can do no candidate experiment within the time allowed"
-    return NextPlan(questions, rivals, scored, refused, chosen, why, asked)
+    return NextPlan(questions, rivals, scored, refused, chosen, why, asked, unanswerable)
 
 
 def _nothing_to_design(questions: list[OpenQuestion]) -> str:

@@ -84,6 +84,7 @@ def investigate(data: Sequence[Path], station: Path, output: Path, *, budget_hou
             remaining = None if budget_hours is None else budget_hours - state.hours_spent
             plan = plan_next(result, registry, config, remaining, done)
             entry: dict[str, Any] = {"round": number, "open_questions": [q.to_json() for q in plan.questions],
+                                     "unanswerable": plan.to_json()["unanswerable"],
                                      "candidates": plan.to_json()["candidates"],
                                      "chosen": plan.to_json()["chosen"], "why": plan.why,
                                      "predicted_delta_chi2": plan.to_json()["predicted_delta_chi2"],

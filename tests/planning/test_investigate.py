@@ -25,42 +25,48 @@ def investigated(started: Any, case: str, folder: Path, budget: float) -> tuple[
     return code, json.loads((folder / "loop" / "investigate.json").read_text(encoding="utf-8"))
 
 
-def test_investigate_decides_moisture_against_lag_with_a_hold_within_budget(tmp_path, started, capsys):
+def test_investigate_decides_moisture_against_lag_within_budget(tmp_path, started, capsys):
     code, record = investigated(started, "d", tmp_path, 3.0)
     assert code == 0
     first = record["rounds"][0]
     assert ROUND_KEYS <= set(first)
-    assert first["chosen"]["name"].startswith("coil_hold")
+    assert first["chosen"]["name"].startswith("coil_")  # a coil heating in air: a hold or its ramps logged densely
     assert {"parasitic_capacitance", "thermal_lag"} == set(first["open_questions"][0]["effects"])
     assert Path(first["run_file"]).exists() and read_run(first["run_file"]).status == "completed"
     assert first["diagnosis"]["verdict"] == "inconclusive"  # the starting diagnosis, in the diagnose --json form
     predicted = first["measured"]["predicted_if_winner"]
     assert first["measured"]["winner"] == "parasitic_capacitance"
     assert predicted / 3 <= first["measured_delta_chi2"] <= predicted * 3
-    assert "parasitic_capacitance" in record["final"]["claimed"]
+    # the truth (moisture) and the winding's lag, always there with the coil heated (docs/diagnosis.md, the study)
+    assert {"parasitic_capacitance", "thermal_lag"} <= set(record["final"]["claimed"])
     assert {"verdict", "claimed", "ranking", "steps", "noise_ppm"} <= set(record["final"])
     assert record["hours_spent"] <= 3.0
+    # what is left no candidate of this station decides (former_expansion needs the target in place beside a
+    # room-temperature sweep this campaign does not have): the loop says so and stops
+    assert record["stopped"].startswith("no open question this station can answer"), record["stopped"]
     assert "final verdict" in capsys.readouterr().out
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "the hold decides moisture against lag (parasitic_capacitance claimed), but the winding's lag stays open with "
-    "clear evidence and an undetermined size (always present with the coil heated), and no candidate within the "
-    "budget decides its size: the loop stops with that question open"))
-def test_investigate_d_ends_with_no_open_question(tmp_path, started):
-    _, record = investigated(started, "d", tmp_path, 3.0)
-    assert record["final"]["verdict"] == "missing_effect" and not record["final"]["undetermined"]
-    assert not record["final"]["alternatives"]
-
-
-@pytest.mark.xfail(strict=True, reason=(
-    "round 1 runs the target hot at 500 Hz and the bending wins against the conductivity change (measured Delta "
-    "chi-square ~58 against ~150 predicted), but on the joined campaign the diagnosis ties target_bending with "
-    "tau_displacement far above the noise, and later rounds do not resolve it within the budget"))
-def test_investigate_a_ends_with_bending_claimed_and_no_open_question(tmp_path, started):
-    _, record = investigated(started, "a", tmp_path, 2.0)
+def test_investigate_a_decides_for_the_bending_within_budget(tmp_path, started):
+    code, record = investigated(started, "a", tmp_path, 2.0)
+    assert code == 0
+    assert record["rounds"][0]["chosen"]["name"] == "target_hot_500hz"
     assert record["rounds"][0]["measured"]["winner"] == "target_bending"
-    assert "target_bending" in record["final"]["claimed"] and not record["final"]["alternatives"]
+    final = record["final"]
+    # the truth, and tau_T(x), true of the faithful lab at two frequencies (docs/diagnosis.md, the study)
+    assert set(final["claimed"]) == {"target_bending", "tau_displacement"}
+    assert not final["alternatives"] and not final["undetermined"]
+    assert record["hours_spent"] <= 2.0
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "with 2 h the loop ends with target_bending and tau_displacement claimed (above), but round 5 heated the coil "
+    "(the coil-hot sweep separated bending from tau_displacement best), so parasitic_capacitance is then asked and "
+    "left open when the budget is spent; with 4 h, round 6 measures at 100 Hz for it and the model, one tau_T for "
+    "three frequencies, then fails far above the noise (nothing claimed, a residual outside the library)"))
+def test_investigate_a_ends_with_no_open_question(tmp_path, started):
+    _, record = investigated(started, "a", tmp_path, 2.0)
+    assert record["stopped"].startswith("no open question"), record["stopped"]
 
 
 def test_investigate_outside_the_library_stops_without_running_and_says_where(tmp_path, started):

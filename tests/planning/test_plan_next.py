@@ -61,28 +61,41 @@ PHYSICIST = {
     "c": lambda s: s["sweep"]["direction"] == "both",
     "d": lambda s: s["kind"] == "coil_heating" and s["heating"]["steady"]["window_s"] >= 3000.0,
 }
+C_STARTS = ("the starting diagnosis does not find the bending beside the one-direction sweeps (tau_displacement "
+            "undetermined, a residual outside the library); ")
+
+
+@pytest.mark.parametrize("case", [
+    "a", "b",
+    pytest.param("c", marks=pytest.mark.xfail(strict=True, reason=C_STARTS + (
+        "for the backlash question plan-next names fine steps, not the other direction: the home move approaches "
+        "the first position from above, and fine steps between 20 and 30 mm separate the models more (robust "
+        "Delta chi-square 157 against 61 for both directions at the hypothetical 20 um)"))),
+    pytest.param("d", marks=pytest.mark.xfail(strict=True, reason=(
+        "the T-criterion prefers the coil's ramps logged every minute (guaranteed Delta chi-square ~129000 in 1.0 h) "
+        "to a 1 h hold (~36000 in 1.3 h); both decide moisture against lag, the ramps also fix the lag's size")))])
+def test_plan_next_names_the_experiment_a_physicist_would_choose(case, started):
+    station, run = started(case)
+    plan = planned(station, [run])
+    assert plan.chosen is not None and plan.decides, plan.why
+    assert PHYSICIST[case](plan.chosen.candidate.settings()), plan.chosen.candidate.what
 
 
 @pytest.mark.parametrize("case", [
     "a",
     pytest.param("b", marks=pytest.mark.xfail(strict=True, reason=(
-        "the starting diagnosis leaves target_tau_temperature's size undetermined (no tie); plan-next rightly names "
-        "the target hot at 500 Hz, but after it the model fits the joined campaign far above the noise (chi-square "
+        "the starting diagnosis leaves target_tau_temperature's size undetermined (no tie); plan-next names the "
+        "target hot at 500 Hz, but after it the model fits the joined campaign far above the noise (chi-square "
         "~5000 over ~150 readings: no one-tau model fits copper at 500 and 15000 Hz here), and the two sizes then "
         "differ by ~1000 against the ~70 predicted"))),
-    pytest.param("c", marks=pytest.mark.xfail(strict=True, reason=(
-        "the starting diagnosis does not find the bending beside the one-direction sweeps (tau_displacement "
-        "undetermined, a residual outside the library); for the backlash question plan-next names fine steps, not "
-        "the other direction: the home move approaches the first position from above, and fine steps between 20 "
-        "and 30 mm separate the models more (robust Delta chi-square 157 against 61 for both directions at the "
-        "hypothetical 20 um). They do reveal it (measured 908, backlash wins), but 4.2x the prediction, the truth "
-        "being 40 um (Delta chi-square grows as its square)"))),
+    pytest.param("c", marks=pytest.mark.xfail(strict=True, reason=C_STARTS + (
+        "the fine steps chosen for the backlash do reveal it (measured ~900, backlash wins), but at ~4x the "
+        "prediction made for a hypothetical 20 um: the truth is 40 um, and Delta chi-square grows as its square"))),
     "d"])
-def test_plan_next_names_the_deciding_experiment_and_its_prediction_holds_within_a_factor_3(case, tmp_path, started):
+def test_the_measured_separation_is_within_a_factor_3_of_the_prediction(case, tmp_path, started):
     station, run = started(case)
     plan = planned(station, [run])
     assert plan.chosen is not None and plan.decides, plan.why
-    assert PHYSICIST[case](_kind_of(plan)), plan.chosen.candidate.what
     experiment = write_experiment(plan, tmp_path / "next.yaml")
     result = run_experiment(experiment, station, tmp_path / "next.h5", progress=False)
     assert result.status == "completed", result.error
