@@ -20,6 +20,7 @@ from ecds_lab.analysis.diagnosis import Diagnosis, run_diagnosis
 from ecds_lab.config.loading import parse_yaml, read_text, validate
 from ecds_lab.config.references import station_path as find_station
 from ecds_lab.config.station import StationConfig
+from ecds_lab.errors import RunFileError
 from ecds_lab.model.effects import EffectRegistry, library
 from ecds_lab.planning.choice import NextPlan, plan_next, write_experiment
 from ecds_lab.planning.discrimination import expected, measured_separation
@@ -75,6 +76,9 @@ def investigate(data: Sequence[Path], station: Path, output: Path, *, budget_hou
     registry = registry if registry is not None else library()
     station_file = find_station(station)
     config = validate(str(station_file), parse_yaml(read_text(station_file), str(station_file)), StationConfig)
+    if (output / "investigate.json").exists() or list(output.glob("round-*")):
+        raise RunFileError(f"{output}: holds an investigation already (investigate.json or round files); "
+                           "choose another -o, nothing there is replaced")
     output.mkdir(parents=True, exist_ok=True)
     state = Investigation(files=[Path(p) for p in data])
     done: list[dict[str, Any]] = []

@@ -112,6 +112,17 @@ def test_ctrl_c_during_a_round_keeps_every_file_readable_and_the_heaters_off(tmp
     assert record["final"]["verdict"] in ("adequate", "missing_effect", "inconclusive")
 
 
+def test_an_output_folder_with_an_investigation_is_refused_before_anything_runs(tmp_path, started, capsys):
+    station, run = started("e")
+    loop = tmp_path / "loop"
+    loop.mkdir()
+    (loop / "investigate.json").write_text("{}", encoding="utf-8")
+    assert main(["investigate", str(run), "--station", str(station), "--yes", "-o", str(loop)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "holds an investigation already" in err[0]
+    assert (loop / "investigate.json").read_text(encoding="utf-8") == "{}"
+
+
 def test_a_run_not_confirmed_is_not_run_and_the_loop_says_so(tmp_path, started):
     from ecds_lab.planning.investigate import investigate
 

@@ -5,8 +5,8 @@ Delta chi-square measured after running it is within a factor 3 of the predictio
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
-from typing import Any
 
 import pytest
 import yaml
@@ -46,12 +46,19 @@ def test_plan_next_on_a_one_frequency_tie_names_the_other_frequency_and_writes_a
     assert 15000.0 not in experiment["sweep"]["frequencies_hz"]  # the other frequency, with the target hot
     assert max(experiment["heating"]["setpoints_c"]) >= 70.0
     assert main(["run", str(output), "--station", str(station), "--dry-run"]) == 0
+    capsys.readouterr()
+    assert main(["plan-next", str(run), "--station", str(station), "--json"]) == 0
+    printed = json.loads(capsys.readouterr().out)
+    assert {"open_questions", "rivals", "candidates", "refused", "not_asked", "unanswerable", "chosen", "why",
+            "predicted_delta_chi2"} <= set(printed)
+    assert printed["chosen"]["name"] == yaml_name(text) and printed["predicted_delta_chi2"] >= 25.0
     assert main(["run", str(output), "--station", str(station), "-o", str(tmp_path / "next.h5"), "-q"]) == 0
 
 
-def _kind_of(plan: NextPlan) -> dict[str, Any]:
-    assert plan.chosen is not None
-    return plan.chosen.candidate.settings()
+def yaml_name(text: str) -> str:
+    """The candidate name a written experiment came from, by its experiment name (``target at 75 C, 500 Hz``)."""
+    frequency = yaml.safe_load(text)["sweep"]["frequencies_hz"][0]
+    return f"target_hot_{frequency:g}hz"
 
 
 #: case -> what a physicist would choose, as a test on the chosen experiment's settings
