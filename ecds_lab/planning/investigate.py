@@ -24,8 +24,13 @@ from ecds_lab.errors import RunFileError
 from ecds_lab.model.effects import EffectRegistry, library
 from ecds_lab.planning.choice import NextPlan, plan_next, write_experiment
 from ecds_lab.planning.discrimination import expected, measured_separation
+from ecds_lab.planning.questions import DESIGNABLE
+from ecds_lab.runner.safe_state import signal_name
 from ecds_lab.runner.session import run_experiment
 from ecds_lab.storage.data_file import open_campaign
+
+#: What each round records from its plan (``NextPlan.to_json``).
+ROUND_PLAN_KEYS = ("open_questions", "unanswerable", "candidates", "chosen", "why", "predicted_delta_chi2")
 
 
 @dataclass
@@ -82,21 +87,18 @@ def investigate(data: Sequence[Path], station: Path, output: Path, *, budget_hou
     output.mkdir(parents=True, exist_ok=True)
     state = Investigation(files=[Path(p) for p in data])
     done: list[dict[str, Any]] = []
+    report: dict[str, Any] | None = None
     try:
         result, report = _diagnose(state.files, registry)
         for number in range(1, max_rounds + 1):
             remaining = None if budget_hours is None else budget_hours - state.hours_spent
             plan = plan_next(result, registry, config, remaining, done)
-            entry: dict[str, Any] = {"round": number, "open_questions": [q.to_json() for q in plan.questions],
-                                     "unanswerable": plan.to_json()["unanswerable"],
-                                     "candidates": plan.to_json()["candidates"],
-                                     "chosen": plan.to_json()["chosen"], "why": plan.why,
-                                     "predicted_delta_chi2": plan.to_json()["predicted_delta_chi2"],
+            planned = plan.to_json()
+            entry: dict[str, Any] = {"round": number, **{key: planned[key] for key in ROUND_PLAN_KEYS},
                                      "measured_delta_chi2": None, "run_file": None, "diagnosis": report}
             state.rounds.append(entry)
             _write(output, state, report)
-            if plan.chosen is None or not any(q.kind in ("tie", "undetermined", "not_excluded")
-                                              for q in plan.questions):
+            if plan.chosen is None or not any(q.kind in DESIGNABLE for q in plan.questions):
                 state.stopped = plan.why
                 break
             if not plan.decides:
@@ -113,32 +115,36 @@ def investigate(data: Sequence[Path], station: Path, output: Path, *, budget_hou
                 break
             run_path = output / f"round-{number}.h5"
             run = run_experiment(yaml_path, station_file, run_path, progress=False)
-            entry["run_file"] = str(run_path)
-            entry["run_status"] = run.status
-            state.hours_spent += plan.chosen.candidate.hours
-            if run.status != "completed":
-                state.stopped = f"round {number}: the run ended {run.status}" + (f" ({run.error})" if run.error else "")
-                state.files.append(run_path)
-                entry["stopped_by"] = run.stopped_by
-                break
             state.files.append(run_path)
+            state.hours_spent += plan.chosen.candidate.hours
+            entry.update(run_file=str(run_path), run_status=run.status, stopped_by=run.stopped_by)
+            if run.status != "completed":
+                state.stopped = _run_ended(number, run.status, run.error, run.stopped_by, run_path, plan)
+                break
             result, report = _diagnose(state.files, registry)
             measured = _measured(plan, result)
-            entry["measured"] = measured
-            entry["measured_delta_chi2"] = measured["delta_chi2"] if measured else None
-            entry["diagnosis_after"] = {"verdict": result.verdict, "claimed": result.claimed,
-                                        "alternatives": result.alternatives}
+            entry.update(measured=measured, measured_delta_chi2=measured["delta_chi2"] if measured else None,
+                         diagnosis_after={"verdict": result.verdict, "claimed": result.claimed,
+                                          "alternatives": result.alternatives})
             say(f"round {number}: measured Delta chi-square {entry['measured_delta_chi2']}; verdict {result.verdict}, "
                 f"claimed {', '.join(result.claimed) or 'nothing'}")
         else:
             state.stopped = f"stopped after {max_rounds} rounds"
     except KeyboardInterrupt:
-        state.stopped = "interrupted (Ctrl-C): everything measured is kept; no run was in progress"
+        state.stopped = "interrupted (Ctrl-C) while diagnosing or planning: no run was in progress, everything " \
+                        "measured is kept"
         raise
     finally:
-        state.final = report if "report" in locals() else None
-        _write(output, state, state.final)
+        _write(output, state, report)
     return state
+
+
+def _run_ended(number: int, status: str, error: str, signal: int | None, path: Path, plan: NextPlan) -> str:
+    """Why the loop stopped at a run that did not complete, and where it stood."""
+    how = f"was stopped by {signal_name(signal)}" if signal is not None else f"ended {status}"
+    open_now = "; ".join(q.text for q in plan.questions if q.kind in DESIGNABLE)
+    return (f"round {number}: the run {how}, recorded {status} in {path} with everything measured (the run switched "
+            f"the heaters off and checked it){f': {error}' if error else ''}; still open: {open_now}")
 
 
 def _write(output: Path, state: Investigation, final: dict[str, Any] | None) -> None:

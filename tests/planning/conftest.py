@@ -100,13 +100,23 @@ def target_start() -> Callable[..., dict[str, Any]]:
     return _target_start
 
 
+@pytest.fixture(scope="session")
+def _started_cache(tmp_path_factory: pytest.TempPathFactory) -> dict[str, tuple[Path, Path]]:
+    return {}
+
+
 @pytest.fixture
-def started(tmp_path: Path) -> Callable[[str], tuple[Path, Path]]:
-    """``started(case)``: the case's station YAML and its starting run file, in tmp_path."""
+def started(_started_cache: dict[str, tuple[Path, Path]], tmp_path_factory: pytest.TempPathFactory
+            ) -> Callable[[str], tuple[Path, Path]]:
+    """``started(case)``: the case's station YAML and its starting run file, measured once per test session (the
+    files are only read; every test writes its own runs in its own folder)."""
 
     def make(case: str) -> tuple[Path, Path]:
-        truth, slide, experiment = starting_cases()[case]
-        station = _truth_station(tmp_path, truth, slide=slide)
-        return station, _measured(tmp_path, station, experiment)
+        if case not in _started_cache:
+            folder = tmp_path_factory.mktemp(f"start_{case}")
+            truth, slide, experiment = starting_cases()[case]
+            station = _truth_station(folder, truth, slide=slide)
+            _started_cache[case] = (station, _measured(folder, station, experiment))
+        return _started_cache[case]
 
     return make

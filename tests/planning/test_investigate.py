@@ -18,11 +18,18 @@ ROUND_KEYS = {"open_questions", "candidates", "chosen", "why", "predicted_delta_
               "run_file", "diagnosis"}
 
 
+_LOOPS: dict[tuple[str, float], tuple[int, dict[str, Any]]] = {}
+
+
 def investigated(started: Any, case: str, folder: Path, budget: float) -> tuple[int, dict[str, Any]]:
-    station, run = started(case)
-    code = main(["investigate", str(run), "--station", str(station), "--budget-hours", f"{budget:g}", "--yes",
-                 "-o", str(folder / "loop")])
-    return code, json.loads((folder / "loop" / "investigate.json").read_text(encoding="utf-8"))
+    """``ecds-lab investigate`` on the case's starting campaign (run once per case and budget in a session: the
+    tests only read its record)."""
+    if (case, budget) not in _LOOPS:
+        station, run = started(case)
+        code = main(["investigate", str(run), "--station", str(station), "--budget-hours", f"{budget:g}", "--yes",
+                     "-o", str(folder / "loop")])
+        _LOOPS[case, budget] = code, json.loads((folder / "loop" / "investigate.json").read_text(encoding="utf-8"))
+    return _LOOPS[case, budget]
 
 
 def test_investigate_decides_moisture_against_lag_within_budget(tmp_path, started, capsys):
@@ -41,6 +48,7 @@ def test_investigate_decides_moisture_against_lag_within_budget(tmp_path, starte
     assert {"parasitic_capacitance", "thermal_lag"} <= set(record["final"]["claimed"])
     assert {"verdict", "claimed", "ranking", "steps", "noise_ppm"} <= set(record["final"])
     assert record["hours_spent"] <= 3.0
+    assert Path(first["run_file"]).exists()
     # what is left no candidate of this station decides (former_expansion needs the target in place beside a
     # room-temperature sweep this campaign does not have): the loop says so and stops
     assert record["stopped"].startswith("no open question this station can answer"), record["stopped"]
@@ -121,6 +129,16 @@ def test_an_output_folder_with_an_investigation_is_refused_before_anything_runs(
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "holds an investigation already" in err[0]
     assert (loop / "investigate.json").read_text(encoding="utf-8") == "{}"
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "round 1 runs the target hot at 500 Hz as a physicist would, but the joined two-frequency campaign ties "
+    "tau_displacement with target_bending far above the noise; four more rounds (fine steps, a repeat, the coil "
+    "hot, 5000 Hz) leave nothing claimed and a residual outside the library"))
+def test_investigate_b_ends_with_the_conductivity_change_claimed_and_no_open_question(tmp_path, started):
+    _, record = investigated(started, "b", tmp_path, 2.0)
+    assert "target_tau_temperature" in record["final"]["claimed"]
+    assert record["stopped"].startswith("no open question"), record["stopped"]
 
 
 def test_a_run_not_confirmed_is_not_run_and_the_loop_says_so(tmp_path, started):

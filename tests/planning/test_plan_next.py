@@ -21,11 +21,17 @@ from ecds_lab.planning.discrimination import expected, measured_separation
 from ecds_lab.runner.session import run_experiment
 from ecds_lab.storage.data_file import open_campaign
 
+_PLANS: dict[tuple[Path, ...], NextPlan] = {}
+
 
 def planned(station: Path, runs: list[Path]) -> NextPlan:
-    config = validate(str(station), parse_yaml(read_text(station), str(station)), StationConfig)
-    opened = open_campaign(runs)
-    return plan_next(run_diagnosis(opened.data, (), opened.sensor), library(), config)
+    """plan-next's plan for the campaign (computed once per campaign in a session: the tests only read it)."""
+    key = (station, *runs)
+    if key not in _PLANS:
+        config = validate(str(station), parse_yaml(read_text(station), str(station)), StationConfig)
+        opened = open_campaign(runs)
+        _PLANS[key] = plan_next(run_diagnosis(opened.data, (), opened.sensor), library(), config)
+    return _PLANS[key]
 
 
 def test_plan_next_on_a_one_frequency_tie_names_the_other_frequency_and_writes_a_runnable_yaml(tmp_path, capsys,
