@@ -149,3 +149,8 @@ def test_every_candidate_keeps_inside_tight_station_limits(tmp_path, truth_stati
         assert settings.get("park_mm", 0.0) <= 90.0
         limit = 60.0 if settings["kind"] == "target_heating" else 50.0
         assert all(t < limit for t in settings.get("heating", {}).get("setpoints_c", [])), settings
+    config = validate(str(station), parse_yaml(read_text(station), str(station)), StationConfig)
+    opened = open_campaign([run])
+    short = plan_next(run_diagnosis(opened.data, (), opened.sensor), library(), config, max_hours=0.1)
+    assert all(s.candidate.hours <= 0.1 for s in short.scored)
+    assert any("more than the 0.1 h allowed" in why for why in short.refused.values())
