@@ -1,13 +1,14 @@
 """Choose the experiment that decides, and write it as a normal experiment YAML saying what it decides.
 
 Every designable open question (``questions.DESIGNABLE``) gets its rival models (``rivals``); every candidate the
-station can do within the time allowed (``candidates``) is scored on each question by the T-criterion
-(``discrimination``). A candidate's worth is the number of questions it decides (its guaranteed Delta chi-square
-reaching ``DECISIVE_CHI2``, a partial share below) per hour of lab time (its plan's estimate plus ``SETUP_HOURS``).
-The questions come in priority order (ties first: the diagnosis's own question, then sizes, then effects not
-excluded); among the candidates that decide the first question any candidate can decide, the worthiest is chosen.
-When none decides any question within the time, the one with the largest separation is named, and said not to
-decide.
+station can do (``candidates``) is scored on each question by the T-criterion (``discrimination``); a question no
+candidate decides at any lab time is one this station cannot answer (``NextPlan.unanswerable``), and only candidates
+within the time allowed are chosen from. A candidate's worth is the number of questions it decides (its guaranteed
+Delta chi-square reaching ``DECISIVE_CHI2``, a partial share below) per hour of lab time (its plan's estimate plus
+``SETUP_HOURS``). The questions come in priority order (ties first: the diagnosis's own question, then sizes, then
+effects not excluded); among the candidates that decide the first question any candidate can decide, the worthiest
+is chosen. When none decides any question within the time, the one with the largest separation is named, and said
+not to decide.
 """
 
 from __future__ import annotations
@@ -65,10 +66,6 @@ class NextPlan:
     not_asked: dict[str, str] = field(default_factory=dict)
     #: questions (indices) no candidate of this station decides at any lab time: the station cannot answer them
     unanswerable: list[int] = field(default_factory=list)
-
-    @property
-    def designable(self) -> list[int]:
-        return [i for i, q in enumerate(self.questions) if q.kind in DESIGNABLE]
 
     @property
     def main_question(self) -> int | None:
