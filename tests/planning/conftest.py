@@ -61,8 +61,9 @@ def starting_cases() -> dict[str, tuple[dict[str, Any], dict[str, Any], dict[str
     """The issue's starting campaigns: case -> (truth, slide options, starting experiment)."""
     coil = {"kind": "coil_heating", "name": "start", "park_mm": 160.0, "frequencies_hz": [500, 15000], "readings": 3,
             "heating": {"setpoints_c": [60.0], "steady": STEADY_START, "log_interval_s": 120, "cool_down_to_c": 30.0}}
+    # every 4 mm: a 15.5 mm wide bump (docs/simulated_lab.md) between positions 10 mm apart is taken for tau_T(x)
     sweep = {"kind": "displacement_sweep", "name": "start",
-             "sweep": {"positions_mm": [20, 30, 40, 50, 60, 70, 80, 90, 100], "frequencies_hz": [500, 15000],
+             "sweep": {"start_mm": 20.0, "stop_mm": 100.0, "step_mm": 4.0, "frequencies_hz": [500, 15000],
                        "direction": "both", "readings_per_point": 2}}
     return {
         # (a) one frequency, target heated, truth a bending
