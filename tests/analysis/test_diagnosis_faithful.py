@@ -102,6 +102,7 @@ def test_two_indistinguishable_effects_are_both_named_with_a_measurement_to_sepa
     assert result.claimed == []
     assert any({"target_bending", "target_tau_temperature"} <= set(group) for group in result.alternatives)
     assert any("500 Hz" in s for s in result.suggested_measurements)
+    assert "ecds-lab plan-next" in result.explanation  # the computed plan beside the fixed advice
     json.dumps(result.to_json())
 
 

@@ -76,7 +76,9 @@ def explain(result: Diagnosis, registry: EffectRegistry | None = None) -> str:
             lines.append(f"The data cannot tell {' from '.join(group)}: each explains them about equally well "
                          "(or neither is determined), so none is claimed.")
     if (result.alternatives or result.undetermined) and result.suggested_measurements:
-        lines.append("To separate or determine them: " + "; or ".join(result.suggested_measurements) + ".")
+        lines.append("To separate or determine them: " + "; or ".join(result.suggested_measurements) + " "
+                     "(`ecds-lab plan-next` designs the experiment that decides for a given station, with its "
+                     "predicted separation and lab time; docs/planning.md).")
     for name in result.undetermined:
         lines.append(f"{name} would explain part of it, but these data do not determine its size, so it is "
                      "not claimed.")
