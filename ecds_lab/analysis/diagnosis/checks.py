@@ -125,4 +125,6 @@ def tied(a: Candidate, b: Candidate) -> bool:
 
 
 def evidence_rank(candidate: Candidate) -> float:
-    return candidate.delta_bic_signature if math.isfinite(candidate.delta_bic_signature) else math.inf
+    """Order of candidates, best first: the BIC gain over every reading (the signature's BIC judges whether an
+    effect has evidence; which of two explains the data better is judged on all of them, as their rows differ)."""
+    return candidate.delta_bic if math.isfinite(candidate.delta_bic) else math.inf
