@@ -243,9 +243,90 @@ def _cmd_report(args: argparse.Namespace) -> int:
     registry = _load_user_effects(args.effects_from)
     inputs = [Path(p) for p in args.data]
     check_output(args.output, inputs, overwrite=args.overwrite)  # before minutes of analysis
-    write_output(args.output, inputs, args.overwrite, lambda path: write_report(inputs, path, effects=registry))
+    write_output(args.output, inputs, args.overwrite,
+                 lambda path: write_report(inputs, path, effects=registry, investigation=args.investigation))
     print(f"report -> {args.output}")
     return 0
+
+
+def _station_config(reference: Path | None) -> tuple[Path, object]:
+    from ecds_lab.config.loading import parse_yaml, read_text, validate
+    from ecds_lab.config.references import station_path
+    from ecds_lab.config.station import StationConfig
+
+    path = station_path(reference)
+    return path, validate(str(path), parse_yaml(read_text(path), str(path)), StationConfig)
+
+
+def _cmd_plan_next(args: argparse.Namespace) -> int:
+    """``plan-next``: the experiment that best separates the diagnosis's competing models (docs/planning.md)."""
+    from ecds_lab.analysis.diagnosis import run_diagnosis
+    from ecds_lab.planning.choice import plan_next, write_experiment
+    from ecds_lab.storage.data_file import open_campaign
+    from ecds_lab.storage.outputs import check_output
+
+    registry = _load_user_effects(args.effects_from)
+    _, station = _station_config(args.station)
+    if args.output is not None:
+        check_output(args.output, list(args.data), overwrite=args.overwrite)
+    opened = open_campaign(args.data, args.sensor)
+    _require_readings(opened.data, args.data, 2, "a plan starts from a diagnosis")
+    result = run_diagnosis(opened.data, (), opened.sensor, registry=registry)
+    plan = plan_next(result, registry, station, args.max_hours)  # type: ignore[arg-type]
+    if args.json:
+        print(json.dumps(plan.to_json(), indent=2))
+    else:
+        print(f"verdict: {result.verdict}")
+        for question in plan.questions:
+            print(f"open question ({question.kind}): {question.text}")
+        if plan.chosen is not None:
+            print(f"chosen: {plan.chosen.candidate.what} ({plan.chosen.candidate.hours:.2f} h of lab time), "
+                  f"predicted Delta chi-square {plan.predicted_delta_chi2:.1f}")
+        print(f"why: {plan.why}")
+    if plan.chosen is not None and args.output is not None:
+        write_experiment(plan, args.output)
+        print(f"experiment -> {args.output}" if not args.json else "", file=sys.stderr if args.json else sys.stdout)
+    return 0
+
+
+def _cmd_investigate(args: argparse.Namespace) -> int:
+    """``investigate``: diagnose -> plan-next -> run -> diagnose until decided or the budget is spent."""
+    from ecds_lab.planning.investigate import investigate
+
+    station_file, station = _station_config(args.station)
+    simulated = getattr(station, "simulated", None) is not None
+    confirm = None if args.yes or simulated else _ask
+    state = investigate(args.data, station_file, args.output, budget_hours=args.budget_hours, confirm=confirm,
+                        registry=_load_user_effects(args.effects_from))
+    final = state.final or {}
+    print(f"stopped: {state.stopped}")
+    print(f"final verdict: {final.get('verdict')}; claimed: {', '.join(final.get('claimed', [])) or 'nothing'}; "
+          f"{state.hours_spent:.2f} h of lab time; {args.output / 'investigate.json'}")
+    last = state.rounds[-1] if state.rounds else {}
+    if last.get("run_status") == "aborted" and last.get("stopped_by") is not None:
+        from ecds_lab.runner.safe_state import exit_code
+
+        return exit_code(int(last["stopped_by"]))
+    return 0
+
+
+def _ask(question: str) -> bool:
+    try:
+        return input(f"{question} [y/N] ").strip().lower() in ("y", "yes")
+    except EOFError:
+        return False
+
+
+def _hours(text: str) -> float:
+    import math
+
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number of hours > 0")
+    return value
 
 
 def _cmd_replay(args: argparse.Namespace) -> int:
@@ -356,6 +437,30 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--effects-from", type=Path, action="append", metavar="FILE.py",
                    help="a Python file of your own effects (Effect subclasses); may be given several times")
     p.add_argument("--overwrite", action="store_true", help="replace an existing output file (never an input)")
+    p.add_argument("--investigation", type=Path, metavar="investigate.json", help="the record of an "
+                   "ecds-lab investigate loop, for the chapter 'How the question was decided' (default: one found "
+                   "beside the data files)")
+
+    p = command("plan-next", _cmd_plan_next, "design the experiment that best separates the models the diagnosis "
+                "of DATA leaves open (T-optimal, per hour of lab time); write it as an experiment YAML")
+    p.add_argument("data", type=Path, nargs="+")
+    p.add_argument("--station", type=Path, help="station YAML or shipped name (default: simulated_lab)")
+    p.add_argument("-o", "--output", type=Path, help="experiment YAML to write")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing output file (never an input)")
+    p.add_argument("--max-hours", type=_hours, metavar="H", help="only experiments of at most H hours of lab time")
+    p.add_argument("--sensor", help="sensor YAML or shipped name (as for diagnose)")
+    p.add_argument("--effects-from", type=Path, action="append", metavar="FILE.py")
+    p.add_argument("--json", action="store_true", help="print the open questions, candidates and choice as JSON")
+
+    p = command("investigate", _cmd_investigate, "the loop: diagnose, plan the deciding experiment, run it, add it to "
+                "the campaign, diagnose again, until no open question is left or the budget is spent")
+    p.add_argument("data", type=Path, nargs="+")
+    p.add_argument("--station", type=Path, required=True, help="station YAML or shipped name")
+    p.add_argument("--budget-hours", type=_hours, metavar="H", help="lab hours the loop may spend")
+    p.add_argument("--yes", action="store_true", help="run each round without asking (a real station asks)")
+    p.add_argument("-o", "--output", type=Path, default=Path("investigation"), help="folder for every round's "
+                   "files and investigate.json")
+    p.add_argument("--effects-from", type=Path, action="append", metavar="FILE.py")
 
     p = command("replay", _cmd_replay, "re-run a recorded session through the drivers from its transcript")
     p.add_argument("run", type=Path)

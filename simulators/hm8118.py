@@ -44,6 +44,9 @@ the interface chapter were not among the stored copies; what they would have sai
 | RNGH                              | range hold; choosing a range holds it              | [E51] 6.4 (AUTO/  |
 |                                   |                                                    | HOLD); codes      |
 |                                   |                                                    | ASSUMED           |
+| range held, |Z| > 100x nominal    | the reading is an error (OVERRANGE on the display; | [E51] 6.4; reply  |
+|                                   | ``ERROR`` over the link)                           | and nominal       |
+|                                   |                                                    | ASSUMED           |
 | RATE speeds                       | fast 1/14 s, medium 1/8 s, slow 0.6 s per reading  | [D12] (see below) |
 | MMOD trigger modes                | continuous, manual (*TRG), external                | [D12]; codes      |
 |                                   |                                                    | ASSUMED           |
@@ -122,6 +125,9 @@ OUTPUT_CODES = {0: "value", 1: "deviation", 2: "percent"}
 #: ``RNGE`` codes 1-6 [E51] and the upper |Z| each range serves when auto-ranging (limits ASSUMED).
 RANGE_LIMITS_OHM = {1: 3.0, 2: 25.0, 3: 400.0, 4: 6.4e3, 5: 100e3, 6: math.inf}
 _RANGES = tuple(RANGE_LIMITS_OHM.items())  # (code, limit) in ascending order, walked on every reading
+#: With the range held, a component whose impedance exceeds this many times the range's nominal value reads
+#: OVERRANGE [E51 6.4]; the nominal value is taken as the range's auto-ranging limit (ASSUMED).
+OVERRANGE_FACTOR = 100.0
 #: Time of one reading per ``RATE`` code: 14 and 8 readings per second at FAST and MED [D12]; SLOW kept at
 #: 0.6 s (the manual's "about 1.5 per second" would be 0.67 s; see the module docstring).
 MEASUREMENT_TIME_S = {0: 1 / 14, 1: 1 / 8, 2: 0.6}
@@ -354,6 +360,8 @@ class HM8118Emulator(LineEmulator):
         magnitude = abs(z)
         if not settings["RNGH"]:
             settings["RNGE"] = self.auto_range(magnitude)
+        elif magnitude > OVERRANGE_FACTOR * RANGE_LIMITS_OHM[self._code("RNGE")]:
+            return None  # OVERRANGE [E51 6.4]: a held range far below the component
         if function in (6, 7, 8):  # Z-theta, Y-theta, R-X: no equivalent circuit involved
             theta = math.degrees(cmath.phase(z))
             return {6: (magnitude, theta), 7: (abs(1 / z), -theta), 8: (z.real, z.imag)}[function]

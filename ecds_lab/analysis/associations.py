@@ -27,6 +27,8 @@ MAX_BINS = 10
 TIME_MARGIN = 1.25
 #: Scored on the variation within each phase of the campaign.
 WITHIN_PHASE = ("time_s", "coil_rate_k_per_min")
+#: Time is weighed against the strongest state variable among the first this many.
+CONFOUNDED = 4
 
 
 @dataclass(frozen=True)
@@ -97,20 +99,62 @@ def _describe(variable: Variable, data: Measurements, values: np.ndarray, r: np.
 
 
 def residual_associations(data: Measurements, residuals_ppm: np.ndarray, noise_ppm: float) -> list[Association]:
-    """Score every variable by how much of the residual it explains; strongest first."""
+    """Score every variable by how much of the residual it explains; strongest first.
+
+    Time runs along the whole campaign, so a residual that lives in time (a drift of the bridge's gain) is
+    partly explained by whatever state changed along the campaign (the coil heated last), and the other way
+    round. Time goes before the strongest state variable when it explains more of what that variable leaves
+    (its score on the residual without the variable's bin means) than the variable explains of what time
+    leaves; ``significance`` stays each variable's own."""
     full = np.asarray(residuals_ppm, float)
-    total = float(np.sum((full - full.mean()) ** 2)) or 1.0
-    within = sum(float(np.sum((full[g] - full[g].mean()) ** 2))
-                 for g in (data.freq_hz == f for f in np.unique(data.freq_hz)))
-    labels = phase_labels(data)
-    in_phase = within_phase(full, labels, data.freq_hz)
-    out = []
-    for variable in VARIABLES.values():
+    scorer = _Scorer(data, full, noise_ppm)
+    out = [scorer.association(variable, full) for variable in VARIABLES.values()]
+    ranked = sorted(out, key=lambda a: -(a.score / TIME_MARGIN if a.variable == "time_s" else a.score))
+    time = next(a for a in ranked if a.variable == "time_s")
+    states = [a for a in ranked[:CONFOUNDED] if a.variable not in ("time_s", "freq_hz")]
+    if not states or time.significance <= 3 or ranked.index(time) < ranked.index(states[0]):
+        return ranked
+    lead, clock = VARIABLES[states[0].variable], VARIABLES["time_s"]
+    beyond_lead = scorer.association(clock, scorer.without(lead, full)).significance
+    beyond_time = scorer.association(lead, scorer.without(clock, full)).significance
+    if beyond_lead <= beyond_time:
+        return ranked
+    ranked.remove(time)
+    ranked.insert(ranked.index(states[0]), time)
+    return ranked
+
+
+class _Scorer:
+    """The bin-means statistic of each variable on a residual (per frequency; time-like variables within phases)."""
+
+    def __init__(self, data: Measurements, full: np.ndarray, noise_ppm: float) -> None:
+        self.data, self.noise_ppm = data, noise_ppm
+        self.total = float(np.sum((full - full.mean()) ** 2)) or 1.0
+        self.within = sum(float(np.sum((full[g] - full[g].mean()) ** 2))
+                          for g in (data.freq_hz == f for f in np.unique(data.freq_hz))) or 1.0
+        self.labels = phase_labels(data)
+        self.frequencies = [data.freq_hz == f for f in np.unique(data.freq_hz)]
+
+    def without(self, variable: Variable, r: np.ndarray) -> np.ndarray:
+        """``r`` minus its mean in each bin of ``variable`` (per frequency): what the variable does not explain."""
+        values = variable.values(self.data)
+        out = r.copy()
+        for group in self.frequencies:
+            rows = group & np.isfinite(values)
+            if rows.sum() < 3:
+                continue
+            index, bins = _bin_index(values[rows], variable.categorical)
+            counts = np.bincount(index, minlength=bins)
+            means = np.bincount(index, weights=r[rows], minlength=bins) / np.maximum(counts, 1)
+            out[rows] = r[rows] - means[index]
+        return out
+
+    def association(self, variable: Variable, full: np.ndarray) -> Association:
+        data, noise_ppm = self.data, self.noise_ppm
         values = variable.values(data)
-        r = in_phase if variable.name in WITHIN_PHASE else full
+        r = within_phase(full, self.labels, data.freq_hz) if variable.name in WITHIN_PHASE else full
         between, dof = 0.0, 0
-        groups = [np.ones(len(r), bool)] if variable.name == "freq_hz" else \
-            [data.freq_hz == f for f in np.unique(data.freq_hz)]
+        groups = [np.ones(len(r), bool)] if variable.name == "freq_hz" else self.frequencies
         for group in groups:
             rows = group & np.isfinite(values)
             if rows.sum() < 3:
@@ -125,7 +169,6 @@ def residual_associations(data: Measurements, residuals_ppm: np.ndarray, noise_p
         significance = (between / noise_ppm**2 - dof) / np.sqrt(2 * dof) if dof and noise_ppm > 0 else 0.0
         # Frequency is scored against all the residual, every other variable against what is
         # left within each frequency (an offset between frequencies is the frequency's to explain).
-        score = min(1.0, explained / (total if variable.name == "freq_hz" else (within or 1.0)))
-        out.append(Association(variable.name, round(score, 4), _describe(variable, data, values, r),
-                               round(float(significance), 1)))
-    return sorted(out, key=lambda a: -(a.score / TIME_MARGIN if a.variable == "time_s" else a.score))
+        score = min(1.0, explained / (self.total if variable.name == "freq_hz" else self.within))
+        return Association(variable.name, round(score, 4), _describe(variable, data, values, r),
+                           round(float(significance), 1))

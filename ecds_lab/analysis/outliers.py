@@ -7,14 +7,16 @@ physics an effect may explain (a sweep made before a thermal state settled, a co
 at close range), never a glitch, so a suspect is kept when
 
 - a neighbour in time of the same frequency (the reading before or after it in its series)
-  deviates the same way by more than ``REPEATED`` sigmas: the deviation runs on in time or in x;
+  deviates the same way by more than ``REPEATED`` sigmas and a tenth of the suspect's deviation
+  (``RUN_SHARE``): the deviation runs on in time or in x;
 - the reading of the same state at another frequency, taken moments apart, deviates by more than
   ``REPEATED`` sigmas (either way: the bridge errs on one reading, physics shows at every frequency);
 - readings of the same state elsewhere in the campaign (same frequency, direction and commanded
   distance) share the deviation: their median by more than ``REPEATED`` sigmas, or at least a
   ``SHARED`` part of them beyond ``THRESHOLD`` the same way.
-The running median repeats the end values of a run, so the two readings at either end of a run
-(a sweep's turning points) are not judged: a peak of the residual there is structure as often as not.
+The running median repeats the end values of a run, so the first and last reading of a run (a sweep's
+turning points) are judged against the readings next to them instead, and only far beyond the threshold
+(``END_THRESHOLD``): a peak of the residual there is structure as often as not.
 """
 
 from __future__ import annotations
@@ -31,6 +33,14 @@ from ecds_lab.data.measurements import Measurements
 THRESHOLD = 5.5
 #: Readings of the same state deviating alike (by this many sigmas, median) make it structure.
 REPEATED = 3.0
+#: A neighbour continues a run of structure when it deviates the same way by REPEATED sigmas and by at least this
+#: share of the suspect's deviation: physics in time or x is smooth from one reading to the next, so a reading
+#: 800 sigmas off beside one 3 sigmas off is a glitch beside noise, not a run.
+RUN_SHARE = 0.1
+#: The first and last reading of a run are judged against this many readings next to them, and are glitches
+#: only beyond END_THRESHOLD sigmas.
+END_SPAN = 3
+END_THRESHOLD = 2 * THRESHOLD
 
 
 @dataclass(frozen=True)
@@ -63,7 +73,7 @@ def find_glitches(data: Measurements, residuals_ppm: np.ndarray, noise_ppm: floa
     sigma = np.broadcast_to(np.asarray(noise_ppm, float), r.shape)
     if not len(r) or not (sigma > 0).all():
         return np.zeros(len(r), bool)
-    deviation = (r - smooth_residual(data, r)) / sigma
+    deviation = glitch_deviation(data, r, sigma)
     suspect = np.abs(deviation) > THRESHOLD
     neighbours = _time_neighbours(data)
     positions = _PositionGroups.of(data)
@@ -71,6 +81,23 @@ def find_glitches(data: Measurements, residuals_ppm: np.ndarray, noise_ppm: floa
     for i in np.flatnonzero(suspect).tolist():
         out[i] = not _in_structure(data, deviation, neighbours, i, positions.rows_like(i))
     return out
+
+
+def glitch_deviation(data: Measurements, residuals_ppm: np.ndarray, sigma: np.ndarray) -> np.ndarray:
+    """Each reading's deviation (sigmas) from the running median of its series. The running median repeats a
+    run's end values, so the first and last reading are instead judged against the median of the END_SPAN
+    readings next to them, and only beyond END_THRESHOLD (a turning point may bend the residual; a reading a
+    thousand sigmas off the three after it, the first of a campaign say, is still a glitch)."""
+    r = np.asarray(residuals_ppm, float)
+    deviation = (r - smooth_residual(data, r)) / sigma
+    for rows in reading_groups(data):
+        if len(rows) <= END_SPAN:
+            continue
+        for end, inner in ((rows[0], rows[1:END_SPAN + 1]), (rows[-1], rows[-END_SPAN - 1:-1])):
+            off = (r[end] - float(np.median(r[inner]))) / sigma[end]
+            if abs(off) > END_THRESHOLD:
+                deviation[end] = off
+    return deviation
 
 
 def _time_neighbours(data: Measurements) -> np.ndarray:
@@ -112,8 +139,9 @@ def _in_structure(data: Measurements, deviation: np.ndarray, neighbours: np.ndar
     """Whether the deviation of row ``i`` belongs to a run of structure (see the module docstring);
     ``position``: the rows at its commanded distance (or in air with it) in the same direction."""
     sign = np.sign(deviation[i])
+    run = max(REPEATED, RUN_SHARE * abs(deviation[i]))
     for j in neighbours[i]:
-        if j >= 0 and np.sign(deviation[j]) == sign and abs(deviation[j]) > REPEATED:
+        if j >= 0 and np.sign(deviation[j]) == sign and abs(deviation[j]) > run:
             return True
     partners = position[(data.segment[position] == data.segment[i]) & (data.freq_hz[position] != data.freq_hz[i])
                         & (np.abs(data.time_s[position] - data.time_s[i]) <= PARTNER_GAP_S)]
@@ -131,7 +159,8 @@ def describe(data: Measurements, rows: np.ndarray, residuals_ppm: np.ndarray, no
              index: np.ndarray) -> list[Outlier]:
     """Outlier records for ``rows`` (indices into ``data``), numbered by ``index`` (original rows); ``noise_ppm``
     as for ``find_glitches``."""
-    deviation = (residuals_ppm - smooth_residual(data, residuals_ppm)) / noise_ppm
+    sigma = np.broadcast_to(np.asarray(noise_ppm, float), np.shape(residuals_ppm))
+    deviation = glitch_deviation(data, residuals_ppm, sigma)
     out = []
     for i in rows:
         where = "coil in air" if not np.isfinite(data.x_m[i]) else f"x = {data.x_m[i] * 1e3:.4g} mm"

@@ -243,6 +243,15 @@ def position_error_figure(error_mm: Sequence[float] | np.ndarray, fs_mm: float,
                                float(np.sqrt(np.mean(inside**2))))
 
 
+def chain_position_error(residual_mm: np.ndarray, full_scale_mm: float, rmse_ppm: float,
+                         noise_ppm: float | None) -> PositionErrorFigure:
+    """The position error of one model of the chain over the readings with a position (a NaN residual: a coil-in-air
+    reading, which has none and is no reading out of range); every output of a step shows this one figure."""
+    residual = np.asarray(residual_mm, float)
+    positioned = residual[~np.isnan(residual)]
+    return position_error_figure(positioned, full_scale_mm, model_rms_ppm=rmse_ppm, noise_ppm=noise_ppm)
+
+
 def full_scale_mm(x_mm: Sequence[float] | np.ndarray) -> float:
     """The full scale: the span of the calibrated positions (mm), the one FS every output quotes."""
     x = np.asarray(x_mm, float)

@@ -27,9 +27,10 @@ from ecds_lab.analysis.calibration import (
 )
 from ecds_lab.analysis.compensation import SteadyEq4, fit_steady_eq4, heated_coil_sweep
 from ecds_lab.analysis.fitting import FitResult, fit_model
-from ecds_lab.analysis.noise import noise_parts_text
+from ecds_lab.analysis.noise import REPEATED, noise_parts_text
 from ecds_lab.analysis.quantities import (
     MODEL_FAILS,
+    MODEL_FAILS_FACTOR,
     VALID,
     PositionErrorFigure,
     format_quantity,
@@ -47,6 +48,12 @@ HEATED_K = 5.0
 #: The paper's reduced calibration set.
 FEW_POINTS = 4
 _CALIBRATED = ("L0", "p1", "p2", "p3", "p4")
+#: What the paper-style calibrations take from the full fit, said wherever that fit fails: its parameters give no
+#: positions themselves, the calibrations' positions stand or fall with the calibrations' own residuals.
+CALIBRATIONS_FROM_FIT = ("its parameters describe no coil and give no positions of their own; each calibration "
+                         "refits L0 and p1..p4 on its room-temperature sweep, holds the others at this fit's values "
+                         f"and gives positions only while its own residual stays within {MODEL_FAILS_FACTOR:g}x "
+                         "the noise")
 #: The Eq. (4) coefficients of the joint model fit (every reading, every frequency), named where shown.
 JOINT_EQ4_METHOD = "alpha, beta of the joint model fit of every reading at every frequency"
 
@@ -81,7 +88,8 @@ def fit_summary(data: Measurements, effects: Sequence[str] = (), sensor: SensorC
         summary["quantities"][f"eq4.alpha_per_k.{e.freq_hz:g}Hz"] = e.alpha_per_k
     summary["eq4_steady"] = [{"freq_hz": e.freq_hz, "method": e.method, "reference_c": e.reference_c,
                               "alpha_per_k": e.alpha_per_k, "beta_per_k2": e.beta_per_k2, "l0_h": e.l0_h,
-                              "span_k": e.span_k} for e in coil.eq4.values()]
+                              "span_k": e.span_k, "glitches_excluded": e.glitches_excluded}
+                             for e in coil.eq4.values()]
     return summary
 
 
@@ -94,6 +102,7 @@ def _quantities(calibrations: list[dict[str, Any]], material: str) -> dict[str, 
             entry = cal[label]
             out[f"full_scale_mm.{material}.{f:g}Hz"] = entry["fs_mm"]
             out[quantity_key("room", material, f, label)] = entry["room_temperature"]["max_abs_mm"]
+            out[rms_key(quantity_key("room", material, f, label))] = entry["room_temperature"]["rms_mm"]
             heated = {"target_heated": entry.get("target_heated")}
             if "coil_heated" in entry:
                 heated.update({f"coil_{kind}": entry["coil_heated"][kind] for kind in ("compensated", "uncompensated")})
@@ -106,6 +115,11 @@ def _quantities(calibrations: list[dict[str, Any]], material: str) -> dict[str, 
                     out[ts_key(key, "min")] = figure["ts_ppm_fs_per_k_min"]
                     out[ts_key(key, "max")] = figure["ts_ppm_fs_per_k_max"]
     return out
+
+
+def rms_key(error_key: str) -> str:
+    """The key of the RMS position error that goes with a max |e_pos| figure's key."""
+    return error_key.replace("position_error.max_abs_mm", "position_error.rms_mm")
 
 
 def ts_key(error_key: str, end: str) -> str:
@@ -180,6 +194,18 @@ class CalibrationCase:
     coil_compensated: HeatedErrors | None = None
     coil_uncompensated: HeatedErrors | None = None
     compensation_method: str = JOINT_EQ4_METHOD
+    #: The noise (ppm) the calibration's residual is judged against (``judging_noise_ppm``).
+    noise_ppm: float | None = None
+
+
+def judging_noise_ppm(calibration: FitResult, full: FitResult) -> float:
+    """The noise a calibration's residual is judged against ("model fails here" above 10x): its own when
+    repeated readings measured it, else the full fit's when they measured that. A noise taken from the
+    calibration's own residual (a short sweep without repeats) is that residual's spread, against which no
+    residual can ever fail: the steel sweep at 15 kHz (9 positions) judged 405 ppm against its own 473 ppm."""
+    if calibration.noise.method != REPEATED and full.noise.method == REPEATED:
+        return full.noise.ppm
+    return calibration.noise.ppm
 
 
 def calibration_cases(data: Measurements, model: SensorModel, result: FitResult, freq_hz: float, *,
@@ -214,7 +240,8 @@ def calibration_cases(data: Measurements, model: SensorModel, result: FitResult,
     cases = []
     for label, n_points in (("all_points", None), (f"n{FEW_POINTS}", FEW_POINTS)):
         cal = calibrate(sweep, model.sensor, n_points=n_points, fixed=held, effects=model.effects, start=solved)
-        case = CalibrationCase(label, float(freq_hz), cal, position_errors(cal, at_f.select(room & finite)))
+        case = CalibrationCase(label, float(freq_hz), cal, position_errors(cal, at_f.select(room & finite)),
+                               noise_ppm=judging_noise_ppm(cal.fit, result))
         if target_hot.any():
             case.target_heated = HeatedErrors(position_errors(cal, at_f.select(target_hot)), target_rise[target_hot])
         if len(hot_coil):
@@ -246,18 +273,20 @@ def _calibration_summary(data: Measurements, model: SensorModel, result: FitResu
             "fs_mm": cal.fs_m * 1e3,
             "rmse_ppm": cal.fit.rms_ppm,
             "params": {k: v for k, v in params_json(cal.fit).items() if k in _CALIBRATED},
-            "room_temperature": _errors(case.room, fit=cal.fit),
+            "room_temperature": _errors(case.room, fit=cal.fit, noise_ppm=case.noise_ppm),
         }
         if case.coil_compensated is not None and case.coil_uncompensated is not None:
-            compensated = _errors(case.coil_compensated.errors, case.coil_compensated.rise_k, cal.fit)
-            uncompensated = _errors(case.coil_uncompensated.errors, case.coil_uncompensated.rise_k, cal.fit)
+            compensated = _errors(case.coil_compensated.errors, case.coil_compensated.rise_k, cal.fit, case.noise_ppm)
+            uncompensated = _errors(case.coil_uncompensated.errors, case.coil_uncompensated.rise_k, cal.fit,
+                                    case.noise_ppm)
             ratio = (compensated["max_abs_mm"] / uncompensated["max_abs_mm"]
                      if compensated["max_abs_mm"] is not None and uncompensated["max_abs_mm"] else None)
             entry["coil_heated"] = {"compensated": compensated, "uncompensated": uncompensated,
                                     "compensated_ratio": ratio, "compensation_method": case.compensation_method,
                                     "built_from_air": coil is not None and coil.heated is not None}
         if case.target_heated is not None:
-            entry["target_heated"] = _errors(case.target_heated.errors, case.target_heated.rise_k, cal.fit)
+            entry["target_heated"] = _errors(case.target_heated.errors, case.target_heated.rise_k, cal.fit,
+                                             case.noise_ppm)
         out[case.label] = entry
     return out
 
@@ -279,9 +308,11 @@ def in_range(errors: PositionErrors) -> np.ndarray:
     return errors.in_range
 
 
-def heated_figure(heated: HeatedErrors, calibration: Calibration) -> PositionErrorFigure:
-    """The position-error figure of heated readings under a calibration (``quantities.position_error_figure``)."""
-    return _figure(heated.errors, calibration.fit)
+def heated_figure(heated: HeatedErrors, calibration: Calibration,
+                  noise_ppm: float | None = None) -> PositionErrorFigure:
+    """The position-error figure of heated readings under a calibration (``quantities.position_error_figure``),
+    its residual judged against ``noise_ppm`` (the case's ``noise_ppm``; default the calibration's own noise)."""
+    return _figure(heated.errors, calibration.fit, noise_ppm)
 
 
 #: TS is quoted over the readings of the highest temperature step: rises above this share of the largest.
@@ -302,20 +333,22 @@ def temperature_stability_top_step(errors: PositionErrors, rise_k: np.ndarray) -
     return float(np.min(ts)), float(np.max(ts))
 
 
-def _figure(errors: PositionErrors, fit: FitResult | None) -> PositionErrorFigure:
+def _figure(errors: PositionErrors, fit: FitResult | None, noise_ppm: float | None = None) -> PositionErrorFigure:
+    if noise_ppm is None and fit is not None:
+        noise_ppm = fit.noise.ppm
     return position_error_figure(errors.error_mm, errors.fs_m * 1e3, errors.out_of_range,
-                                 model_rms_ppm=fit.rms_ppm if fit is not None else None,
-                                 noise_ppm=fit.noise.ppm if fit is not None else None)
+                                 model_rms_ppm=fit.rms_ppm if fit is not None else None, noise_ppm=noise_ppm)
 
 
-def _errors(errors: PositionErrors, rise_k: np.ndarray | None = None, fit: FitResult | None = None) -> dict[str, Any]:
+def _errors(errors: PositionErrors, rise_k: np.ndarray | None = None, fit: FitResult | None = None,
+            noise_ppm: float | None = None) -> dict[str, Any]:
     """Max and RMS position error (mm, % FS) over the readings in range, their status, and TS when temperatures rose.
 
     ``max_abs_mm`` is None when the figure is not a length (all readings out of range, or the
     calibration's model fails: ``quantities.position_error_figure``); out-of-range readings are
     counted in ``out_of_range`` and left out of every figure.
     """
-    figure = _figure(errors, fit)
+    figure = _figure(errors, fit, noise_ppm)
     out = figure.to_json()
     out["text"] = figure.text()
     if rise_k is not None:
@@ -353,8 +386,8 @@ def format_fit_summary(summary: dict[str, Any]) -> str:
              + f", dof {summary['dof']}, BIC {summary['bic']:.1f}"]
     model = summary.get("model", {})
     if model.get("status") == MODEL_FAILS:
-        lines.append(f"  {MODEL_FAILS}: {model['reason']}; the parameters below describe no coil and give no "
-                     "positions (ecds-lab diagnose finds what the model lacks)")
+        lines.append(f"  {MODEL_FAILS}: {model['reason']}; {CALIBRATIONS_FROM_FIT} (ecds-lab diagnose finds what "
+                     "the model lacks)")
     lines += [f"  warning: {text}" for text in summary.get("noise_warnings", [])]
     lines.append("  parameters:")
     for name, p in summary["params"].items():

@@ -19,6 +19,7 @@ from ecds_lab.report import render
 from ecds_lab.report.canvas import Png
 from ecds_lab.report.findings import diagnose, find
 from ecds_lab.report.inputs import load_inputs
+from ecds_lab.report.investigation import ANCHOR, TITLE, find_investigation, investigation_section, load_investigation
 from ecds_lab.report.markup import Html, figure, heading, text
 from ecds_lab.report.render import Plot
 from ecds_lab.report.sections import DIAGNOSIS, Section, anchors, build_sections
@@ -63,13 +64,16 @@ table.ts { font-size: .8rem; }
 
 
 def write_report(data_paths: Sequence[Path], output: Path, *, diagnosis: Any = None,
-                 workers: int | None = None, effects: EffectRegistry | None = None) -> Path:
+                 workers: int | None = None, effects: EffectRegistry | None = None,
+                 investigation: Path | None = None) -> Path:
     """Write the HTML report of the data files (run files or CSV) to ``output``; returns its path.
 
     ``diagnosis``: a ``Diagnosis`` (``ecds_lab.analysis.diagnosis.run_diagnosis``) of the main
     target group's readings, to show instead of running one. ``workers``: processes drawing the
     figures (default: one per CPU, less one while the diagnosis runs; 1 draws in this process).
     ``effects``: the ``EffectRegistry`` the diagnosis searches (default: the library and installed packages').
+    ``investigation``: an ``investigate.json`` for the chapter "How the question was decided" (default: one found
+    in the folder of a data file, if any).
     """
     began = time.perf_counter()
     paths = [Path(p) for p in data_paths]
@@ -88,6 +92,10 @@ def write_report(data_paths: Sequence[Path], output: Path, *, diagnosis: Any = N
         drawn = {id(plot): plot.render() for plot in diagnosis_section.plots()}  # while the workers draw the rest
         drawn.update(zip(map(id, plots), rendering.results(), strict=True))
     sections.insert(anchors().index(DIAGNOSIS), diagnosis_section)
+    record = investigation if investigation is not None else find_investigation(paths)
+    if record is not None:
+        sections.insert(anchors().index(DIAGNOSIS) + 1,
+                        Section(ANCHOR, TITLE, list(investigation_section(load_investigation(record)))))
     page = document(sections, [p.name for p in paths], drawn)
     output = Path(output)
     output.parent.mkdir(parents=True, exist_ok=True)

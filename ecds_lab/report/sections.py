@@ -19,12 +19,13 @@ from ecds_lab.analysis.quantities import (
     MODEL_FAILS,
     MODEL_FAILS_FACTOR,
     PositionErrorFigure,
+    chain_position_error,
     format_quantity,
     model_fails,
     parameter_rows,
-    position_error_figure,
 )
 from ecds_lab.analysis.summary import (
+    CALIBRATIONS_FROM_FIT,
     CalibrationCase,
     HeatedErrors,
     heated_figure,
@@ -183,8 +184,7 @@ def _params_table(group: TargetGroup) -> Html:
     rows = _param_rows(fit)
     noise = f", noise {fit.noise.ppm:.1f} ppm (from {fit.noise.source})"
     failure = model_fails(fit.rms_ppm, fit.noise.ppm)
-    verdict = (f"; {MODEL_FAILS}: {failure}, so these parameters describe no coil and give no positions"
-               if failure else "")
+    verdict = f"; {MODEL_FAILS}: {failure}, so {CALIBRATIONS_FROM_FIT}" if failure else ""
     caption = (f"{group.material} target: baseline fit of {fit.n} readings, residual RMS {fit.rms_ppm:.1f} ppm of L"
                f"{noise}{verdict}")
     return table(("parameter", "value", "status"), rows, caption=caption, css="params")
@@ -242,7 +242,8 @@ def diagnosis_section(findings: Findings) -> Parts:
     verdict = str(diagnosis.verdict)
     parts: Parts = [Html(f'<p>{badge(verdict.replace("_", " "), "good" if verdict == "adequate" else "bad")} '
                   f"noise {diagnosis.noise_ppm:.1f} ppm ({diagnosis.noise.source}), baseline residual "
-                  f"{diagnosis.baseline.rms_ppm:.1f} ppm of L ({main.material if main else ''} target data)</p>"),
+                  f"{diagnosis.baseline.rms_ppm:.1f} ppm of L ({main.material if main else ''} target data"
+                  f"{_glitches_note(diagnosis, main)})</p>"),
              paragraph(diagnosis.explanation, "explanation")]
     steps = list(getattr(diagnosis, "steps", []))
     if steps:
@@ -297,12 +298,12 @@ def _other_diagnoses(findings: Findings) -> Parts:
                               + (diagnosis.reason if isinstance(diagnosis, Omitted) else "no readings")))
             continue
         verdict = str(diagnosis.verdict)
-        fit = group.fit
-        failure = model_fails(fit.rms_ppm, fit.noise.ppm)
+        failure = model_fails(diagnosis.final.rmse_ppm, diagnosis.noise_ppm)  # the figures of this very line
         parts.append(Html(f'<h3>The {html_text(material)} target</h3><p>'
                           f'{badge(verdict.replace("_", " "), "good" if verdict == "adequate" else "bad")} '
                           f"noise {diagnosis.noise_ppm:.1f} ppm ({diagnosis.noise.source}), baseline residual "
                           f"{diagnosis.baseline.rms_ppm:.1f} ppm of L"
+                          + (f" ({_glitches_note(diagnosis, group).lstrip('; ')})" if diagnosis.outliers else "")
                           + (f"; {MODEL_FAILS}: {html_text(failure)}" if failure else "") + "</p>"))
         parts.append(paragraph(diagnosis.explanation, "explanation"))
         steps = list(getattr(diagnosis, "steps", []))
@@ -315,14 +316,25 @@ def _other_diagnoses(findings: Findings) -> Parts:
     return parts
 
 
+def _glitches_note(diagnosis: Any, group: TargetGroup | None) -> str:
+    """Why the diagnosis' baseline residual differs from the model-fit section's fit of the same readings:
+    the glitch readings the diagnosis leaves out (that fit takes every reading)."""
+    outliers = getattr(diagnosis, "outliers", None)
+    if not outliers or group is None:
+        return ""
+    return (f"; {len(outliers)} glitch reading(s) left out: the model fit section's baseline fit, which "
+            f"takes every reading, leaves {group.fit.rms_ppm:.1f} ppm with them")
+
+
 def _chain_label(effects: Sequence[str]) -> str:
     return " + ".join(["baseline", *effects])
 
 
 def step_error(step: Any, noise_ppm: float) -> PositionErrorFigure:
-    """The RMS position error of one model of the chain, or why it is no length (``quantities``)."""
-    return position_error_figure(step.residual_mm, step.full_scale_mm, model_rms_ppm=step.rmse_ppm,
-                                 noise_ppm=noise_ppm)
+    """The RMS position error of one model of the chain, or why it is no length: the step's own figure
+    (``Step.position_error``, the one the diagnosis JSON and text show), over the readings with a position
+    (a coil-in-air reading has none; it is not a reading out of range)."""
+    return chain_position_error(step.residual_mm, step.full_scale_mm, step.rmse_ppm, noise_ppm)
 
 
 def _step_error_text(step: Any, noise_ppm: float) -> str:
@@ -339,15 +351,21 @@ def _chain_table(steps: Sequence[Any], noise_ppm: float) -> Html:
             f"{figure.status} ({figure.reason})", "—")
         rows.append((_chain_label(s.effects) + _tie_note(s), number(s.rmse_ppm, 4), *error, f"{s.fit.bic:.1f}"))
     return table(("model", "RMS (ppm of L)", "position error RMS (mm)", "position error (% FS)", "BIC"), rows,
-                 caption="Watch the error fall: each step adds the effect the diagnosis claimed, or one that stands "
-                         "for a group the data cannot tell apart (not claimed); a model that leaves "
+                 caption="Watch the error fall: each step adds the effect the diagnosis claimed, one that stands "
+                         "for a group the data cannot tell apart, or one that took only part of a residual outside "
+                         "the library (these two not claimed); a model that leaves "
                          f"more than {MODEL_FAILS_FACTOR:g}x the noise gives no position error", css="chain")
 
 
 def _tie_note(step: Any) -> str:
-    """For a step whose effect stands for a tied group: which group (none of it is claimed)."""
+    """For a step whose effect is not claimed: the tied group it stands for, or the structure it leaves where it
+    acts (a part of a residual outside the library)."""
     group = getattr(step, "stands_for", None)
-    return f" (stands for {' / '.join(group)}: not claimed)" if group else ""
+    if group:
+        return f" (stands for {' / '.join(group)}: not claimed)"
+    left = getattr(step, "leaves_structure", None)
+    return f" (only part of a residual outside the library: {left:.0f} sd left where it acts; not claimed)" \
+        if left is not None else ""
 
 
 def _step_plot(diagnosis: Any, before: Any, after: Any) -> Html | Plot:
@@ -402,7 +420,7 @@ def _ts_rows(group: TargetGroup, with_coil: bool) -> list[tuple[object, ...]]:
     for freq, cases in group.cases.items():
         room = [f"n = {c.calibration.n_points}: "
                 + quantity_span(quantity_key("room", group.material, freq, c.label),
-                                (figure := _figure_of(c.room, c.calibration)).max_abs_mm, text_shown=figure.text())
+                                (figure := _figure_of(c.room, c)).max_abs_mm, text_shown=figure.text())
                 for c in cases]
         rows.append((lines(["room temperature (the calibration's own error)", f"{group.material} target, {freq:g} Hz"]),
                      "—", *(Html(r) for r in room), "—"))
@@ -414,7 +432,7 @@ def _ts_rows(group: TargetGroup, with_coil: bool) -> list[tuple[object, ...]]:
             cells: list[object] = [lines([_case_name(kind, found[0][0]), f"{group.material} target, {freq:g} Hz"]),
                                    f"{float(np.max(found[0][1].rise_k)):.0f} K"]
             for case, heated in found:
-                figure = heated_figure(heated, case.calibration)
+                figure = heated_figure(heated, case.calibration, case.noise_ppm)
                 key = quantity_key(kind, group.material, freq, case.label)
                 shown = quantity_span(key, figure.max_abs_mm, text_shown=figure.text())
                 top = temperature_stability_top_step(heated.errors, heated.rise_k) if figure.valid else None
@@ -426,9 +444,9 @@ def _ts_rows(group: TargetGroup, with_coil: bool) -> list[tuple[object, ...]]:
     return rows
 
 
-def _figure_of(errors: Any, calibration: Any) -> PositionErrorFigure:
-    """The figure of room-temperature readings under their calibration (as ``ecds-lab fit`` shows it)."""
-    return heated_figure(HeatedErrors(errors, np.zeros(len(errors.x_ref_m))), calibration)
+def _figure_of(errors: Any, case: CalibrationCase) -> PositionErrorFigure:
+    """The figure of room-temperature readings under their case's calibration (as ``ecds-lab fit`` shows it)."""
+    return heated_figure(HeatedErrors(errors, np.zeros(len(errors.x_ref_m))), case.calibration, case.noise_ppm)
 
 
 def position_section(findings: Findings) -> Parts:
@@ -442,8 +460,11 @@ def position_section(findings: Findings) -> Parts:
         return list(skipped) or [note("no calibration: no room-temperature sweep with five or more positions "
                                       "at one frequency")]
     parts.append(paragraph("Each frequency is calibrated on its room-temperature sweep (Eq. 5) with all positions "
-                           "and with the paper's n = 4 points in the sensitive near range; the heated readings are "
-                           "then turned into positions and compared with the slide's."))
+                           "and with the paper's n = 4 points in the sensitive near range: L0 and p1..p4 are fitted, "
+                           "the other parameters held at the model fit's values above; the heated readings are "
+                           "then turned into positions and compared with the slide's. A calibration whose own "
+                           f"residual exceeds {MODEL_FAILS_FACTOR:g}x the noise gives no position error (\"model fails "
+                           "here\")."))
     parts.extend(skipped)
     target_panels = [(g.material, f, cases) for g in with_cases for f, cases in g.cases.items()
                      if any(c.target_heated is not None for c in cases)]
@@ -506,7 +527,9 @@ def heating_section(findings: Findings) -> Parts:
         rows.append((f"{freq:g} Hz", STEADY_EQ4_LABEL,
                      Html(quantity_span(f"eq4.alpha_per_k.{freq:g}Hz", eq4.alpha_per_k, "1/K")),
                      format_quantity(eq4.beta_per_k2, "1/K^2"), format_quantity(eq4.l0_h, "H"),
-                     f"{len(eq4.t_coil_c)} steady temperatures over {eq4.span_k:.0f} K"))
+                     f"{len(eq4.t_coil_c)} steady temperatures over {eq4.span_k:.0f} K"
+                     + (f"; {eq4.glitches_excluded} glitch reading(s) left out of the steady means"
+                        if eq4.glitches_excluded else "")))
     failure = model_fails(fit.rms_ppm, fit.noise.ppm)
     joint = [format_quantity(fit.values[n], fit.parameter(n).unit, fit.stderr.get(n)) for n in ("alpha", "beta", "L0")]
     if failure:
@@ -523,8 +546,22 @@ def heating_section(findings: Findings) -> Parts:
                                "per frequency to the steady coil temperatures (first rows); the position errors of "
                                "this report and the paper comparison use those. The former's expansion alone "
                                f"({fit.model.sensor.former}, {format_quantity(expansion, '1/K')}, ΔL ∝ area) gives "
-                               f"α ≈ {format_quantity(2 * expansion, '1/K')}.", css="params"))
+                               f"α ≈ {format_quantity(2 * expansion, '1/K')}"
+                               f"{_expansion_note(heating.eq4, 2 * expansion)}.", css="params"))
     return parts
+
+
+def _expansion_note(eq4: dict[float, Any], expected_per_k: float) -> str:
+    """Where the measured α is far from the former's expansion alone, say so beside it, so the two figures do not
+    stand side by side without a word."""
+    far = {f: e.alpha_per_k for f, e in sorted(eq4.items())
+           if abs(e.alpha_per_k - expected_per_k) > 0.5 * abs(expected_per_k)}
+    if not far:
+        return ""
+    shown = ", ".join(f"{format_quantity(a, '1/K')} at {f:g} Hz" for f, a in far.items())
+    return (f"; the steady points give {shown}: at {'these frequencies' if len(far) > 1 else 'this frequency'} "
+            "the coil's inductance follows temperature otherwise than the former's expansion alone would make it; "
+            "what else acts, these data alone do not separate")
 
 
 # -- spectroscopy --------------------------------------------------------------------------------

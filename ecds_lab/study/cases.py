@@ -103,6 +103,13 @@ def _signed(g: np.random.Generator, low: float, high: float) -> float:
     return float(g.uniform(low, high) * g.choice([-1.0, 1.0]))
 
 
+def _metal_object(g: np.random.Generator) -> dict[str, Any]:
+    """A bracket anywhere in the travel, clearing the winding's 75 mm rim by 0.5-6 mm (docs/simulated_lab.md)."""
+    radius_mm = float(g.uniform(2.5, 5.0))
+    return _imperfection("metal_object", position_mm=float(g.uniform(30.0, 90.0)), radius_mm=radius_mm,
+                         radial_mm=75.0 + radius_mm + float(g.uniform(0.5, 6.0)))
+
+
 def _imperfection(name: str, **settings: Any) -> dict[str, Any]:
     return {"imperfections": {name: {"enabled": True, **settings}}}
 
@@ -116,9 +123,10 @@ WIDER_TRUTHS: tuple[TruthKind, ...] = (
               (), lambda d: bool(d.target_setpoints_c or d.coil_setpoints_c), lives_in=("time_s",)),
     TruthKind("heater_pickup", lambda g: _imperfection("bridge_heater_pickup", ppm_per_ampere={
         "fast": 100.0, "medium": 30.0, "slow": float(g.uniform(5.0, 30.0))}), (), lambda d: True, nuisance=True),
-    TruthKind("metal_object", lambda g: _imperfection("metal_object", position_mm=float(g.uniform(30.0, 90.0)),
-                                                     radius_mm=float(g.uniform(2.5, 5.0))),
-              (), lambda d: True, lives_in=("x_mm",)),
+    # a bump of 15 mm full width in x is told from a smooth calibration only with positions at most a third of
+    # that apart (16 over 20-100 mm); nine positions 10 mm apart put one or two readings in it
+    TruthKind("metal_object", lambda g: _metal_object(g),
+              (), lambda d: d.positions >= 16, lives_in=("x_mm",)),
     TruthKind("target_tilt", lambda g: _imperfection("target_tilt", tilt_urad_per_k=_signed(g, 5.0, 30.0),
                                                     pivot_mm=float(g.uniform(50.0, 150.0))),
               (), _heated_target, lives_in=("t_target_c",),

@@ -61,10 +61,11 @@ def test_two_isolated_glitches_are_flagged_exactly():
 def _in_structure_whole_array(data, deviation, neighbours, i):
     """The rule of outliers' module docstring with masks over every row (the form before suspects were judged
     within their state's rows): the reference the grouped form must match."""
-    from ecds_lab.analysis.outliers import PARTNER_GAP_S, REPEATED, SHARED, THRESHOLD
+    from ecds_lab.analysis.outliers import PARTNER_GAP_S, REPEATED, RUN_SHARE, SHARED, THRESHOLD
     sign = np.sign(deviation[i])
+    run = max(REPEATED, RUN_SHARE * abs(deviation[i]))
     for j in neighbours[i]:
-        if j >= 0 and np.sign(deviation[j]) == sign and abs(deviation[j]) > REPEATED:
+        if j >= 0 and np.sign(deviation[j]) == sign and abs(deviation[j]) > run:
             return True
     x = data.x_commanded_m
     position = (data.direction == data.direction[i]) & ((x == x[i]) | (np.isinf(x) & np.isinf(x[i])))
@@ -96,7 +97,7 @@ def test_suspects_judged_within_their_state_as_over_every_row(monkeypatch):
     residuals = rng.normal(0, 1.0, n) + rng.choice([0.0, 8.0, -9.0], n, p=[0.8, 0.1, 0.1])
     grouped = outliers.find_glitches(data, residuals, 1.0)
     neighbours = outliers._time_neighbours(data)
-    deviation = (residuals - outliers.smooth_residual(data, residuals)) / 1.0
+    deviation = outliers.glitch_deviation(data, residuals, np.ones(n))
     reference = np.array([abs(deviation[i]) > outliers.THRESHOLD
                           and not _in_structure_whole_array(data, deviation, neighbours, i) for i in range(n)])
     assert (np.abs(deviation) > outliers.THRESHOLD).sum() > 100  # many suspects to judge

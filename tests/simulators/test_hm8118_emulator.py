@@ -76,6 +76,23 @@ def test_six_measurement_ranges(bridge, code):
     assert bridge.ask(b"RNGE 7\r") == b"ERROR\r"
 
 
+def test_a_held_range_far_below_the_component_reads_overrange(bridge):
+    """With the range held and the component's impedance more than 100 times the range's nominal value, the bridge
+    shows OVERRANGE [E51 6.4] (over the link: ERROR, and the range's auto-ranging limit as its nominal, ASSUMED).
+    The coil at 15 kHz is about 5 kOhm: range 1 (3 Ohm) is far below it, range 5 and auto ranging read it."""
+    bridge.send(b"PMOD 2\r")
+    bridge.send(b"FREQ 15000\r")
+    bridge.send(b"RNGE 1\r")
+    assert bridge.ask(b"XALL?\r") == b"ERROR\r"
+    assert bridge.ask(b"XMAJ?\r") == b"ERROR\r"
+    bridge.send(b"RNGE 5\r")
+    inductance, _, _ = bridge.ask(b"XALL?\r").rstrip(b"\r").split(b",")
+    assert 0.04 < float(inductance) < 0.07
+    bridge.send(b"RNGE 1\r")
+    bridge.send(b"RNGH 0\r")
+    assert bridge.ask(b"XALL?\r") != b"ERROR\r"
+
+
 def test_identity_has_the_manuals_fields(bridge):
     """*IDN?: HAMEG Instruments, instrument type, serial number, firmware [M68 10.2]."""
     maker, model, serial, firmware = bridge.ask(b"*IDN?\r").rstrip(b"\r").split(b",")

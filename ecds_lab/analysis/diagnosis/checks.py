@@ -90,7 +90,7 @@ def identified(candidate: Candidate) -> tuple[bool, list[str]]:
             continue
         span = p.upper - p.lower
         if math.isfinite(span) and min(p.value - p.lower, p.upper - p.value) <= BOUND_MARGIN * span:
-            reasons.append(f"{name} sits at its bound ({p.value:.4g} {p.unit})")
+            reasons.append(f"{name} sits at its bound ({_shown(p.value, p.unit)})")
         stderr = candidate.fit.stderr.get(name, math.nan)
         z = abs(p.value) / stderr if math.isfinite(stderr) and stderr > 0 else 0.0
         best_z = max(best_z, z)
@@ -107,9 +107,15 @@ def plausible_size(candidate: Candidate) -> tuple[bool, list[str]]:
         value = candidate.fit.values.get(name)
         if value is not None and not low <= value <= high:
             unit, factor = DISPLAY_UNITS.get(name, (candidate.fit.parameter(name).unit, 1.0))
-            reasons.append(f"{name} = {value * factor:.4g} {unit} is outside the physically plausible "
-                           f"{low * factor:.4g}..{high * factor:.4g} {unit}")
+            reasons.append(f"{name} = {_shown(value * factor, unit)} is outside the physically plausible "
+                           f"{_shown(low * factor, '')}..{_shown(high * factor, unit)}")
     return not reasons, reasons
+
+
+def _shown(value: float, unit: str) -> str:
+    """A value in a check's reason: four significant digits and its unit, none for a pure number ('1'), so a
+    ratio at its bound reads '(3)', not '(3 1)'."""
+    return f"{value:.4g}" + (f" {unit}" if unit not in ("", "1") else "")
 
 
 def tied(a: Candidate, b: Candidate) -> bool:
@@ -119,4 +125,6 @@ def tied(a: Candidate, b: Candidate) -> bool:
 
 
 def evidence_rank(candidate: Candidate) -> float:
-    return candidate.delta_bic_signature if math.isfinite(candidate.delta_bic_signature) else math.inf
+    """Order of candidates, best first: the BIC gain over every reading (the signature's BIC judges whether an
+    effect has evidence; which of two explains the data better is judged on all of them, as their rows differ)."""
+    return candidate.delta_bic if math.isfinite(candidate.delta_bic) else math.inf

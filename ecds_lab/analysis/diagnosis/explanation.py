@@ -59,6 +59,12 @@ def explain(result: Diagnosis, registry: EffectRegistry | None = None) -> str:
                          f"(from {before.rmse_ppm:.1f} to {step.rmse_ppm:.1f} ppm{error}); read it as "
                          f"{' or '.join([added, *others])}.")
             continue
+        if step.leaves_structure is not None:
+            lines.append(f"Adding {added} ({effect.explains}) brings it from {before.rmse_ppm:.1f} to "
+                         f"{step.rmse_ppm:.1f} ppm, but where it acts the final residual keeps structure "
+                         f"{step.leaves_structure:.0f} standard deviations beyond chance: it takes only part of "
+                         "something the library does not describe, so it is not claimed.")
+            continue
         lines.append(f"Adding {added} ({effect.explains}) brings it from {before.rmse_ppm:.1f} to "
                      f"{step.rmse_ppm:.1f} ppm{error} (BIC gain on its signature "
                      f"{candidate.delta_bic_signature:+.0f}{cv}); fitted {values}.")
@@ -70,11 +76,13 @@ def explain(result: Diagnosis, registry: EffectRegistry | None = None) -> str:
             lines.append(f"The data cannot tell {' from '.join(group)}: each explains them about equally well "
                          "(or neither is determined), so none is claimed.")
     if (result.alternatives or result.undetermined) and result.suggested_measurements:
-        lines.append("To separate or determine them: " + "; or ".join(result.suggested_measurements) + ".")
+        lines.append("To separate or determine them: " + "; or ".join(result.suggested_measurements) + " "
+                     "(`ecds-lab plan-next` designs the experiment that decides for a given station, with its "
+                     "predicted separation and lab time; docs/planning.md).")
     for name in result.undetermined:
         lines.append(f"{name} would explain part of it, but these data do not determine its size, so it is "
                      "not claimed.")
-    for group in result.partial:
+    for group in (g for g in result.partial if len(g) > 1):
         lines.append(f"{', '.join(group[:-1])} and {group[-1]} each explain part of the residual about equally, "
                      "none of them well (a flexible smooth of the residual finds much more structure than any "
                      "one takes): none is claimed.")
@@ -100,8 +108,10 @@ def explain(result: Diagnosis, registry: EffectRegistry | None = None) -> str:
                      "the search stopped first (see above). It lives in " + _where(result) + ".")
     elif final_ratio > FAILING_RATIO:
         lines.append(f"The residual is {final_ratio:.1f}x the noise estimate, but a flexible smooth finds no "
-                     "structure in it beyond chance: the readings scatter more than the noise estimate says; "
-                     "nothing outside the library is claimed.")
+                     "structure in it beyond chance: the readings scatter more than the noise estimate says "
+                     f"({result.noise.source}), so the diagnosis is inconclusive and claims nothing outside the "
+                     "library. Scatter between moves is invisible to repeated readings of one visit: declare the "
+                     "slide's repeatability, or revisit positions from the same direction so it can be measured.")
     elif result.claimed:
         lines.append(f"With {', '.join(result.claimed)} the model is adequate ({final.rmse_ppm:.1f} ppm, "
                      f"{final_ratio:.2f}x the noise).")

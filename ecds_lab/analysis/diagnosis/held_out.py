@@ -19,6 +19,8 @@ BLOCKS = 8
 VISIT_SPLIT_SPAN_K = 5.0
 #: Campaigns larger than this are screened on an even subsample of this many readings.
 SCREEN_ROWS = 2500
+#: Fold number of readings that always train (the end bands of distance).
+NEVER_HELD_OUT = -1
 #: A claim must lower the held-out sum of squares by at least this many noise variances (``held_out_gain``).
 HELD_OUT_CHI2 = 10.0
 
@@ -37,7 +39,8 @@ def check_held_out(candidate: Candidate, base_cv: float | None, folds: np.ndarra
     hundred readings at 20 ppm noise is a fall of about 2: no evidence)."""
     candidate.base_cv_rmse_ppm = base_cv
     candidate.cv_rmse_ppm = cv_rmse(data, candidate.fit, folds)
-    gain = held_out_gain(base_cv, candidate.cv_rmse_ppm, len(data), noise) if base_cv is not None else 0.0
+    scored = int(np.sum(folds != NEVER_HELD_OUT))
+    gain = held_out_gain(base_cv, candidate.cv_rmse_ppm, scored, noise) if base_cv is not None else 0.0
     candidate.held_out_gain = gain
     candidate.checks["held_out"] = base_cv is not None and gain >= HELD_OUT_CHI2
     if not candidate.checks["held_out"]:
@@ -62,7 +65,9 @@ def folds_of(data: Measurements) -> np.ndarray | None:
 
     Whole blocks are held out, so a fold is not predicted from its immediate neighbours, while every
     fold keeps each phase's temperatures (held-out error measures interpolation, not extrapolation
-    of a temperature the fit never saw)."""
+    of a temperature the fit never saw). For the same reason the nearest and the farthest band of
+    distance are never held out (``NEVER_HELD_OUT``): an effect with its own values along x (tau(x)'s
+    nodes) would otherwise be judged on how it extrapolates beyond the readings it was fitted to."""
     if len(data) < 8 * FOLDS:
         return None
     phases = phase_labels(data)
@@ -82,7 +87,10 @@ def folds_of(data: Measurements) -> np.ndarray | None:
         return None
     rng = np.random.default_rng(0)
     fold_of_group = rng.permutation(len(unique)) % FOLDS
-    return fold_of_group[groups]
+    folds = fold_of_group[groups]
+    if finite.any():  # the nearest and farthest band always train: held out, they would test extrapolation in x
+        folds[finite & ((block == 0) | (block == block[finite].max()))] = NEVER_HELD_OUT
+    return folds if len(np.unique(folds[folds != NEVER_HELD_OUT])) >= 2 else None
 
 
 def _split_visits(data: Measurements, groups: np.ndarray) -> np.ndarray:
@@ -104,7 +112,7 @@ def _split_visits(data: Measurements, groups: np.ndarray) -> np.ndarray:
 def cv_rmse(data: Measurements, full: FitResult, folds: np.ndarray) -> float:
     """Held-out RMS (ppm): fit without one fold, predict it; the model still sees the whole history."""
     squares, count = 0.0, 0
-    for k in np.unique(folds):
+    for k in np.unique(folds[folds != NEVER_HELD_OUT]):
         held = folds == k
         trained = fit_model(full.model, data, start=full.values, multistart=False, rows=~held, screening=True)
         r = (data.ls_h[held] / trained.predict(data)[held] - 1) * 1e6

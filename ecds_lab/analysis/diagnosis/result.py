@@ -13,7 +13,7 @@ from ecds_lab.analysis.diagnosis.structure import ResidualStructure
 from ecds_lab.analysis.fitting import FitResult
 from ecds_lab.analysis.noise import NoiseEstimate
 from ecds_lab.analysis.outliers import Outlier
-from ecds_lab.analysis.quantities import PositionErrorFigure, params_json, position_error_figure
+from ecds_lab.analysis.quantities import PositionErrorFigure, chain_position_error, params_json
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.model.effects import Effect
 
@@ -81,24 +81,32 @@ class Step:
     #: When the effect added stands for a tied group (the data cannot tell its members apart): the group.
     #: The search goes on with it in the model, but none of the group is claimed.
     stands_for: list[str] = field(default_factory=list)
+    #: When the effect added explains only part of a residual the library does not describe: the structure
+    #: (standard deviations beyond chance) the final residual keeps where the effect acts. Not claimed.
+    leaves_structure: float | None = None
 
     @property
     def rmse_ppm(self) -> float:
         return self.fit.rms_ppm
 
+    @property
+    def claims(self) -> bool:
+        """The effect added is claimed: it stands for no tied group and leaves no structure where it acts."""
+        return not self.stands_for and self.leaves_structure is None
+
     def position_error(self, noise_ppm: float | None) -> PositionErrorFigure:
         """This model's position error over the readings it can speak for, or why it is no length: "model
         fails here" when its residual is far above the noise, "out of range" without a calibrated reading
         (``quantities.position_error_figure``; the one figure the JSON, the text and the report show)."""
-        positioned = self.residual_mm[~np.isnan(self.residual_mm)]  # NaN: no position (coil in air)
-        return position_error_figure(positioned, self.full_scale_mm, model_rms_ppm=self.rmse_ppm, noise_ppm=noise_ppm)
+        return chain_position_error(self.residual_mm, self.full_scale_mm, self.rmse_ppm, noise_ppm)
 
     def to_json(self, noise_ppm: float | None = None) -> dict[str, Any]:
         """The step's figures; ``position_error_mm`` (RMS) and its % FS are None unless the figure is valid."""
         figure = self.position_error(noise_ppm)
         return {"effects": list(self.effects), "rmse_ppm": round(self.rmse_ppm, 3), "bic": round(self.fit.bic, 2),
                 **position_error_json(figure),
-                "stands_for": list(self.stands_for), "params": fit_params_json(self.fit)}
+                "stands_for": list(self.stands_for), "leaves_structure": rounded(self.leaves_structure, 1),
+                "params": fit_params_json(self.fit)}
 
 
 @dataclass
@@ -145,8 +153,9 @@ class Diagnosis:
     @property
     def claimed(self) -> list[str]:
         """Effects the diagnosis adds to the given model, in the order they were found (not those that
-        stand for a tied group: the data cannot tell which of the group it is)."""
-        return [step.effects[-1] for step in self.steps[1:] if not step.stands_for]
+        stand for a tied group: the data cannot tell which of the group it is; nor those that explain only part
+        of a residual outside the library)."""
+        return [step.effects[-1] for step in self.steps[1:] if step.claims]
 
     @property
     def searched_with(self) -> list[str]:

@@ -28,13 +28,21 @@ import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from itertools import pairwise
 from typing import Any
 
 import numpy as np
 
 from ecds_lab.analysis.associations import residual_associations
 from ecds_lab.analysis.diagnosis.advice import suggestions
-from ecds_lab.analysis.diagnosis.checks import check_candidate, evidence_rank, score_candidate, tied, whitened
+from ecds_lab.analysis.diagnosis.checks import (
+    SIGNATURE_SHARE,
+    check_candidate,
+    evidence_rank,
+    score_candidate,
+    tied,
+    whitened,
+)
 from ecds_lab.analysis.diagnosis.explanation import explain
 from ecds_lab.analysis.diagnosis.held_out import SCREEN_ROWS, check_held_out, cv_rmse, folds_of, screened
 from ecds_lab.analysis.diagnosis.identifiability import (
@@ -46,7 +54,7 @@ from ecds_lab.analysis.diagnosis.identifiability import (
 )
 from ecds_lab.analysis.diagnosis.result import Candidate, Diagnosis, Step
 from ecds_lab.analysis.diagnosis.structure import residual_structure
-from ecds_lab.analysis.diagnosis.verdict import ADEQUATE_RATIO, STRUCTURE_SIGNIFICANCE, verdict_of
+from ecds_lab.analysis.diagnosis.verdict import ADEQUATE_RATIO, STRUCTURE_SIGNIFICANCE, outside_library, verdict_of
 from ecds_lab.analysis.fitting import FitResult, fit_model
 from ecds_lab.analysis.noise import NoiseEstimate
 from ecds_lab.analysis.outliers import Outlier, describe, find_glitches
@@ -65,6 +73,9 @@ LEADING = 3
 #: At most this many effects are added (the library has eight); reaching it is reported, never silent.
 MAX_STEPS = 8
 MAX_OUTLIER_ROUNDS = 3
+#: An effect leaving at least this share of its own chi-square gain as structure where it acts, with the residual
+#: outside the library, explained only part of something else (``_mark_partial``).
+PARTIAL_SHARE = 0.5
 #: A tied group explains the residual well (a tie, not a set of partial explanations) when its best
 #: member's chi-square gain is at least this share of the structure a flexible smooth finds beyond chance.
 GOOD_SHARE = 0.6
@@ -143,7 +154,7 @@ def run_diagnosis(data: Measurements, effects: Sequence[str] = (), sensor: Senso
                              and c.effect not in undetermined]
             break
         best = passing[0]
-        group = [best] + [c for c in passing[1:] if tied(best, c)]
+        group = [best] + [c for c in ranked if c is not best and _rival(best, c)]
         if len(group) > 1 and not _explains_well(best, screen, current, noise):
             partial.append([c.effect for c in group])  # each explains a part, none well: no tie, none added
             names = [n for n in names if n not in {c.effect for c in group}]
@@ -174,6 +185,9 @@ def run_diagnosis(data: Measurements, effects: Sequence[str] = (), sensor: Senso
     associations = residual_associations(clean, whitened(final.fit.residuals_ppm, clean, noise),
                                          noise.ppm * math.sqrt(max(noise.design_effect, 1.0)))
     structure = residual_structure(clean, final.fit.residuals_ppm, noise)
+    if not limits and outside_library(final, noise, structure, associations):
+        _mark_partial(steps, clean, noise)
+        partial += [[step.effects[-1]] for step in steps[1:] if step.leaves_structure is not None]
     if len(steps) == 1 and len(undetermined) > 1:
         alternatives.append(list(undetermined))
         undetermined = []
@@ -190,6 +204,33 @@ def diagnose(data: Measurements, effects: Sequence[str] = (), sensor: SensorConf
              registry: EffectRegistry | None = None) -> dict[str, Any]:
     """The diagnosis as DESIGN.md's JSON object."""
     return run_diagnosis(data, effects, sensor, registry=registry).to_json()
+
+
+def _mark_partial(steps: list[Step], data: Measurements, noise: NoiseEstimate) -> None:
+    """With a residual outside the library left at the end, an effect claimed on the way that leaves structure
+    beyond chance where it acts (the readings whose prediction it moved by SIGNATURE_SHARE of the noise), at
+    least PARTIAL_SHARE of what it took (its chi-square gain), only took a part of what the library does not
+    describe (a bending a part of a drift in time): it is not claimed (``Step.leaves_structure``). An effect
+    that took nearly all of what lives where it acts (moisture drying written another way) stays claimed.
+    Tie representatives stay as they are."""
+    final = steps[-1].fit.residuals_ppm
+    for before, step in pairwise(steps):
+        if step.stands_for:
+            continue
+        change = (step.fit.predict(data) / before.fit.predict(data) - 1) * 1e6
+        acts = np.abs(change) >= SIGNATURE_SHARE * noise.sigma_ppm(data)
+        left = residual_structure(data, final, noise, rows=acts)
+        gain = next(c.chi2_gain for c in before.candidates if c.effect == step.effects[-1])
+        if left.beyond(STRUCTURE_SIGNIFICANCE) and left.excess_chi2 > PARTIAL_SHARE * gain:
+            step.leaves_structure = left.significance
+
+
+def _rival(best: Candidate, other: Candidate) -> bool:
+    """``other`` ties with the claim ``best``: as clear evidence and a plausible size, a chi-square gain the data
+    cannot tell from the claim's, and no worse held out. Its parameters need not be determined on their own:
+    an explanation as good as the claim's is a rival whether or not its size trades off with the baseline's."""
+    return (other.checks.get("evidence", False) and other.checks.get("plausible", False)
+            and other.checks.get("held_out", True) and tied(best, other))
 
 
 def _explains_well(best: Candidate, screen: Measurements, current: Step, noise: NoiseEstimate) -> bool:

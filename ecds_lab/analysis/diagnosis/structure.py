@@ -57,12 +57,18 @@ def state_labels(data: Measurements) -> np.ndarray:
     return np.unique(np.column_stack(columns), axis=0, return_inverse=True)[1].ravel()
 
 
-def residual_structure(data: Measurements, residuals_ppm: np.ndarray, noise: NoiseEstimate) -> ResidualStructure:
-    """The flexible smooth's energy beyond chance (see the module docstring)."""
+def residual_structure(data: Measurements, residuals_ppm: np.ndarray, noise: NoiseEstimate,
+                       rows: np.ndarray | None = None) -> ResidualStructure:
+    """The flexible smooth's energy beyond chance (see the module docstring); over ``rows`` only if given
+    (a boolean mask: the states are those of the whole campaign)."""
     if not len(data) or not noise.ppm > 0:
         return ResidualStructure(0.0, 0, 0.0)
     whitened = np.asarray(residuals_ppm, float) / noise.sigma_ppm(data)
     labels = state_labels(data)
+    if rows is not None:
+        whitened, labels = whitened[rows], labels[rows]
+        if not len(labels):
+            return ResidualStructure(0.0, 0, 0.0)
     counts = np.bincount(labels)
     sums = np.bincount(labels, weights=whitened)
     energy = float(np.sum(sums[counts > 0] ** 2 / counts[counts > 0])) / noise.design_effect

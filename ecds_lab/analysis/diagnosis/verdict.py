@@ -38,11 +38,14 @@ def verdict_of(steps: list[Step], effects: list[str], noise: NoiseEstimate, stru
                associations: Sequence[Association] = ()) -> str:
     """missing_effect when effects were claimed, or when every candidate was refitted at the final model
     and the residual still holds structure (outside the library); inconclusive when the data cannot
-    separate the candidates, could test none of them, or the search stopped at a limit first."""
-    if any(not step.stands_for for step in steps[1:]):
+    separate the candidates, could test none of them, the search stopped at a limit first, or the residual is
+    clearly above the noise without structure a model could take (scatter the noise estimate misses)."""
+    if any(step.claims for step in steps[1:]):
         return "missing_effect"
     if alternatives:
         return "inconclusive"
     if not outside_library(steps[-1], noise, structure, associations):
-        return "adequate"
+        # Above the noise without structure: scatter the noise estimate misses (e.g. between moves), not adequate.
+        ratio = steps[-1].rmse_ppm / noise.ppm if noise.ppm > 0 else math.inf
+        return "adequate" if ratio <= FAILING_RATIO else "inconclusive"
     return "missing_effect" if steps[0].candidates and not limits else "inconclusive"

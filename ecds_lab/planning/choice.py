@@ -1,0 +1,202 @@
+"""Choose the experiment that decides, and write it as a normal experiment YAML saying what it decides.
+
+Every designable open question (``questions.DESIGNABLE``) gets its rival models (``rivals``); every candidate the
+station can do (``candidates``) is scored on each question by the T-criterion (``discrimination``); a question no
+candidate decides at any lab time is one this station cannot answer (``NextPlan.unanswerable``), and only candidates
+within the time allowed are chosen from. A candidate's worth is the number of questions it decides (its guaranteed
+Delta chi-square reaching ``DECISIVE_CHI2``, a partial share below) per hour of lab time (its plan's estimate plus
+``SETUP_HOURS``). The questions come in priority order (ties first: the diagnosis's own question, then sizes, then
+effects not excluded); among the candidates that decide the first question any candidate can decide, the worthiest
+is chosen. When none decides any question within the time, the one with the largest separation is named, and said
+not to decide.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from ecds_lab.analysis.diagnosis import Diagnosis
+from ecds_lab.config.station import StationConfig
+from ecds_lab.model.effects import EffectRegistry
+from ecds_lab.planning.candidates import CandidateExperiment, station_candidates
+from ecds_lab.planning.conditions import planned_readings, room_temperature_c
+from ecds_lab.planning.discrimination import DECISIVE_CHI2, Separation, decisive, question_separations
+from ecds_lab.planning.questions import DESIGNABLE, OpenQuestion, not_asked, open_questions
+from ecds_lab.planning.rivals import Rival, nested_rivals, size_rivals, tie_rivals
+
+#: Lab time a run costs beyond its plan (hours): setting up, confirming, checking its file. It keeps a run of a
+#: minute from outscoring one of ten that answers more.
+SETUP_HOURS = 0.25
+
+
+@dataclass
+class Scored:
+    """A candidate with its separations per question and its worth."""
+
+    candidate: CandidateExperiment
+    separations: dict[int, list[Separation]]
+    decides: float
+    per_hour: float
+
+    def guaranteed(self, index: int) -> float:
+        return decisive(self.separations.get(index, []))
+
+    def to_json(self, questions: list[OpenQuestion]) -> dict[str, Any]:
+        return {"name": self.candidate.name, "what": self.candidate.what, "hours": round(self.candidate.hours, 3),
+                "decides": round(self.decides, 3), "per_hour": round(self.per_hour, 3),
+                "questions": [{"question": questions[i].text, "predicted_delta_chi2": round(decisive(s), 1),
+                               "separations": [x.to_json() for x in s]} for i, s in self.separations.items()]}
+
+
+@dataclass
+class NextPlan:
+    """What plan-next found: the open questions, the candidates scored, the choice and why."""
+
+    questions: list[OpenQuestion]
+    rivals: dict[int, list[Rival]]
+    scored: list[Scored]
+    refused: dict[str, str]
+    chosen: Scored | None
+    why: str
+    not_asked: dict[str, str] = field(default_factory=dict)
+    #: questions (indices) no candidate of this station decides at any lab time: the station cannot answer them
+    unanswerable: list[int] = field(default_factory=list)
+
+    @property
+    def main_question(self) -> int | None:
+        """The first question (in priority order) the choice decides, else the one it separates most."""
+        if self.chosen is None or not self.chosen.separations:
+            return None
+        chosen = self.chosen
+        return next((i for i in chosen.separations if chosen.guaranteed(i) >= DECISIVE_CHI2),
+                    max(chosen.separations, key=chosen.guaranteed))
+
+    @property
+    def decides(self) -> bool:
+        """Whether the chosen experiment is expected to decide at least one question."""
+        return self.predicted_delta_chi2 is not None and self.predicted_delta_chi2 >= DECISIVE_CHI2
+
+    @property
+    def predicted_delta_chi2(self) -> float | None:
+        index = self.main_question
+        return None if index is None or self.chosen is None else self.chosen.guaranteed(index)
+
+    def to_json(self) -> dict[str, Any]:
+        chosen = self.chosen.to_json(self.questions) if self.chosen is not None else None
+        return {"open_questions": [q.to_json() for q in self.questions],
+                "rivals": {self.questions[i].text: [r.to_json() for r in rs] for i, rs in self.rivals.items()},
+                "candidates": [s.to_json(self.questions) for s in self.scored],
+                "refused": dict(self.refused), "not_asked": dict(self.not_asked),
+                "unanswerable": [self.questions[i].text for i in self.unanswerable],
+                "chosen": chosen, "why": self.why,
+                "predicted_delta_chi2": None if self.predicted_delta_chi2 is None
+                else round(self.predicted_delta_chi2, 1)}
+
+
+def rivals_of(question: OpenQuestion, result: Diagnosis, registry: EffectRegistry) -> list[Rival]:
+    """The fitted competing models of a designable question."""
+    if question.kind == "tie":
+        return tie_rivals(result, question.effects, registry)
+    if question.kind == "undetermined":
+        return size_rivals(result, question.effects[0], registry)
+    return nested_rivals(result, question.effects[0], registry, hypothetical=True)
+
+
+def plan_next(result: Diagnosis, registry: EffectRegistry, station: StationConfig,
+              max_hours: float | None = None, done: Sequence[dict[str, Any]] = ()) -> NextPlan:
+    """Score every candidate on every designable open question and choose (module docstring)."""
+    questions = open_questions(result, registry)
+    asked = not_asked(result, registry)
+    designable = [i for i, q in enumerate(questions) if q.kind in DESIGNABLE]
+    if any(q.kind == "outside_library" for q in questions) and all(questions[i].kind == "not_excluded"
+                                                                   for i in designable):
+        designable = []  # an effect these data cannot test cannot explain their residual: the answer stands
+    if not designable:
+        return NextPlan(questions, {}, [], {}, None, _nothing_to_design(questions), asked)
+    rivals = {i: rivals_of(questions[i], result, registry) for i in designable}
+    rivals = {i: r for i, r in rivals.items() if len(r) >= 2}
+    candidates, refused = station_candidates(result.data, station, None, done)
+    room = room_temperature_c(result.data)
+    scored = []
+    for candidate in candidates:
+        planned = planned_readings(candidate.plan, station, room, result.data,
+                                   coil_in_air=bool(getattr(candidate.experiment, "coil_in_air", False)))
+        if not len(planned):
+            refused[candidate.name] = "takes no readings"
+            continue
+        separations = {i: question_separations(questions[i].kind, rs, result.data, planned, result.noise)
+                       for i, rs in rivals.items()}
+        decides = sum(min(max(decisive(s), 0.0), DECISIVE_CHI2) / DECISIVE_CHI2 for s in separations.values())
+        scored.append(Scored(candidate, separations, decides, decides / (candidate.hours + SETUP_HOURS)))
+    scored.sort(key=lambda s: (-s.per_hour, s.candidate.hours))
+    unanswerable = [i for i in rivals if not any(s.guaranteed(i) >= DECISIVE_CHI2 for s in scored)]
+    over = [s for s in scored if max_hours is not None and s.candidate.hours > max_hours]
+    for s in over:
+        refused[s.candidate.name] = f"{s.candidate.hours:.2f} h of lab time, more than the {max_hours:g} h allowed"
+    scored = [s for s in scored if s not in over]
+    deciding: list[Scored] = []
+    for index in rivals:  # questions in order of priority: ties first, then sizes, then effects not excluded
+        deciding = [s for s in scored if s.guaranteed(index) >= DECISIVE_CHI2]
+        if deciding:
+            break
+    if deciding:
+        chosen: Scored | None = deciding[0]
+        why = (f"decides '{questions[index].text}' (T-criterion: Delta chi-square >= {DECISIVE_CHI2:g} noise "
+               "variances) and, among those that do, the most open questions per hour of lab time")
+    elif len(unanswerable) == len(rivals):
+        chosen, why = None, ("no open question this station can answer; no experiment plan-next can build for it "
+                             "decides: "
+                             + "; ".join(questions[i].text for i in unanswerable))
+    elif scored:
+        chosen = max(scored, key=lambda s: max((s.guaranteed(i) for i in s.separations), default=0.0))
+        why = (f"no candidate within {'the time allowed' if max_hours is not None else 'reach'} reaches Delta "
+               f"chi-square {DECISIVE_CHI2:g}: this one separates most, but is not expected to decide")
+    else:
+        chosen, why = None, "the station can do no candidate experiment within the time allowed"
+    return NextPlan(questions, rivals, scored, refused, chosen, why, asked, unanswerable)
+
+
+def _nothing_to_design(questions: list[OpenQuestion]) -> str:
+    if not questions:
+        return "no open question: nothing to measure"
+    outside = [q for q in questions if q.kind == "outside_library"]
+    if outside:
+        return ("no experiment can make a library effect explain the residual: " + outside[0].text
+                + " (an effect these data cannot test changes them only as the calibration does)")
+    return "; ".join(q.text for q in questions)
+
+
+def header(plan: NextPlan) -> str:
+    """The YAML's header comment: what the experiment decides, between which models, predicted Delta chi-square
+    and lab time."""
+    chosen = plan.chosen
+    assert chosen is not None
+    lines = [f"Planned by ecds-lab plan-next: {chosen.candidate.what}.",
+             f"Lab time (the plan's estimate from the station's thermal block): {chosen.candidate.hours:.2f} h."]
+    for index, separations in chosen.separations.items():
+        question = plan.questions[index]
+        models = " | ".join(r.label for r in plan.rivals[index])
+        verdict = "decides" if decisive(separations) >= DECISIVE_CHI2 else "does not decide"
+        lines.append(f"{verdict}: {question.text}")
+        lines.append(f"  between the models: {models}; predicted Delta chi-square "
+                     f"{decisive(separations):.1f} (noise variances; >= {DECISIVE_CHI2:g} decides)")
+    lines.append(f"Why this one: {plan.why}.")
+    return "".join(f"# {line}\n" for line in lines)
+
+
+def experiment_yaml(plan: NextPlan) -> str:
+    """The chosen experiment as YAML text, its header comment first."""
+    assert plan.chosen is not None
+    body = yaml.safe_dump(plan.chosen.candidate.settings(), sort_keys=False, default_flow_style=None)
+    return header(plan) + body
+
+
+def write_experiment(plan: NextPlan, path: Path) -> Path:
+    """Write the chosen experiment's YAML to ``path``."""
+    Path(path).write_text(experiment_yaml(plan), encoding="utf-8")
+    return Path(path)

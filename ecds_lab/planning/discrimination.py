@@ -1,0 +1,88 @@
+"""How well a candidate experiment separates rival models: the T-criterion of Atkinson & Fedorov (1975).
+
+Suppose model A is true. The candidate's readings are then A's predictions (noise-free: the expected value). The
+rival B, refitted to the campaign *and* those readings (the minimum over B's parameters, so B's parameter
+uncertainty is spent in B's favour; a parameter B's hypothesis holds stays held), leaves a chi-square; the expected
+Delta chi-square the joined campaign will show between B and A is that chi-square less A's on the campaign (A fits
+its own predictions exactly). Chi-square is counted in the diagnosis's noise model (``NoiseEstimate.sigma_ppm``, per
+reading, over the design effect), so the figure compares directly with the diagnosis's evidence threshold (25 noise
+variances). Divided by the candidate's lab hours it is the discrimination per hour.
+
+For a tie both orders are computed and the smaller is the candidate's guaranteed separation. For a nested question
+(an effect present or not) only "present at its size" is computed: the model without it cannot be told from the
+model with it at size zero by any experiment; what an experiment can do is show it if it is there.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from ecds_lab.analysis.noise import NoiseEstimate
+from ecds_lab.data.measurements import Measurements
+from ecds_lab.planning.rivals import Rival, chi2_of, weighted_fit
+
+#: Delta chi-square (noise variances) that decides: the diagnosis's evidence threshold (docs/diagnosis.md).
+DECISIVE_CHI2 = 25.0
+
+
+@dataclass(frozen=True)
+class Separation:
+    """If ``truth`` holds, the Delta chi-square ``rival`` will show on the joined campaign (and what the candidate
+    adds to the rival's chi-square: the T-criterion proper)."""
+
+    truth: str
+    rival: str
+    delta_chi2: float
+    added_chi2: float
+    #: ``delta_chi2`` without the planned reading that adds most: a decision must not hinge on one reading (a
+    #: glitch there would fake it)
+    robust_chi2: float
+
+    def to_json(self) -> dict[str, object]:
+        return {"truth": self.truth, "rival": self.rival, "delta_chi2": round(self.delta_chi2, 1),
+                "added_chi2": round(self.added_chi2, 1), "robust_chi2": round(self.robust_chi2, 1)}
+
+
+def predicted_readings(truth: Rival, planned: Measurements) -> Measurements:
+    """The planned readings as ``truth`` predicts them (the expected readings, no noise)."""
+    return dataclasses.replace(planned, ls_h=truth.predict(planned))
+
+
+def separation(truth: Rival, rival: Rival, campaign: Measurements, planned: Measurements,
+               noise: NoiseEstimate) -> Separation:
+    """The T-criterion of ``rival`` against ``truth`` for the planned readings (module docstring)."""
+    joined = Measurements.concatenate([campaign, predicted_readings(truth, planned)])
+    refit = weighted_fit(rival.model, joined, noise, rival.values, rival.held)
+    chi2 = chi2_of(refit, noise)
+    new = refit.effective_residuals_ppm[len(campaign):] / noise.ppm
+    largest = float(np.max(new**2)) / max(noise.design_effect, 1.0) if len(new) else 0.0
+    return Separation(truth.label, rival.label, chi2 - truth.chi2, chi2 - rival.chi2, chi2 - truth.chi2 - largest)
+
+
+def question_separations(kind: str, rivals: list[Rival], campaign: Measurements, planned: Measurements,
+                         noise: NoiseEstimate) -> list[Separation]:
+    """Every separation a question needs: each ordered pair for a tie or two sizes; "present" against "absent"
+    when nested (``rivals`` then [without, with])."""
+    if kind in ("tie", "undetermined"):
+        return [separation(a, b, campaign, planned, noise) for a in rivals for b in rivals if a is not b]
+    without, with_it = rivals
+    return [separation(with_it, without, campaign, planned, noise)]
+
+
+def decisive(separations: list[Separation]) -> float:
+    """The separation the candidate guarantees: the least over the truths it must tell apart, each without its
+    most telling reading (``Separation.robust_chi2``)."""
+    return min((s.robust_chi2 for s in separations), default=0.0)
+
+
+def expected(separations: list[Separation], truth: str) -> float | None:
+    """The Delta chi-square predicted if ``truth`` holds (all planned readings), None if not among them."""
+    return next((s.delta_chi2 for s in separations if s.truth == truth), None)
+
+
+def measured_separation(rivals: list[Rival], campaign: Measurements, noise: NoiseEstimate) -> dict[str, float]:
+    """Each rival refitted (noise-weighted) to the joined campaign: label -> chi-square, in the same units."""
+    return {r.label: chi2_of(weighted_fit(r.model, campaign, noise, r.values), noise) for r in rivals}
