@@ -101,6 +101,18 @@ def target_start() -> Callable[..., dict[str, Any]]:
     return _target_start
 
 
+@pytest.fixture
+def tight_limits(tmp_path: Path) -> tuple[Path, Path]:
+    """Case (a) on a station with tight limits (travel to 90 mm, target below 60 C, coil below 50 C), measured
+    inside them: (the station file, the run file)."""
+    truth, _, experiment = starting_cases()["a"]
+    station = _truth_station(tmp_path, truth, slide={"max_mm": 90.0},
+                             safety={"max_temperature_c": {"target": 60.0, "coil": 50.0}})
+    experiment = {**experiment, "heating": {**experiment["heating"], "setpoints_c": [24.0, 45.0]},
+                  "sweep": {**experiment["sweep"], "positions_mm": [20, 30, 40, 50, 60, 70, 80, 90]}}
+    return station, _measured(tmp_path, station, experiment)
+
+
 @pytest.fixture(scope="session")
 def _started_cache(tmp_path_factory: pytest.TempPathFactory) -> dict[str, tuple[Path, Path]]:
     return {}

@@ -153,19 +153,13 @@ def test_a_run_not_confirmed_is_not_run_and_the_loop_says_so(tmp_path, started):
     assert (tmp_path / "loop" / "round-1.yaml").exists()
 
 
-def test_the_loop_keeps_inside_tight_station_limits_and_its_budget(tmp_path, truth_station, measured,
-                                                                   starting_cases):
+def test_the_loop_keeps_inside_tight_station_limits_and_its_budget(tmp_path, tight_limits):
     import numpy as np
     import yaml
 
     from ecds_lab.data.columns import INDEX
 
-    truth, _, experiment = starting_cases["a"]
-    station = truth_station(tmp_path, truth, slide={"max_mm": 90.0},
-                            safety={"max_temperature_c": {"target": 60.0, "coil": 50.0}})
-    experiment = {**experiment, "heating": {**experiment["heating"], "setpoints_c": [24.0, 45.0]},
-                  "sweep": {**experiment["sweep"], "positions_mm": [20, 30, 40, 50, 60, 70, 80, 90]}}
-    run = measured(tmp_path, station, experiment)
+    station, run = tight_limits
     loop = tmp_path / "loop"
     assert main(["investigate", str(run), "--station", str(station), "--budget-hours", "1.5", "--yes",
                  "-o", str(loop)]) == 0

@@ -133,13 +133,8 @@ def test_plan_next_outside_the_library_designs_nothing_and_says_where_the_residu
     assert not output.exists()
 
 
-def test_every_candidate_keeps_inside_tight_station_limits(tmp_path, truth_station, measured, starting_cases):
-    truth, _, experiment = starting_cases["a"]
-    station = truth_station(tmp_path, truth, slide={"max_mm": 90.0},
-                            safety={"max_temperature_c": {"target": 60.0, "coil": 50.0}})
-    experiment = {**experiment, "heating": {**experiment["heating"], "setpoints_c": [24.0, 45.0]},
-                  "sweep": {**experiment["sweep"], "positions_mm": [20, 30, 40, 50, 60, 70, 80, 90]}}
-    run = measured(tmp_path, station, experiment)
+def test_every_candidate_keeps_inside_tight_station_limits(tight_limits):
+    station, run = tight_limits
     plan = planned(station, [run])
     assert plan.scored, plan.refused
     for scored in plan.scored:
