@@ -86,16 +86,22 @@ def find_glitches(data: Measurements, residuals_ppm: np.ndarray, noise_ppm: floa
 def glitch_deviation(data: Measurements, residuals_ppm: np.ndarray, sigma: np.ndarray) -> np.ndarray:
     """Each reading's deviation (sigmas) from the running median of its series. The running median repeats a
     run's end values, so the first and last reading are instead judged against the median of the END_SPAN
-    readings next to them, and only beyond END_THRESHOLD (a turning point may bend the residual; a reading a
-    thousand sigmas off the three after it, the first of a campaign say, is still a glitch)."""
+    readings next to them, and only beyond END_THRESHOLD and when no repeated reading of the same point among
+    them deviates alike (a turning point may bend the residual, and its repeats with it; a reading a thousand
+    sigmas off the three after it, the first of a campaign say, is still a glitch)."""
     r = np.asarray(residuals_ppm, float)
     deviation = (r - smooth_residual(data, r)) / sigma
+    x = np.where(np.isfinite(data.x_commanded_m), data.x_commanded_m, np.inf)
     for rows in reading_groups(data):
         if len(rows) <= END_SPAN:
             continue
         for end, inner in ((rows[0], rows[1:END_SPAN + 1]), (rows[-1], rows[-END_SPAN - 1:-1])):
-            off = (r[end] - float(np.median(r[inner]))) / sigma[end]
-            if abs(off) > END_THRESHOLD:
+            level = float(np.median(r[inner]))
+            off = (r[end] - level) / sigma[end]
+            twins = inner[x[inner] == x[end]]  # repeated readings of the turning point share its physics
+            shared = np.sign(r[twins] - level) == np.sign(off)
+            shared &= np.abs(r[twins] - level) / sigma[twins] > max(REPEATED, RUN_SHARE * abs(off))
+            if abs(off) > END_THRESHOLD and not shared.any():
                 deviation[end] = off
     return deviation
 

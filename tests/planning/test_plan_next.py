@@ -101,10 +101,7 @@ def test_plan_next_names_the_experiment_a_physicist_would_choose(case, started):
         "target hot at 500 Hz, but after it the model fits the joined campaign far above the noise (chi-square "
         "~5000 over ~150 readings: no one-tau model fits copper at 500 and 15000 Hz here), and the two sizes then "
         "differ by ~1000 against the ~70 predicted"))),
-    pytest.param("c", marks=pytest.mark.xfail(strict=True, reason=C_STARTS + (
-        "the fine steps chosen for the backlash do reveal it (measured ~900, backlash wins), but at ~4x the "
-        "prediction made for a hypothetical 20 um: the truth is 40 um, and Delta chi-square grows as its square"))),
-    "d"])
+    "c", "d"])
 def test_the_measured_separation_is_within_a_factor_3_of_the_prediction(case, tmp_path, started):
     station, run = started(case)
     plan = planned(station, [run])
