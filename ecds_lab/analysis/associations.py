@@ -13,6 +13,7 @@ temperatures, direction) are the ones to explain them.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -57,11 +58,26 @@ def _bin_index(values: np.ndarray, categorical: bool) -> tuple[np.ndarray, int]:
     return index, len(edges) - 1
 
 
-def _between(r: np.ndarray, index: np.ndarray, bins: int) -> tuple[float, int]:
-    """Energy of the bin means about the mean, and the degrees of freedom it has under pure noise."""
+def _binned(values: np.ndarray, categorical: bool, groups: list[np.ndarray]
+            ) -> Iterator[tuple[np.ndarray, np.ndarray, int]]:
+    """Per group (a frequency, or all readings): its rows with a finite value (at least 3), their bin numbers and
+    the number of bins."""
+    for group in groups:
+        rows = group & np.isfinite(values)
+        if rows.sum() >= 3:
+            yield (rows, *_bin_index(values[rows], categorical))
+
+
+def _bin_means(r: np.ndarray, index: np.ndarray, bins: int) -> tuple[np.ndarray, np.ndarray]:
+    """Readings in each bin and their mean residual (0 for an empty bin)."""
     counts = np.bincount(index, minlength=bins)
     sums = np.bincount(index, weights=r, minlength=bins)
-    means = np.divide(sums, counts, out=np.zeros(bins), where=counts > 0)
+    return counts, np.divide(sums, counts, out=np.zeros(bins), where=counts > 0)
+
+
+def _between(r: np.ndarray, index: np.ndarray, bins: int) -> tuple[float, int]:
+    """Energy of the bin means about the mean, and the degrees of freedom it has under pure noise."""
+    counts, means = _bin_means(r, index, bins)
     return float(np.sum(counts * (means - r.mean()) ** 2)), int((counts > 0).sum()) - 1
 
 
@@ -129,24 +145,16 @@ class _Scorer:
 
     def __init__(self, data: Measurements, full: np.ndarray, noise_ppm: float) -> None:
         self.data, self.noise_ppm = data, noise_ppm
-        self.total = float(np.sum((full - full.mean()) ** 2)) or 1.0
-        self.within = sum(float(np.sum((full[g] - full[g].mean()) ** 2))
-                          for g in (data.freq_hz == f for f in np.unique(data.freq_hz))) or 1.0
-        self.labels = phase_labels(data)
         self.frequencies = [data.freq_hz == f for f in np.unique(data.freq_hz)]
+        self.total = float(np.sum((full - full.mean()) ** 2)) or 1.0
+        self.within = sum(float(np.sum((full[g] - full[g].mean()) ** 2)) for g in self.frequencies) or 1.0
+        self.labels = phase_labels(data)
 
     def without(self, variable: Variable, r: np.ndarray) -> np.ndarray:
         """``r`` minus its mean in each bin of ``variable`` (per frequency): what the variable does not explain."""
-        values = variable.values(self.data)
         out = r.copy()
-        for group in self.frequencies:
-            rows = group & np.isfinite(values)
-            if rows.sum() < 3:
-                continue
-            index, bins = _bin_index(values[rows], variable.categorical)
-            counts = np.bincount(index, minlength=bins)
-            means = np.bincount(index, weights=r[rows], minlength=bins) / np.maximum(counts, 1)
-            out[rows] = r[rows] - means[index]
+        for rows, index, bins in _binned(variable.values(self.data), variable.categorical, self.frequencies):
+            out[rows] = r[rows] - _bin_means(r[rows], index, bins)[1][index]
         return out
 
     def association(self, variable: Variable, full: np.ndarray) -> Association:
@@ -155,11 +163,7 @@ class _Scorer:
         r = within_phase(full, self.labels, data.freq_hz) if variable.name in WITHIN_PHASE else full
         between, dof = 0.0, 0
         groups = [np.ones(len(r), bool)] if variable.name == "freq_hz" else self.frequencies
-        for group in groups:
-            rows = group & np.isfinite(values)
-            if rows.sum() < 3:
-                continue
-            index, bins = _bin_index(values[rows], variable.categorical)
+        for rows, index, bins in _binned(values, variable.categorical, groups):
             if bins < 2:
                 continue
             energy, groups_dof = _between(r[rows], index, bins)

@@ -259,11 +259,13 @@ def reading_groups(data: Measurements) -> list[np.ndarray]:
     return np.split(key, breaks)
 
 
-def smooth_residual(data: Measurements, residuals_ppm: np.ndarray, window: int = SMOOTH_WINDOW) -> np.ndarray:
-    """Running median of the residual along each series of like readings (``reading_groups``)."""
+def smooth_residual(data: Measurements, residuals_ppm: np.ndarray, window: int = SMOOTH_WINDOW,
+                    groups: list[np.ndarray] | None = None) -> np.ndarray:
+    """Running median of the residual along each series of like readings (``reading_groups``, or ``groups``
+    when the caller has them already)."""
     r = np.asarray(residuals_ppm, float)
     out = r.copy()
-    for rows in reading_groups(data):
+    for rows in groups if groups is not None else reading_groups(data):
         if len(rows) >= 3:
             out[rows] = median_filter(r[rows], size=min(window, len(rows) - (1 - len(rows) % 2)), mode="nearest")
     return out

@@ -73,9 +73,10 @@ def find_glitches(data: Measurements, residuals_ppm: np.ndarray, noise_ppm: floa
     sigma = np.broadcast_to(np.asarray(noise_ppm, float), r.shape)
     if not len(r) or not (sigma > 0).all():
         return np.zeros(len(r), bool)
-    deviation = glitch_deviation(data, r, sigma)
+    groups = reading_groups(data)
+    deviation = glitch_deviation(data, r, sigma, groups)
     suspect = np.abs(deviation) > THRESHOLD
-    neighbours = _time_neighbours(data)
+    neighbours = _time_neighbours(data, groups)
     positions = _PositionGroups.of(data)
     out = np.zeros(len(r), bool)
     for i in np.flatnonzero(suspect).tolist():
@@ -83,16 +84,19 @@ def find_glitches(data: Measurements, residuals_ppm: np.ndarray, noise_ppm: floa
     return out
 
 
-def glitch_deviation(data: Measurements, residuals_ppm: np.ndarray, sigma: np.ndarray) -> np.ndarray:
+def glitch_deviation(data: Measurements, residuals_ppm: np.ndarray, sigma: np.ndarray,
+                     groups: list[np.ndarray] | None = None) -> np.ndarray:
     """Each reading's deviation (sigmas) from the running median of its series. The running median repeats a
     run's end values, so the first and last reading are instead judged against the median of the END_SPAN
     readings next to them, and only beyond END_THRESHOLD and when no repeated reading of the same point among
     them deviates alike (a turning point may bend the residual, and its repeats with it; a reading a thousand
-    sigmas off the three after it, the first of a campaign say, is still a glitch)."""
+    sigmas off the three after it, the first of a campaign say, is still a glitch). ``groups``: the series
+    (``noise.reading_groups``) when the caller has them already."""
     r = np.asarray(residuals_ppm, float)
-    deviation = (r - smooth_residual(data, r)) / sigma
+    groups = groups if groups is not None else reading_groups(data)
+    deviation = (r - smooth_residual(data, r, groups=groups)) / sigma
     x = np.where(np.isfinite(data.x_commanded_m), data.x_commanded_m, np.inf)
-    for rows in reading_groups(data):
+    for rows in groups:
         if len(rows) <= END_SPAN:
             continue
         for end, inner in ((rows[0], rows[1:END_SPAN + 1]), (rows[-1], rows[-END_SPAN - 1:-1])):
@@ -106,10 +110,10 @@ def glitch_deviation(data: Measurements, residuals_ppm: np.ndarray, sigma: np.nd
     return deviation
 
 
-def _time_neighbours(data: Measurements) -> np.ndarray:
+def _time_neighbours(data: Measurements, groups: list[np.ndarray] | None = None) -> np.ndarray:
     """For every row, the rows before and after it in its series of like readings (-1 where none)."""
     out = np.full((len(data), 2), -1, int)
-    for rows in reading_groups(data):
+    for rows in groups if groups is not None else reading_groups(data):
         out[rows[1:], 0] = rows[:-1]
         out[rows[:-1], 1] = rows[1:]
     return out

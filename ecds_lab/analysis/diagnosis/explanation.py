@@ -45,7 +45,7 @@ def explain(result: Diagnosis, registry: EffectRegistry | None = None) -> str:
                  f"{ratio:.1f}x the {noise:.1f} ppm noise ({result.noise.source}).")
     for before, step in pairwise(result.steps):
         added = step.effects[-1]
-        candidate = next(c for c in before.candidates if c.effect == added)
+        candidate = step.added_from(before)
         effect = candidate.effect_object
         values = "; ".join(parameter_text(step.fit, p.name) for p in effect.parameters()
                            if not step.fit.parameter(p.name).fixed)

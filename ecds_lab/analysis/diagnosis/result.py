@@ -89,6 +89,10 @@ class Step:
     def rmse_ppm(self) -> float:
         return self.fit.rms_ppm
 
+    def added_from(self, before: Step) -> Candidate:
+        """The candidate of ``before``'s round whose effect this step added."""
+        return next(c for c in before.candidates if c.effect == self.effects[-1])
+
     @property
     def claims(self) -> bool:
         """The effect added is claimed: it stands for no tied group and leaves no structure where it acts."""

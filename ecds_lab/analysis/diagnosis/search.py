@@ -214,14 +214,14 @@ def _mark_partial(steps: list[Step], data: Measurements, noise: NoiseEstimate) -
     that took nearly all of what lives where it acts (moisture drying written another way) stays claimed.
     Tie representatives stay as they are."""
     final = steps[-1].fit.residuals_ppm
-    for before, step in pairwise(steps):
+    threshold = SIGNATURE_SHARE * noise.sigma_ppm(data)
+    predictions = [step.fit.predict(data) for step in steps]
+    for (before, step), (previous, prediction) in zip(pairwise(steps), pairwise(predictions), strict=True):
         if step.stands_for:
             continue
-        change = (step.fit.predict(data) / before.fit.predict(data) - 1) * 1e6
-        acts = np.abs(change) >= SIGNATURE_SHARE * noise.sigma_ppm(data)
+        acts = np.abs((prediction / previous - 1) * 1e6) >= threshold
         left = residual_structure(data, final, noise, rows=acts)
-        gain = next(c.chi2_gain for c in before.candidates if c.effect == step.effects[-1])
-        if left.beyond(STRUCTURE_SIGNIFICANCE) and left.excess_chi2 > PARTIAL_SHARE * gain:
+        if left.beyond(STRUCTURE_SIGNIFICANCE) and left.excess_chi2 > PARTIAL_SHARE * step.added_from(before).chi2_gain:
             step.leaves_structure = left.significance
 
 

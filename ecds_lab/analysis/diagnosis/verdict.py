@@ -27,10 +27,14 @@ def outside_library(final: Step, noise: NoiseEstimate, structure: ResidualStruct
     STRUCTURE_SIGNIFICANCE standard deviations beyond chance (the smooth over every state, or the bin means
     over one variable: x, a temperature, time within a phase, which see a trend the many states dilute),
     and it is at least a little above the noise."""
-    ratio = final.rmse_ppm / noise.ppm if noise.ppm > 0 else math.inf
     smooth = structure.beyond(STRUCTURE_SIGNIFICANCE) or any(a.significance > STRUCTURE_SIGNIFICANCE
                                                               for a in associations)
-    return smooth and ratio > STRUCTURE_RATIO
+    return smooth and noise_ratio(final, noise) > STRUCTURE_RATIO
+
+
+def noise_ratio(step: Step, noise: NoiseEstimate) -> float:
+    """The step's residual RMS in multiples of the noise."""
+    return step.rmse_ppm / noise.ppm if noise.ppm > 0 else math.inf
 
 
 def verdict_of(steps: list[Step], effects: list[str], noise: NoiseEstimate, structure: ResidualStructure,
@@ -46,6 +50,5 @@ def verdict_of(steps: list[Step], effects: list[str], noise: NoiseEstimate, stru
         return "inconclusive"
     if not outside_library(steps[-1], noise, structure, associations):
         # Above the noise without structure: scatter the noise estimate misses (e.g. between moves), not adequate.
-        ratio = steps[-1].rmse_ppm / noise.ppm if noise.ppm > 0 else math.inf
-        return "adequate" if ratio <= FAILING_RATIO else "inconclusive"
+        return "adequate" if noise_ratio(steps[-1], noise) <= FAILING_RATIO else "inconclusive"
     return "missing_effect" if steps[0].candidates and not limits else "inconclusive"
