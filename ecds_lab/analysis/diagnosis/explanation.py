@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
-import math
 from itertools import pairwise
 from typing import Any
 
 from ecds_lab.analysis.diagnosis.result import Diagnosis, figure_from_json
-from ecds_lab.analysis.diagnosis.verdict import FAILING_RATIO, STRUCTURE_SIGNIFICANCE, outside_library
+from ecds_lab.analysis.diagnosis.verdict import FAILING_RATIO, STRUCTURE_SIGNIFICANCE, noise_ratio, outside_library
 from ecds_lab.analysis.noise import noise_parts_text
 from ecds_lab.analysis.quantities import parameter_text
 from ecds_lab.model.effects import EffectRegistry
@@ -31,7 +30,7 @@ def explain(result: Diagnosis, registry: EffectRegistry | None = None) -> str:
     if result.released:
         lines.append(f"The data determine {', '.join(result.released)}, which the rules would hold fixed: "
                      "fitted free.")
-    ratio = first.rmse_ppm / noise if noise > 0 else math.inf
+    ratio = noise_ratio(first, result.noise)
     if result.verdict == "adequate" and not result.claimed and len(result.steps) == 1:
         lines.append(f"{model[0].upper()}{model[1:]} explains the data to the noise level: residual "
                      f"{first.rmse_ppm:.1f} ppm against {noise:.1f} ppm noise ({result.noise.source}).")
@@ -87,7 +86,7 @@ def explain(result: Diagnosis, registry: EffectRegistry | None = None) -> str:
                      "none of them well (a flexible smooth of the residual finds much more structure than any "
                      "one takes): none is claimed.")
     lines += _limits_text(result)
-    final_ratio = final.rmse_ppm / noise if noise > 0 else math.inf
+    final_ratio = noise_ratio(final, result.noise)
     structure = result.structure
     outside = structure is not None and outside_library(final, result.noise, structure, result.associations)
     if result.verdict == "inconclusive" and not result.alternatives and not result.limits_reached \
