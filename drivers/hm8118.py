@@ -46,7 +46,8 @@ SERIAL_SETTINGS: dict[str, Any] = {
     "write_replies": ("ERROR",),
 }
 #: ``XALL?`` -> main,secondary,bin: both values in NR3 with a two-digit exponent, the bin number an
-#: integer (the emulator and the recorded sessions: ``1.23456E-04,5.83000E+01,0``). The bridge's
+#: integer, 99 without the binning interface (R&S HM8118 manual, ch. 10, p. 71; the emulator:
+#: ``1.23456E-04,5.83000E+01,99``; the older recorded sessions: ``...,0``). The bridge's
 #: displays end at 99999 x 10^x; magnitudes beyond 1e9 (H, Ohm, F, S...) are not a reading. Asking
 #: again returns the same measurement, so a garbled reply is re-queried once.
 XALL_REPLY = ReplyFormat((Field("main", NR3, -1e9, 1e9), Field("secondary", NR3, -1e9, 1e9),

@@ -12,12 +12,17 @@ Manual pages found in the stored public copies (each fact below names the page i
          https://manualshive.com/en/manual/hameg/hm8118/3435322?page=12
   [D23]  same, p. 23, "Befehlsliste" (XDLT?, XDMT?, XMAJ?, XMIN?) and "Befehlsliste Binning":
          https://manualshive.com/en/manual/hameg/hm8118/3435322?page=23
+  [E71]  R&S HM8118 user manual (English), ch. 10 "Command Reference", p. 71 (CALL 1, CROP, CRSH, XALL?,
+         XMAJ?, XMIN?, XDLT?, XDMT?): https://manualshive.com/en/manual/rohde-and-schwarz/hm8118/1477853?page=71
   [E51]  HM8118 manual (English), 6.3 "Reference Value", 6.4 "Selecting the Measurement Range", p. 51:
          https://manualshive.com/ru/manual/hameg/hm8118/3433174?page=15
   [M50]  HM8118 manual, 7.3.2, p. 50 (compensation over the 69 test frequencies)
   [SPEC] HM8118 data sheet: test frequencies 20 Hz-200 kHz, test signal 50 mV-1.5 V rms
-The command list's remaining pages (the alphabetical list from *TRG to VOLT, before XDLT? [D23]) and
-the interface chapter were not among the stored copies; what they would have said is marked ASSUMED.
+The command list's remaining pages (the alphabetical list from *TRG to VOLT, before CALL [E71] and XDLT?
+[D23]) and the interface chapter were not among the stored copies; what they would have said is marked
+ASSUMED. Where the two editions differ, the English R&S edition [E71] is followed: the German one [D23] has
+XDLT? fail on a zero reference too, the English one only XDMT?, the relative deviation (an absolute
+deviation from zero is defined).
 
 | What                              | Emulator                                           | Source            |
 |-----------------------------------|----------------------------------------------------|-------------------|
@@ -29,11 +34,11 @@ the interface chapter were not among the stored copies; what they would have sai
 | *IDN?                             | ``HAMEG Instruments, HM8118,<serial>,<firmware>``  | [M68] 10.2        |
 | *RST                              | factory settings (values: ASSUMED, see SETTINGS)   | [M68] 10.2        |
 | *OPC?                             | ``1`` once the measurement is complete             | [M68] 10.2        |
-| XMAJ?, XMIN?                      | ERROR in AUTO function, and in the percent display | [D23]             |
-|                                   | when its reference is zero (the manual says        |                   |
-|                                   | "Messwert 0"; read as the reference: ASSUMED)      |                   |
-| XDLT?, XDMT?                      | ERROR when the PREL reference is zero or in AUTO   | [D23]             |
-|                                   | (which one is percent: ASSUMED XDMT)               |                   |
+| XMAJ?, XMIN?                      | ERROR in AUTO function, and in the percent display | [D23], [E71]      |
+|                                   | when the nominal (PREL) value is zero              |                   |
+| XDLT?                             | absolute deviation from PREL; ERROR in AUTO        | [E71]             |
+| XDMT?                             | relative deviation (percent) from PREL; ERROR in   | [E71]             |
+|                                   | AUTO or when PREL is zero                          |                   |
 | binning (BCLR, BING, BLIH, ...)   | ERROR: only with the HO118 interface fitted        | [D23]             |
 | PREL                              | five decimals (reference entered with up to five   | [E51] 6.3         |
 |                                   | digits after the point)                            |                   |
@@ -59,14 +64,17 @@ the interface chapter were not among the stored copies; what they would have sai
 | LOCK                              | front panel locked out (the manual names a local   | [M68] 10 (lockout |
 |                                   | lockout via the interface, not its command)        | exists); ASSUMED  |
 | $STL                              | trigger delay 0-40,000 ms added to a measurement   | ASSUMED           |
-| CONV, CALL                        | constant voltage on/off; compensate one or all     | ASSUMED; [M50]    |
-|                                   | frequencies                                        | for "all 69"      |
-| CROP, CRSH                        | reply ``0`` (done) or ``-1`` (failed) after 1.5 s  | ASSUMED           |
-|                                   | per frequency                                      |                   |
+| CONV                              | constant voltage on/off                            | ASSUMED           |
+| CALL                              | CALL 1: the next CROP/CRSH compensates all 69      | [E71], [M50];     |
+|                                   | frequencies; CALL 0 this frequency only            | code 0 ASSUMED    |
+| CROP, CRSH                        | reply ``0`` (done) or ``-1`` (failed), unasked     | [E71]; 1.5 s per  |
+|                                   |                                                    | frequency ASSUMED |
 | set commands                      | silent when accepted, ``ERROR`` when refused       | [D23] names the   |
 |                                   |                                                    | "Fehlermeldung";  |
 |                                   |                                                    | text ASSUMED      |
-| ``XALL?``                         | ``main,secondary,bin`` in NR3 with five decimals   | ASSUMED           |
+| ``XALL?``                         | ``main,secondary,bin``; bin 99 without the HO118   | [E71]; NR3 with   |
+|                                   | binning interface (this bridge has none)           | five decimals     |
+|                                   |                                                    | ASSUMED           |
 
 Timing. The manual gives readings per second under continuous trigger: "about 1.5 at SLOW, 8 at MED,
 14 at FAST" [D12], i.e. 1/14 s and 1/8 s per reading, used as given; SLOW would be about 0.67 s, but the
@@ -118,6 +126,8 @@ AVERAGING_CODES = {0: "off", 1: "average", 2: "median"}
 MEDIAN_READINGS = 3
 #: ``NAVG``: readings averaged when ``AVGM 1`` (ASSUMED).
 AVERAGES_RANGE = (2, 99)
+#: ``XALL?``'s sorting bin without the binning interface fitted (or for an invalid measurement) [E71].
+NO_BIN = 99
 #: ``BIAS`` codes (ASSUMED).
 BIAS_CODES = {0: "off", 1: "internal", 2: "external"}
 #: ``OUTP`` codes: the value, or its deviation from the reference as ∆ABS or ∆% [E51] (codes ASSUMED).
@@ -319,17 +329,18 @@ class HM8118Emulator(LineEmulator):
         if values is None:
             self._answer("ERROR")
         else:
-            self._answer(f"{values[0]:.5E},{values[1]:.5E},0")
+            self._answer(f"{values[0]:.5E},{values[1]:.5E},{NO_BIN}")
 
     def _read_one(self, index: int) -> None:
         values = self._displayed()
         self._answer("ERROR" if values is None else f"{values[index]:.5E}")
 
     def _read_deviation(self, percent: bool) -> None:
-        """XDLT? / XDMT?: main value minus the PREL reference; an error when the reference is zero [D23]."""
+        """XDLT? / XDMT?: main value minus the PREL reference, absolute or relative (percent); the relative one is
+        an error when the reference is zero [E71]."""
         values = self._fresh_values()
         reference = self.settings["PREL"]
-        if values is None or reference == 0:
+        if values is None or (percent and reference == 0):
             self._answer("ERROR")
             return
         deviation = values[0] - reference

@@ -178,8 +178,11 @@ PINNED_COLUMNS = {
         52.8714, 52.8715, 99.4083, 99.4883,
     ),
 }
+# The bridge's digest was re-pinned once, for a protocol fact from the manual (R&S HM8118 manual, ch. 10, p. 71):
+# XALL?'s bin is 99 without the binning interface, where the emulator had answered 0. With each ',99' of its
+# replies read back as ',0', the new traffic gives the digest of 699995a (1f463f76...), so nothing else changed.
 PINNED_TRANSCRIPTS = {
-    'bridge': (152, '1f463f760422e070ab2faec7133f2dbeb9a9071711dc6eeab1e92f244f2e94d5'),
+    'bridge': (152, 'c4c622d98dadfa356e89a0e15d75ad39cb72af4b4f6bd28eca82c866e3b660af'),
     'heater': (23, '96ff8b606330896fd5bca7e17125c6bb196e5045d3c0349f97cb3c95e4209205'),
     'scanner': (31, '2a5f13133721c4bee1aa11199fbf2086a8ce5283f4011ff95d13c0839bef3bfa'),
     'slide': (63, 'ff52e534c33690b7e330da3bec3c8d9045d818821b6236644d5d238d831fe25f'),
