@@ -109,6 +109,13 @@ class Effect:
         """Parameters these data cannot determine (name -> reason); they are fixed at their start."""
         return {}
 
+    def signature(self, data: Measurements, values: Mapping[str, float]) -> tuple[float, dict[str, float]] | None:
+        """ln of the quantity that shows the effect's own course on ``data`` (a drying's rate where the coil is
+        hottest) and its derivatives by parameter, or None where the key parameters say it all. A claim needs
+        it determined to better than its own value (standard error of the ln below 1): else the data show only
+        that the effect's terms help, in whatever course its other parameters can bend to."""
+        return None
+
     def starts_from_residual(self, data: Measurements, shift_m: np.ndarray,
                              weights: np.ndarray) -> tuple[dict[str, float], ...]:
         """Starts read off the current model's residual as a distance error (``shift_m``, m per reading,

@@ -16,7 +16,7 @@ def _candidate(values: dict[str, float], units: dict[str, str], plausible: dict[
                              plausible=plausible)
     fit = SimpleNamespace(parameter=params.__getitem__, values=dict(values),
                           stderr={name: math.inf for name in values})
-    return SimpleNamespace(effect_object=effect, fit=fit, effect="tau_displacement")
+    return SimpleNamespace(effect_object=effect, fit=fit, effect="tau_displacement", fit_data=None)
 
 
 def test_a_ratio_at_its_bound_and_out_of_its_range_has_no_unit_one():

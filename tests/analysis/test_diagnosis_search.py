@@ -134,9 +134,10 @@ def test_the_held_out_check_needs_a_margin_in_noise_units():
 # -- a group set aside as partial is not judged again and again -------------------------------------------------
 def test_candidates_set_aside_as_partial_do_not_keep_the_search_going(monkeypatch):
     """The validation study's case 0 of seed 1 (the former's expansion and a drifting bridge gain, 15 kHz, coil and
-    target heated): thermal_lag and former_expansion each explain part of the residual after the moisture. Set
-    aside, they stay in the ranking with their checks passed; when no other candidate passes the search must
-    end, not re-judge the same partial group round after round (it went on for more than 15 CPU-minutes)."""
+    target heated): thermal_lag (and, while a false moisture claim came first, former_expansion too) explains part
+    of the residual. Set aside, it stays in the ranking with its checks passed; when no other candidate passes the
+    search must end, not re-judge the same partial group round after round (it went on for more than 15
+    CPU-minutes). No moisture is claimed: its drying course is left open (docs/diagnosis.md, `identifiable`)."""
     from ecds_lab.analysis.diagnosis import search
     from ecds_lab.study.campaigns import measure
     from ecds_lab.study.cases import draw_case
@@ -152,5 +153,5 @@ def test_candidates_set_aside_as_partial_do_not_keep_the_search_going(monkeypatc
 
     monkeypatch.setattr(search, "_round", counted)
     result = run_diagnosis(measure(draw_case(0, 1)))
-    assert [set(group) for group in result.partial] == [{"thermal_lag", "former_expansion"}], result.explanation
-    assert not {"thermal_lag", "former_expansion"} & set(result.claimed), result.explanation
+    assert result.partial and "thermal_lag" in result.partial[0], result.explanation
+    assert not {"thermal_lag", "former_expansion", "parasitic_capacitance"} & set(result.claimed), result.explanation

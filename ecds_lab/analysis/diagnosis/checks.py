@@ -91,13 +91,45 @@ def identified(candidate: Candidate) -> tuple[bool, list[str]]:
         span = p.upper - p.lower
         if math.isfinite(span) and min(p.value - p.lower, p.upper - p.value) <= BOUND_MARGIN * span:
             reasons.append(f"{name} sits at its bound ({_shown(p.value, p.unit)})")
-        stderr = candidate.fit.stderr.get(name, math.nan)
-        z = abs(p.value) / stderr if math.isfinite(stderr) and stderr > 0 else 0.0
-        best_z = max(best_z, z)
+        best_z = max(best_z, _z(candidate, name))
     if best_z < MIN_Z:
         reasons.append(f"its key parameter{'s' if len(keys) > 1 else ''} {', '.join(keys)} "
                        f"{'are' if len(keys) > 1 else 'is'} not determined (|value| < {MIN_Z:g} standard errors)")
+    spread = signature_spread(candidate)
+    if spread is not None and not spread < 1.0:
+        reasons.append(f"its own course is not determined (the quantity that shows it is known to a factor "
+                       f"{_factor(spread)}): the data do not show {effect.name}'s signature")
     return not reasons, reasons
+
+
+def signature_spread(candidate: Candidate) -> float | None:
+    """Standard error of the ln of the effect's signature quantity (``Effect.signature``) from the fit's covariance
+    (inf when none of its parameters is free), or None for an effect without one."""
+    effect = candidate.effect_object
+    if candidate.fit_data is None:
+        return None
+    shown = effect.signature(candidate.fit_data, candidate.fit.values)
+    if shown is None:
+        return None
+    _, slopes = shown
+    names = candidate.fit.free_names
+    gradient = np.array([slopes.get(name, 0.0) for name in names])
+    if not gradient.any():
+        return math.inf
+    variance = float(gradient @ candidate.fit.covariance @ gradient)
+    return math.sqrt(variance) if math.isfinite(variance) and variance >= 0 else math.inf
+
+
+def _factor(spread: float) -> str:
+    return f"{math.exp(spread):.3g}" if spread < 50 else "beyond e^50"
+
+
+def _z(candidate: Candidate, name: str) -> float:
+    """|value| / standard error of a free parameter (0 when fixed or without a finite standard error)."""
+    if candidate.fit.parameter(name).fixed:
+        return 0.0
+    stderr = candidate.fit.stderr.get(name, math.nan)
+    return abs(candidate.fit.values[name]) / stderr if math.isfinite(stderr) and stderr > 0 else 0.0
 
 
 def plausible_size(candidate: Candidate) -> tuple[bool, list[str]]:

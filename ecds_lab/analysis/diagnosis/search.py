@@ -163,6 +163,7 @@ def run_diagnosis(data: Measurements, effects: Sequence[str] = (), sensor: Senso
         refit = _full_fit(clean, best)
         if screen is not clean:  # the claim must hold on every reading, not only on the screened ones
             confirmed = score_candidate(best.effect, refit, current.fit, noise, clean, len(clean))
+            confirmed.fit_data = clean
             check_candidate(confirmed)
             if not confirmed.passes:
                 best.checks["confirmed_on_all_readings"] = False

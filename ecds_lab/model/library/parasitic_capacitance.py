@@ -22,6 +22,7 @@ like 1/(1 - w^2 L C): strongly at 15 kHz, hardly at 500 Hz, and with hysteresis 
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import ClassVar
@@ -54,9 +55,10 @@ class ParasiticCapacitance(Effect):
     explains = "moisture in the former changes the coil's parallel capacitance as heating dries it"
     #: Table 2: the moist former adds ~15 pF to the coil's 47.5 pF. Water fills only the pores of the former
     #: between the turns, so moisture adds at most about the dry inter-winding capacitance itself, which
-    #: grows with the winding (a large coil's C_p is several times the paper's): +/- the larger of 50 pF
-    #: and the sensor's own C_p (set per sensor in ``__init__``).
-    plausible: ClassVar[dict[str, tuple[float, float]]] = {"moist_dC": (-50e-12, 50e-12)}
+    #: grows with the winding (a large coil's C_p is several times the paper's): up to the larger of 50 pF
+    #: and the sensor's own C_p (set per sensor in ``__init__``). Water (relative permittivity ~80) in the
+    #: pores can only add capacitance: a negative dC, capacitance that rises as the former dries, is no drying.
+    plausible: ClassVar[dict[str, tuple[float, float]]] = {"moist_dC": (0.0, 50e-12)}
     key_parameters = ("moist_dC",)
     reveal = ("hold the coil at two or three temperatures for an hour each at 15 kHz, then cool it: drying "
               "changes L early in each heating, stops once the former holds its equilibrium moisture, and "
@@ -73,7 +75,7 @@ class ParasiticCapacitance(Effect):
     def __init__(self, sensor: SensorConfig) -> None:
         super().__init__(sensor)
         limit = max(50e-12, sensor.capacitance_f)
-        self.plausible = {"moist_dC": (-limit, limit)}  # type: ignore[misc]  # per sensor, not per class
+        self.plausible = {"moist_dC": (0.0, limit)}  # type: ignore[misc]  # per sensor, not per class
         self._dc_bound = max(1e-10, 2 * limit)
 
     def parameters(self) -> list[Parameter]:
@@ -101,6 +103,19 @@ class ParasiticCapacitance(Effect):
         if float(data.freq_hz.max()) < 2000:
             return {"moist_dG": "low frequencies only: the loss hardly changes L"}
         return {}
+
+    def signature(self, data: Measurements, values: Mapping[str, float]) -> tuple[float, dict[str, float]]:
+        """ln of the drying rate at the campaign's hottest coil temperature: drying is seen when the data tell how
+        fast the former dries there. Onset and rate alone may each be open (an Arrhenius-like rise far below the
+        onset fixes only their combination); a course the data leave wholly open (a step at a cooling
+        hysteresis, say) is not drying."""
+        hottest = float(np.max(data.t_coil_c))
+        width = values["drying_width"]
+        u = (hottest - values["drying_onset"]) / width
+        share = float(expit(u))
+        ln_rate = math.log(values["drying_rate"]) + math.log(max(share, 1e-300))
+        return ln_rate, {"drying_rate": 1.0 / values["drying_rate"], "drying_onset": -(1.0 - share) / width,
+                         "drying_width": -(1.0 - share) * u / width}
 
     def moisture(self, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
         """m(t) per recording: the drying rate and the equilibrium at the mean temperature of each interval."""
