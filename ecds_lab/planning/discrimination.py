@@ -16,10 +16,12 @@ model with it at size zero by any experiment; what an experiment can do is show 
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
 
+from ecds_lab.analysis.fitting import FitResult
 from ecds_lab.analysis.noise import NoiseEstimate
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.planning.rivals import Rival, chi2_of, weighted_fit
@@ -83,6 +85,28 @@ def expected(separations: list[Separation], truth: str) -> float | None:
     return next((s.delta_chi2 for s in separations if s.truth == truth), None)
 
 
+def measured_fits(rivals: list[Rival], campaign: Measurements, noise: NoiseEstimate) -> dict[str, FitResult]:
+    """Each rival refitted (noise-weighted, nothing held) to the joined campaign: label -> its fit."""
+    return {r.label: weighted_fit(r.model, campaign, noise, r.values) for r in rivals}
+
+
 def measured_separation(rivals: list[Rival], campaign: Measurements, noise: NoiseEstimate) -> dict[str, float]:
     """Each rival refitted (noise-weighted) to the joined campaign: label -> chi-square, in the same units."""
-    return {r.label: chi2_of(weighted_fit(r.model, campaign, noise, r.values), noise) for r in rivals}
+    return {label: chi2_of(fit, noise) for label, fit in measured_fits(rivals, campaign, noise).items()}
+
+
+def at_measured_size(truth: Rival, rival: Rival, measured: Mapping[str, float], campaign: Measurements,
+                     planned: Measurements, noise: NoiseEstimate) -> float | None:
+    """The Delta chi-square predicted had ``truth`` held its hypothetical size at the size the joined campaign
+    measured (``measured``: the truth's free refit there), else None (nothing held: no size was supposed).
+
+    A nested question's rival enters at a plausible size (``rivals.hypothetical_size``), and its separation grows
+    like the square of that size: a prediction at a supposed size cannot be checked against a truth of another
+    size. This is the same T-criterion with the size the run found, the figure a measured separation is compared
+    with; the prediction at the hypothetical size stays the one the choice was made on."""
+    if not truth.held:
+        return None
+    held = {name: measured[name] for name in truth.held if name in measured}
+    fit = weighted_fit(truth.model, campaign, noise, {**truth.values, **held}, held)
+    sized = dataclasses.replace(truth, values=fit.values, chi2=chi2_of(fit, noise), held=held)
+    return separation(sized, rival, campaign, planned, noise).delta_chi2
