@@ -24,6 +24,7 @@ import numpy as np
 from ecds_lab.analysis.fitting import FitResult
 from ecds_lab.analysis.noise import NoiseEstimate
 from ecds_lab.data.measurements import Measurements
+from ecds_lab.planning.calibration_change import absorbed_fit
 from ecds_lab.planning.rivals import Rival, chi2_of, weighted_fit
 
 #: Delta chi-square (noise variances) that decides: the diagnosis's evidence threshold (docs/diagnosis.md).
@@ -42,10 +43,19 @@ class Separation:
     #: ``delta_chi2`` without the planned reading that adds most: a decision must not hinge on one reading (a
     #: glitch there would fake it)
     robust_chi2: float
+    #: what the planned readings add to the rival's chi-square when the rival may also change the new run's
+    #: calibration smoothly (``calibration_change``): a decision must not rest on what a drift could fake
+    calibration_chi2: float = float("inf")
+
+    @property
+    def guaranteed(self) -> float:
+        """The separation that survives both: one reading off (a glitch) and a smooth calibration change."""
+        return min(self.robust_chi2, self.calibration_chi2)
 
     def to_json(self) -> dict[str, object]:
         return {"truth": self.truth, "rival": self.rival, "delta_chi2": round(self.delta_chi2, 1),
-                "added_chi2": round(self.added_chi2, 1), "robust_chi2": round(self.robust_chi2, 1)}
+                "added_chi2": round(self.added_chi2, 1), "robust_chi2": round(self.robust_chi2, 1),
+                "calibration_chi2": round(self.calibration_chi2, 1)}
 
 
 def predicted_readings(truth: Rival, planned: Measurements) -> Measurements:
@@ -56,12 +66,15 @@ def predicted_readings(truth: Rival, planned: Measurements) -> Measurements:
 def separation(truth: Rival, rival: Rival, campaign: Measurements, planned: Measurements,
                noise: NoiseEstimate) -> Separation:
     """The T-criterion of ``rival`` against ``truth`` for the planned readings (module docstring)."""
-    joined = Measurements.concatenate([campaign, predicted_readings(truth, planned)])
+    readings = predicted_readings(truth, planned)
+    joined = Measurements.concatenate([campaign, readings])
     refit = weighted_fit(rival.model, joined, noise, rival.values, rival.held)
     chi2 = chi2_of(refit, noise)
     new = refit.effective_residuals_ppm[len(campaign):] / noise.ppm
     largest = float(np.max(new**2)) / max(noise.design_effect, 1.0) if len(new) else 0.0
-    return Separation(truth.label, rival.label, chi2 - truth.chi2, chi2 - rival.chi2, chi2 - truth.chi2 - largest)
+    absorbed = chi2_of(absorbed_fit(rival, campaign, readings, refit, noise), noise)
+    return Separation(truth.label, rival.label, chi2 - truth.chi2, chi2 - rival.chi2, chi2 - truth.chi2 - largest,
+                      absorbed - rival.chi2)
 
 
 def question_separations(kind: str, rivals: list[Rival], campaign: Measurements, planned: Measurements,
@@ -76,8 +89,8 @@ def question_separations(kind: str, rivals: list[Rival], campaign: Measurements,
 
 def decisive(separations: list[Separation]) -> float:
     """The separation the candidate guarantees: the least over the truths it must tell apart, each without its
-    most telling reading (``Separation.robust_chi2``)."""
-    return min((s.robust_chi2 for s in separations), default=0.0)
+    most telling reading and after a smooth calibration change of the run (``Separation.guaranteed``)."""
+    return min((s.guaranteed for s in separations), default=0.0)
 
 
 def expected(separations: list[Separation], truth: str) -> float | None:
