@@ -8,9 +8,11 @@ its own predictions exactly). Chi-square is counted in the diagnosis's noise mod
 reading, over the design effect), so the figure compares directly with the diagnosis's evidence threshold (25 noise
 variances). Divided by the candidate's lab hours it is the discrimination per hour.
 
-For a tie both orders are computed and the smaller is the candidate's guaranteed separation. For a nested question
-(an effect present or not) only "present at its size" is computed: the model without it cannot be told from the
-model with it at size zero by any experiment; what an experiment can do is show it if it is there.
+A separation counts only what survives what the models leave out: one reading off (``robust_chi2``) and a smooth
+change of the new run's calibration (``calibration_chi2``, ``calibration_change``). For a tie both orders are
+computed and the smaller is the candidate's guaranteed separation. For a nested question (an effect present or not)
+only "present at its size" is computed: the model without it cannot be told from the model with it at size zero by
+any experiment; what an experiment can do is show it if it is there.
 """
 
 from __future__ import annotations
@@ -45,7 +47,7 @@ class Separation:
     robust_chi2: float
     #: what the planned readings add to the rival's chi-square when the rival may also change the new run's
     #: calibration smoothly (``calibration_change``): a decision must not rest on what a drift could fake
-    calibration_chi2: float = float("inf")
+    calibration_chi2: float
 
     @property
     def guaranteed(self) -> float:
@@ -101,11 +103,6 @@ def expected(separations: list[Separation], truth: str) -> float | None:
 def measured_fits(rivals: list[Rival], campaign: Measurements, noise: NoiseEstimate) -> dict[str, FitResult]:
     """Each rival refitted (noise-weighted, nothing held) to the joined campaign: label -> its fit."""
     return {r.label: weighted_fit(r.model, campaign, noise, r.values) for r in rivals}
-
-
-def measured_separation(rivals: list[Rival], campaign: Measurements, noise: NoiseEstimate) -> dict[str, float]:
-    """Each rival refitted (noise-weighted) to the joined campaign: label -> chi-square, in the same units."""
-    return {label: chi2_of(fit, noise) for label, fit in measured_fits(rivals, campaign, noise).items()}
 
 
 def at_measured_size(truth: Rival, rival: Rival, measured: Mapping[str, float], campaign: Measurements,
