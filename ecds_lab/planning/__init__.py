@@ -11,6 +11,8 @@ One module per job:
   the station's thermal block;
 - ``discrimination``: the T-criterion (Atkinson & Fedorov): the expected chi-square between rival models on a
   candidate, the rival refitted to the other's predicted readings;
+- ``calibration_change``: what a smooth change of the new run's calibration absorbs, the nuisance a separation
+  must survive to count;
 - ``choice``: the chosen experiment, written as a normal experiment YAML with a header saying what it decides;
 - ``investigate``: the loop diagnose -> plan -> run -> diagnose, and its ``investigate.json``.
 

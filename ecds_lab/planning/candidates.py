@@ -128,6 +128,11 @@ def candidate_settings(data: Measurements, station: StationConfig) -> list[tuple
         out.append(("fine_steps", f"a sweep in {FINE_STEP_MM:g} mm steps over {fine[0]:g}-{fine[-1]:g} mm",
                     {"kind": "displacement_sweep", "name": "fine steps",
                      "sweep": _sweep(reach, [max(freqs)], positions_mm=fine)}))
+        if reach.directions != "both" and slide_approach(station) == 0:  # the near range from both sides
+            out.append(("fine_steps_both_directions", f"a sweep in {FINE_STEP_MM:g} mm steps over "
+                        f"{fine[0]:g}-{fine[-1]:g} mm approaching from both directions",
+                        {"kind": "displacement_sweep", "name": "fine steps, both directions",
+                         "sweep": _sweep(reach, [max(freqs)], positions_mm=fine, direction="both")}))
         out.append(("repeat", "the campaign's sweep once more at room temperature",
                     {"kind": "displacement_sweep", "name": "repeat sweep", "sweep": _sweep(reach, freqs)}))
     coil_hot = _hot(station, "coil", reach.coil_hot_c)

@@ -13,7 +13,7 @@ not to decide.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -21,11 +21,13 @@ from typing import Any
 import yaml
 
 from ecds_lab.analysis.diagnosis import Diagnosis
+from ecds_lab.analysis.noise import NoiseEstimate
 from ecds_lab.config.station import StationConfig
+from ecds_lab.data.measurements import Measurements
 from ecds_lab.model.effects import EffectRegistry
 from ecds_lab.planning.candidates import CandidateExperiment, station_candidates
 from ecds_lab.planning.conditions import planned_readings, room_temperature_c
-from ecds_lab.planning.discrimination import DECISIVE_CHI2, Separation, decisive, question_separations
+from ecds_lab.planning.discrimination import DECISIVE_CHI2, Separation, at_measured_size, decisive, question_separations
 from ecds_lab.planning.questions import DESIGNABLE, OpenQuestion, not_asked, open_questions
 from ecds_lab.planning.rivals import Rival, nested_rivals, size_rivals, tie_rivals
 
@@ -42,6 +44,8 @@ class Scored:
     separations: dict[int, list[Separation]]
     decides: float
     per_hour: float
+    #: the readings the candidate will take, as scored (for a prediction at another size after the run)
+    planned: Measurements | None = None
 
     def guaranteed(self, index: int) -> float:
         return decisive(self.separations.get(index, []))
@@ -66,6 +70,9 @@ class NextPlan:
     not_asked: dict[str, str] = field(default_factory=dict)
     #: questions (indices) no candidate of this station decides at any lab time: the station cannot answer them
     unanswerable: list[int] = field(default_factory=list)
+    #: the campaign planned from (the diagnosis's clean readings) and its noise model
+    campaign: Measurements | None = None
+    noise: NoiseEstimate | None = None
 
     @property
     def main_question(self) -> int | None:
@@ -85,6 +92,21 @@ class NextPlan:
     def predicted_delta_chi2(self) -> float | None:
         index = self.main_question
         return None if index is None or self.chosen is None else self.chosen.guaranteed(index)
+
+    def predicted_at_measured_size(self, winner: str, measured: Mapping[str, float]) -> float | None:
+        """The main question's predicted Delta chi-square had ``winner`` been the truth at the size the joined
+        campaign measured (``discrimination.at_measured_size``, in the plan's noise model); None when the winner
+        supposed no size."""
+        index = self.main_question
+        chosen = self.chosen
+        if index is None or chosen is None or chosen.planned is None or self.campaign is None or self.noise is None:
+            return None
+        rivals = {r.label: r for r in self.rivals[index]}
+        truth = rivals.get(winner)
+        other = next((rivals[s.rival] for s in chosen.separations[index] if s.truth == winner), None)
+        if truth is None or other is None:
+            return None
+        return at_measured_size(truth, other, measured, self.campaign, chosen.planned, self.noise)
 
     def to_json(self) -> dict[str, Any]:
         chosen = self.chosen.to_json(self.questions) if self.chosen is not None else None
@@ -120,6 +142,9 @@ def plan_next(result: Diagnosis, registry: EffectRegistry, station: StationConfi
         return NextPlan(questions, {}, [], {}, None, _nothing_to_design(questions), asked)
     rivals = {i: rivals_of(questions[i], result, registry) for i in designable}
     rivals = {i: r for i, r in rivals.items() if len(r) >= 2}
+    if not rivals:  # e.g. an undetermined size no two sizes of which the campaign leaves as rivals
+        return NextPlan(questions, {}, [], {}, None, "no open question has rival models to design for: "
+                        + "; ".join(questions[i].text for i in designable), asked, [], result.data, result.noise)
     candidates, refused = station_candidates(result.data, station, None, done)
     room = room_temperature_c(result.data)
     scored = []
@@ -132,7 +157,8 @@ def plan_next(result: Diagnosis, registry: EffectRegistry, station: StationConfi
         separations = {i: question_separations(questions[i].kind, rs, result.data, planned, result.noise)
                        for i, rs in rivals.items()}
         decides = sum(min(max(decisive(s), 0.0), DECISIVE_CHI2) / DECISIVE_CHI2 for s in separations.values())
-        scored.append(Scored(candidate, separations, decides, decides / (candidate.hours + SETUP_HOURS)))
+        scored.append(Scored(candidate, separations, decides, decides / (candidate.hours + SETUP_HOURS),
+                             planned))
     scored.sort(key=lambda s: (-s.per_hour, s.candidate.hours))
     unanswerable = [i for i in rivals if not any(s.guaranteed(i) >= DECISIVE_CHI2 for s in scored)]
     over = [s for s in scored if max_hours is not None and s.candidate.hours > max_hours]
@@ -158,7 +184,8 @@ def plan_next(result: Diagnosis, registry: EffectRegistry, station: StationConfi
                f"chi-square {DECISIVE_CHI2:g}: this one separates most, but is not expected to decide")
     else:
         chosen, why = None, "the station can do no candidate experiment within the time allowed"
-    return NextPlan(questions, rivals, scored, refused, chosen, why, asked, unanswerable)
+    return NextPlan(questions, rivals, scored, refused, chosen, why, asked, unanswerable, result.data,
+                    result.noise)
 
 
 def _nothing_to_design(questions: list[OpenQuestion]) -> str:

@@ -8,20 +8,25 @@ its own predictions exactly). Chi-square is counted in the diagnosis's noise mod
 reading, over the design effect), so the figure compares directly with the diagnosis's evidence threshold (25 noise
 variances). Divided by the candidate's lab hours it is the discrimination per hour.
 
-For a tie both orders are computed and the smaller is the candidate's guaranteed separation. For a nested question
-(an effect present or not) only "present at its size" is computed: the model without it cannot be told from the
-model with it at size zero by any experiment; what an experiment can do is show it if it is there.
+A separation counts only what survives what the models leave out: one reading off (``robust_chi2``) and a smooth
+change of the new run's calibration (``calibration_chi2``, ``calibration_change``). For a tie both orders are
+computed and the smaller is the candidate's guaranteed separation. For a nested question (an effect present or not)
+only "present at its size" is computed: the model without it cannot be told from the model with it at size zero by
+any experiment; what an experiment can do is show it if it is there.
 """
 
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
 
+from ecds_lab.analysis.fitting import FitResult
 from ecds_lab.analysis.noise import NoiseEstimate
 from ecds_lab.data.measurements import Measurements
+from ecds_lab.planning.calibration_change import absorbed_fit
 from ecds_lab.planning.rivals import Rival, chi2_of, weighted_fit
 
 #: Delta chi-square (noise variances) that decides: the diagnosis's evidence threshold (docs/diagnosis.md).
@@ -40,10 +45,19 @@ class Separation:
     #: ``delta_chi2`` without the planned reading that adds most: a decision must not hinge on one reading (a
     #: glitch there would fake it)
     robust_chi2: float
+    #: what the planned readings add to the rival's chi-square when the rival may also change the new run's
+    #: calibration smoothly (``calibration_change``): a decision must not rest on what a drift could fake
+    calibration_chi2: float
+
+    @property
+    def guaranteed(self) -> float:
+        """The separation that survives both: one reading off (a glitch) and a smooth calibration change."""
+        return min(self.robust_chi2, self.calibration_chi2)
 
     def to_json(self) -> dict[str, object]:
         return {"truth": self.truth, "rival": self.rival, "delta_chi2": round(self.delta_chi2, 1),
-                "added_chi2": round(self.added_chi2, 1), "robust_chi2": round(self.robust_chi2, 1)}
+                "added_chi2": round(self.added_chi2, 1), "robust_chi2": round(self.robust_chi2, 1),
+                "calibration_chi2": round(self.calibration_chi2, 1)}
 
 
 def predicted_readings(truth: Rival, planned: Measurements) -> Measurements:
@@ -54,12 +68,15 @@ def predicted_readings(truth: Rival, planned: Measurements) -> Measurements:
 def separation(truth: Rival, rival: Rival, campaign: Measurements, planned: Measurements,
                noise: NoiseEstimate) -> Separation:
     """The T-criterion of ``rival`` against ``truth`` for the planned readings (module docstring)."""
-    joined = Measurements.concatenate([campaign, predicted_readings(truth, planned)])
+    readings = predicted_readings(truth, planned)
+    joined = Measurements.concatenate([campaign, readings])
     refit = weighted_fit(rival.model, joined, noise, rival.values, rival.held)
     chi2 = chi2_of(refit, noise)
     new = refit.effective_residuals_ppm[len(campaign):] / noise.ppm
     largest = float(np.max(new**2)) / max(noise.design_effect, 1.0) if len(new) else 0.0
-    return Separation(truth.label, rival.label, chi2 - truth.chi2, chi2 - rival.chi2, chi2 - truth.chi2 - largest)
+    absorbed = chi2_of(absorbed_fit(rival, campaign, readings, refit, noise), noise)
+    return Separation(truth.label, rival.label, chi2 - truth.chi2, chi2 - rival.chi2, chi2 - truth.chi2 - largest,
+                      absorbed - rival.chi2)
 
 
 def question_separations(kind: str, rivals: list[Rival], campaign: Measurements, planned: Measurements,
@@ -74,8 +91,8 @@ def question_separations(kind: str, rivals: list[Rival], campaign: Measurements,
 
 def decisive(separations: list[Separation]) -> float:
     """The separation the candidate guarantees: the least over the truths it must tell apart, each without its
-    most telling reading (``Separation.robust_chi2``)."""
-    return min((s.robust_chi2 for s in separations), default=0.0)
+    most telling reading and after a smooth calibration change of the run (``Separation.guaranteed``)."""
+    return min((s.guaranteed for s in separations), default=0.0)
 
 
 def expected(separations: list[Separation], truth: str) -> float | None:
@@ -83,6 +100,23 @@ def expected(separations: list[Separation], truth: str) -> float | None:
     return next((s.delta_chi2 for s in separations if s.truth == truth), None)
 
 
-def measured_separation(rivals: list[Rival], campaign: Measurements, noise: NoiseEstimate) -> dict[str, float]:
-    """Each rival refitted (noise-weighted) to the joined campaign: label -> chi-square, in the same units."""
-    return {r.label: chi2_of(weighted_fit(r.model, campaign, noise, r.values), noise) for r in rivals}
+def measured_fits(rivals: list[Rival], campaign: Measurements, noise: NoiseEstimate) -> dict[str, FitResult]:
+    """Each rival refitted (noise-weighted, nothing held) to the joined campaign: label -> its fit."""
+    return {r.label: weighted_fit(r.model, campaign, noise, r.values) for r in rivals}
+
+
+def at_measured_size(truth: Rival, rival: Rival, measured: Mapping[str, float], campaign: Measurements,
+                     planned: Measurements, noise: NoiseEstimate) -> float | None:
+    """The Delta chi-square predicted had ``truth`` held its hypothetical size at the size the joined campaign
+    measured (``measured``: the truth's free refit there), else None (nothing held: no size was supposed).
+
+    A nested question's rival enters at a plausible size (``rivals.hypothetical_size``), and its separation grows
+    like the square of that size: a prediction at a supposed size cannot be checked against a truth of another
+    size. This is the same T-criterion with the size the run found, the figure a measured separation is compared
+    with; the prediction at the hypothetical size stays the one the choice was made on."""
+    if not truth.held:
+        return None
+    held = {name: measured[name] for name in truth.held if name in measured}
+    fit = weighted_fit(truth.model, campaign, noise, {**truth.values, **held}, held)
+    sized = dataclasses.replace(truth, values=fit.values, chi2=chi2_of(fit, noise), held=held)
+    return separation(sized, rival, campaign, planned, noise).delta_chi2

@@ -23,8 +23,9 @@ from ecds_lab.config.station import StationConfig
 from ecds_lab.errors import RunFileError
 from ecds_lab.model.effects import EffectRegistry, library
 from ecds_lab.planning.choice import NextPlan, plan_next, write_experiment
-from ecds_lab.planning.discrimination import expected, measured_separation
+from ecds_lab.planning.discrimination import expected, measured_fits
 from ecds_lab.planning.questions import DESIGNABLE
+from ecds_lab.planning.rivals import chi2_of
 from ecds_lab.runner.safe_state import signal_name
 from ecds_lab.runner.session import run_experiment
 from ecds_lab.storage.data_file import open_campaign
@@ -60,14 +61,17 @@ def _measured(plan: NextPlan, result: Diagnosis) -> dict[str, Any] | None:
     index = plan.main_question
     if index is None:
         return None
-    chi2 = measured_separation(plan.rivals[index], result.data, result.noise)
+    fits = measured_fits(plan.rivals[index], result.data, result.noise)
+    chi2 = {label: chi2_of(fit, result.noise) for label, fit in fits.items()}
     ordered = sorted(chi2.items(), key=lambda item: item[1])
     winner, best = ordered[0]
     runner_up = ordered[1][1] if len(ordered) > 1 else best
     separations = plan.chosen.separations[index] if plan.chosen else []
+    at_size = plan.predicted_at_measured_size(winner, fits[winner].values)
     return {"chi2": {k: round(v, 1) for k, v in chi2.items()}, "winner": winner,
             "delta_chi2": round(runner_up - best, 1),
-            "predicted_if_winner": _rounded(expected(separations, winner))}
+            "predicted_if_winner": _rounded(expected(separations, winner)),
+            "predicted_at_measured_size": _rounded(at_size)}
 
 
 def _rounded(value: float | None) -> float | None:
