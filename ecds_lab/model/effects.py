@@ -84,6 +84,10 @@ class Effect:
     #: Parameters that must be clearly determined (not at a bound, stderr well below the value) for
     #: the effect to be named; empty: every parameter of the effect.
     key_parameters: ClassVar[tuple[str, ...]] = ()
+    #: Parameters that together make the effect's size (all zero: the effect is absent), tested jointly when no
+    #: key parameter alone is clearly determined (a bending's linear and quadratic terms in temperature trade when
+    #: the sweeps see two temperatures, while the shift they make together is known); empty: the key parameters.
+    size_parameters: ClassVar[tuple[str, ...]] = ()
     #: The measurement that shows this effect best (suggested when the data cannot separate it).
     reveal: ClassVar[str] = ""
     #: What a campaign must hold for ``reveal``'s measurement (keys of ``analysis.diagnosis.advice.Design``:

@@ -6,15 +6,18 @@ from __future__ import annotations
 import math
 from types import SimpleNamespace
 
+import numpy as np
+
 from ecds_lab.analysis.diagnosis.checks import identified, plausible_size
 
 
 def _candidate(values: dict[str, float], units: dict[str, str], plausible: dict[str, tuple[float, float]]):
     params = {name: SimpleNamespace(name=name, value=v, unit=units[name], lower=-3.0, upper=3.0, fixed=False)
               for name, v in values.items()}
-    effect = SimpleNamespace(key_parameters=tuple(values), parameters=lambda: list(params.values()),
+    effect = SimpleNamespace(key_parameters=tuple(values), size_parameters=(), parameters=lambda: list(params.values()),
                              plausible=plausible)
-    fit = SimpleNamespace(parameter=params.__getitem__, values=dict(values),
+    fit = SimpleNamespace(parameter=params.__getitem__, values=dict(values), free_names=list(values),
+                          covariance=np.full((len(values), len(values)), math.inf),
                           stderr={name: math.inf for name in values})
     return SimpleNamespace(effect_object=effect, fit=fit, effect="tau_displacement", fit_data=None)
 

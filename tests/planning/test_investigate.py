@@ -141,12 +141,6 @@ def test_investigate_b_ends_with_the_conductivity_change_claimed_and_no_open_que
     assert record["stopped"].startswith("no open question"), record["stopped"]
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "round 1 runs the fine steps from both directions plan-next names (predicted Delta chi-square 1066 at the "
-    "hypothetical 20 um backlash, 5116 at the 44 um the run finds; measured 5016, the backlash wins the rivals' "
-    "refit), but the joined diagnosis claims nothing: the bending is not found beside the one-direction sweeps, the "
-    "model stays far above the noise (missing_effect: tau_displacement's size undetermined, a residual outside the "
-    "library in x); no two sizes of tau_displacement are then rivals, and the loop stops after 0.06 h"))
 def test_investigate_c_ends_with_the_bending_and_the_backlash_claimed_and_no_open_question(tmp_path, started):
     code, record = investigated(started, "c", tmp_path, 2.0)
     assert code == 0

@@ -68,6 +68,19 @@ def yaml_name(text: str) -> str:
     return f"target_hot_{frequency:g}hz"
 
 
+def test_the_one_direction_start_claims_tau_x_and_the_bending_and_leaves_the_backlash_open(started):
+    # case (c): alone, tau_T(x) leaves the bending's hot-cold shift (109 ppm) and the bending tau_T(x)'s 500/15000 Hz
+    # difference (198 ppm); each knot of tau_T(x) trades with tau_T and C_p (+-1 to 1.7 in ln) while the curve is
+    # known, and the bending's linear and quadratic terms trade (the curvature seen only on the heating log at
+    # 100 mm) while the shift they make is known: judged as a whole, both are claimed, and the model is at the noise
+    _, run = started("c")
+    opened = open_campaign([run])
+    result = run_diagnosis(opened.data, (), opened.sensor)
+    assert {"tau_displacement", "target_bending"} <= set(result.claimed), result.explanation
+    assert result.final.rmse_ppm < 1.2 * result.noise_ppm
+    assert "slide_backlash" in result.untestable  # one direction: only an offset the calibration takes
+
+
 #: case -> what a physicist would choose, as a test on the chosen experiment's settings
 PHYSICIST = {
     "a": lambda s: s["kind"] == "target_heating" and 15000.0 not in s["sweep"]["frequencies_hz"],

@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from scipy import stats
 
 from ecds_lab.analysis.diagnosis.result import DISPLAY_UNITS, Candidate
 from ecds_lab.analysis.fitting import FitResult
@@ -18,6 +19,10 @@ DECISIVE_DELTA_BIC = -10.0
 MIN_CHI2_GAIN = 25.0
 #: A key parameter is identified when |value| exceeds this many standard errors ...
 MIN_Z = 3.0
+#: ... or, for several key parameters, when their joint Wald statistic exceeds the chi-square quantile of the same
+#: two-sided tail (9 = MIN_Z^2 for one parameter): the knots of a curve may each trade with the baseline while the
+#: curve as a whole is far from flat.
+JOINT_TAIL = 2 * float(stats.norm.sf(MIN_Z))
 #: ... and lies farther than this share of its range from either bound.
 BOUND_MARGIN = 1e-3
 #: Two passing effects whose chi-square gains (in noise units) differ by less than this (plus a tenth
@@ -80,7 +85,9 @@ def check_candidate(candidate: Candidate) -> None:
 
 
 def identified(candidate: Candidate) -> tuple[bool, list[str]]:
-    """Key parameters free, off their bounds, and at least one clearly non-zero (|value| > MIN_Z stderr)."""
+    """Key parameters free, off their bounds, and clearly non-zero: one more than MIN_Z standard errors from
+    zero, or the effect's size parameters (``Effect.size_parameters``, default the key ones) jointly at the same
+    confidence (``joint_wald``)."""
     effect = candidate.effect_object
     keys = effect.key_parameters or tuple(p.name for p in effect.parameters())
     reasons, best_z = [], 0.0
@@ -92,14 +99,35 @@ def identified(candidate: Candidate) -> tuple[bool, list[str]]:
         if math.isfinite(span) and min(p.value - p.lower, p.upper - p.value) <= BOUND_MARGIN * span:
             reasons.append(f"{name} sits at its bound ({_shown(p.value, p.unit)})")
         best_z = max(best_z, _z(candidate, name))
-    if best_z < MIN_Z:
+    size = tuple(n for n in (effect.size_parameters or keys) if not candidate.fit.parameter(n).fixed)
+    if best_z < MIN_Z and not joint_wald(candidate, size) >= float(stats.chi2.isf(JOINT_TAIL, max(len(size), 1))):
+        jointly = f", {', '.join(size)} jointly as well" if len(size) > 1 else ""
         reasons.append(f"its key parameter{'s' if len(keys) > 1 else ''} {', '.join(keys)} "
-                       f"{'are' if len(keys) > 1 else 'is'} not determined (|value| < {MIN_Z:g} standard errors)")
+                       f"{'are' if len(keys) > 1 else 'is'} not determined (|value| < {MIN_Z:g} standard errors"
+                       f"{jointly})")
     spread = signature_spread(candidate)
     if spread is not None and not spread < 1.0:
         reasons.append(f"its own course is not determined (the quantity that shows it is known to a factor "
                        f"{_factor(spread)}): the data do not show {effect.name}'s signature")
     return not reasons, reasons
+
+
+def joint_wald(candidate: Candidate, keys: tuple[str, ...]) -> float:
+    """The Wald statistic v' C^-1 v of several free key parameters (0 for fewer than two, or any of them fixed).
+    Knots of a curve referred to one of its points (tau_T(x) relative to tau_T at 60 mm) trade together with the
+    baseline (tau_T, C_p) along one direction, so each knot's own standard error is large while the curve's shape is
+    known: the joint statistic asks whether the parameters together are away from zero."""
+    names = candidate.fit.free_names
+    if len(keys) < 2 or any(name not in names for name in keys):
+        return 0.0
+    index = [names.index(name) for name in keys]
+    covariance = candidate.fit.covariance[np.ix_(index, index)]
+    values = np.array([candidate.fit.values[name] for name in keys])
+    if not np.all(np.isfinite(covariance)):
+        return 0.0
+    solved, *_ = np.linalg.lstsq(covariance, values, rcond=1e-12)
+    statistic = float(values @ solved)
+    return statistic if math.isfinite(statistic) and statistic >= 0 else 0.0
 
 
 def signature_spread(candidate: Candidate) -> float | None:

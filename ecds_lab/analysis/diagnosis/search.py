@@ -79,6 +79,9 @@ PARTIAL_SHARE = 0.5
 #: A tied group explains the residual well (a tie, not a set of partial explanations) when its best
 #: member's chi-square gain is at least this share of the structure a flexible smooth finds beyond chance.
 GOOD_SHARE = 0.6
+#: Two candidates are alternatives only when at least this share of one's change of the prediction is the other's
+#: (``overlap``): otherwise each explains a different part of the residual and both can be found in turn.
+RIVAL_OVERLAP = 0.5
 
 
 @dataclass
@@ -154,7 +157,7 @@ def run_diagnosis(data: Measurements, effects: Sequence[str] = (), sensor: Senso
                              and c.effect not in undetermined]
             break
         best = passing[0]
-        group = [best] + [c for c in ranked if c is not best and _rival(best, c)]
+        group = [best] + [c for c in ranked if c is not best and _rival(best, c, current, noise)]
         if len(group) > 1 and not _explains_well(best, screen, current, noise):
             partial.append([c.effect for c in group])  # each explains a part, none well: no tie, none added
             names = [n for n in names if n not in {c.effect for c in group}]
@@ -226,12 +229,30 @@ def _mark_partial(steps: list[Step], data: Measurements, noise: NoiseEstimate) -
             step.leaves_structure = left.significance
 
 
-def _rival(best: Candidate, other: Candidate) -> bool:
+def _rival(best: Candidate, other: Candidate, current: Step, noise: NoiseEstimate) -> bool:
     """``other`` ties with the claim ``best``: as clear evidence and a plausible size, a chi-square gain the data
-    cannot tell from the claim's, and no worse held out. Its parameters need not be determined on their own:
-    an explanation as good as the claim's is a rival whether or not its size trades off with the baseline's."""
+    cannot tell from the claim's, no worse held out, and the same part of the residual taken (``overlap``). Its
+    parameters need not be determined on their own: an explanation as good as the claim's is a rival whether or
+    not its size trades off with the baseline's. Two effects that each take a different part (a backlash the
+    difference between the directions, tau_T(x) the difference between the frequencies) are no alternatives:
+    the claim is added and the other is judged again beside it."""
     return (other.checks.get("evidence", False) and other.checks.get("plausible", False)
-            and other.checks.get("held_out", True) and tied(best, other))
+            and other.checks.get("held_out", True) and tied(best, other)
+            and overlap(best, other, current, noise) >= RIVAL_OVERLAP)
+
+
+def overlap(a: Candidate, b: Candidate, current: Step, noise: NoiseEstimate) -> float:
+    """The share of ``b``'s change of the prediction that ``a``'s change makes as well: cos^2 of the angle between
+    the two changes of the residual (each reading weighed by its noise), both from the current model on the same
+    readings (1: the same explanation; 0: explanations of different readings or different patterns)."""
+    data = a.fit_data
+    if data is None or data is not b.fit_data:
+        return 1.0
+    before = whitened(_residuals_on(current, data), data, noise)
+    change_a = before - whitened(a.fit.residuals_ppm, data, noise)
+    change_b = before - whitened(b.fit.residuals_ppm, data, noise)
+    norms = float(np.linalg.norm(change_a) * np.linalg.norm(change_b))
+    return float(change_a @ change_b) ** 2 / norms**2 if norms > 0 else 1.0
 
 
 def _explains_well(best: Candidate, screen: Measurements, current: Step, noise: NoiseEstimate) -> bool:

@@ -31,6 +31,9 @@ class TargetBending(Effect):
     plausible: ClassVar[dict[str, tuple[float, float]]] = {"bending": (-60e-6, 60e-6),
                                                            "bending_quadratic": (-0.2e-6, 0.2e-6)}
     key_parameters = ("bending",)
+    #: The shift is b1 dT + b2 dT^2: with sweeps at two temperatures (a curvature seen only on a heating log at one
+    #: position) b1 and b2 trade along b1 + b2 dT_hot, each undetermined while the shift they make is not.
+    size_parameters = ("bending", "bending_quadratic")
     reveal = ("measure at both 500 Hz and 15 kHz with the target hot: bending shifts the distance alike at "
               "both frequencies, a conductivity change alters the eddy-current screening mostly at 500 Hz")
     reveal_needs: ClassVar[dict[str, float]] = {"frequencies_target_hot": 2}
