@@ -107,10 +107,10 @@ def test_plan_next_names_the_experiment_a_physicist_would_choose(case, started):
 @pytest.mark.parametrize("case", [
     "a",
     pytest.param("b", marks=pytest.mark.xfail(strict=True, reason=(
-        "the starting diagnosis leaves target_tau_temperature's size undetermined (no tie); plan-next names the "
-        "target hot at 500 Hz, but after it the model fits the joined campaign far above the noise (chi-square "
-        "~5000 over ~150 readings: no one-tau model fits copper at 500 and 15000 Hz here), and the two sizes then "
-        "differ by ~1000 against the ~70 predicted"))),
+        "the starting diagnosis ties target_bending with target_tau_temperature; plan-next names the target hot at "
+        "500 Hz (70196 predicted if the conductivity change is true), but neither rival fits the joined campaign "
+        "(chi-square 3057 and 3050 over 110 readings; neither holds tau_T(x), which takes the joined campaign's "
+        "baseline from 205 to 128 ppm), so they differ by 7.3"))),
     "c", "d"])
 def test_the_measured_separation_is_within_a_factor_3_of_the_prediction(case, tmp_path, started):
     station, run = started(case)
