@@ -24,8 +24,8 @@ def _run(lab, frequency_hz: float) -> Measurements:
 @pytest.mark.xfail(strict=True, reason=(
     "one tau_T and one calibration for both frequencies: the baseline leaves 225 ppm (11.5x the 19.5 ppm noise) and "
     "nothing is claimed. The skin recession per frequency in the baseline (plate thickness fitted) brings it to "
-    "70 ppm and 25 ppm with target_tau_temperature (claimed, -0.0050/K, 5.6 mm; tried on branch joint-recession, not kept): "
-    "it broke four faithful-lab tests (a 1 mm plate, the three-part truth, the former's expansion, exact vs "
+    "70 ppm and 25 ppm with target_tau_temperature (claimed, -0.0050/K, 5.6 mm; tried on branch joint-recession, "
+    "not kept): it broke four faithful-lab tests (a 1 mm plate, the three-part truth, the former's expansion, exact vs "
     "finite-difference standard errors) because a first-order recession misdescribes plates comparable to the 500 "
     "Hz skin depth and leaves the second-order term, -(Im c)^2/2 d2k^2/dx2, as structure"))
 def test_a_joined_500_hz_and_15_khz_campaign_fits_and_claims_the_conductivity_change(field_lab):
