@@ -144,7 +144,8 @@ def signature_spread(candidate: Candidate) -> float | None:
     gradient = np.array([slopes.get(name, 0.0) for name in names])
     if not gradient.any():
         return math.inf
-    variance = float(gradient @ candidate.fit.covariance @ gradient)
+    with np.errstate(invalid="ignore", over="ignore"):  # a singular fit's covariance holds inf or nan: undetermined
+        variance = float(gradient @ candidate.fit.covariance @ gradient)
     return math.sqrt(variance) if math.isfinite(variance) and variance >= 0 else math.inf
 
 
