@@ -79,8 +79,7 @@ def explain(result: Diagnosis, registry: EffectRegistry | None = None) -> str:
                      "(`ecds-lab plan-next` designs the experiment that decides for a given station, with its "
                      "predicted separation and lab time; docs/planning.md).")
     for name in result.undetermined:
-        share = "most" if name in result.evident else "part"
-        lines.append(f"{name} would explain {share} of it, but these data do not determine its size, so it is "
+        lines.append(f"{name} would explain part of it, but these data do not determine its size, so it is "
                      "not claimed.")
     for group in (g for g in result.partial if len(g) > 1):
         lines.append(f"{', '.join(group[:-1])} and {group[-1]} each explain part of the residual about equally, "
@@ -89,8 +88,7 @@ def explain(result: Diagnosis, registry: EffectRegistry | None = None) -> str:
     lines += _limits_text(result)
     final_ratio = noise_ratio(final, result.noise)
     structure = result.structure
-    outside = (structure is not None and not result.evident
-               and outside_library(final, result.noise, structure, result.associations))
+    outside = structure is not None and outside_library(final, result.noise, structure, result.associations)
     if result.verdict == "inconclusive" and not result.alternatives and not result.limits_reached \
             and not result.steps[0].candidates:
         untested = "; ".join(f"{k}: {v}" for k, v in result.untestable.items())
@@ -107,9 +105,6 @@ def explain(result: Diagnosis, registry: EffectRegistry | None = None) -> str:
         lines.append(f"The residual stays {final_ratio:.1f}x the noise with structure {_significance(result):.0f} "
                      "standard deviations beyond chance; whether a library effect explains it is not known, since "
                      "the search stopped first (see above). It lives in " + _where(result) + ".")
-    elif result.evident:
-        lines.append(f"The residual, {final_ratio:.1f}x the noise, is mostly {' and '.join(result.evident)}'s to "
-                     "explain: the diagnosis is inconclusive until a measurement determines its size.")
     elif final_ratio > FAILING_RATIO:
         lines.append(f"The residual is {final_ratio:.1f}x the noise estimate, but a flexible smooth finds no "
                      "structure in it beyond chance: the readings scatter more than the noise estimate says "

@@ -141,9 +141,6 @@ class Diagnosis:
     released: dict[str, str] = field(default_factory=dict)
     #: The flexible smooth of the final residual (``structure.ResidualStructure``).
     structure: ResidualStructure | None = None
-    #: Undetermined effects that take most of the final residual's structure: the residual is theirs, not
-    #: outside the library; only their size is open.
-    evident: list[str] = field(default_factory=list)
 
     @property
     def noise_ppm(self) -> float:

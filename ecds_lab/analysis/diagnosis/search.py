@@ -195,14 +195,10 @@ def run_diagnosis(data: Measurements, effects: Sequence[str] = (), sensor: Senso
     if len(steps) == 1 and len(undetermined) > 1:
         alternatives.append(list(undetermined))
         undetermined = []
-    evident = [c.effect for c in final.candidates
-               if c.effect in undetermined and _explains_well(c, screen, final, noise)]
-    verdict = verdict_of(steps, effects, noise, structure, alternatives, untestable, limits, associations,
-                         bool(evident))
+    verdict = verdict_of(steps, effects, noise, structure, alternatives, untestable, limits, associations)
     result = Diagnosis(clean, effects, noise, steps, associations, verdict, "", outliers, alternatives, [],
                        untestable, base_cv, limits, untested, partial, undetermined,
-                       {name: "the data determine it (see docs/diagnosis.md)" for name in released}, structure,
-                       evident)
+                       {name: "the data determine it (see docs/diagnosis.md)" for name in released}, structure)
     result.suggested_measurements = suggestions(result, registry)
     result.explanation = explain(result, registry)
     return result

@@ -39,15 +39,14 @@ def noise_ratio(step: Step, noise: NoiseEstimate) -> float:
 
 def verdict_of(steps: list[Step], effects: list[str], noise: NoiseEstimate, structure: ResidualStructure,
                alternatives: list[list[str]], untestable: dict[str, str], limits: list[str],
-               associations: Sequence[Association] = (), evident: bool = False) -> str:
+               associations: Sequence[Association] = ()) -> str:
     """missing_effect when effects were claimed, or when every candidate was refitted at the final model
     and the residual still holds structure (outside the library); inconclusive when the data cannot
-    separate the candidates, an effect whose size they do not determine takes most of the residual
-    (``evident``), they could test none, the search stopped at a limit first, or the residual is clearly
-    above the noise without structure a model could take (scatter the noise estimate misses)."""
+    separate the candidates, could test none of them, the search stopped at a limit first, or the residual is
+    clearly above the noise without structure a model could take (scatter the noise estimate misses)."""
     if any(step.claims for step in steps[1:]):
         return "missing_effect"
-    if alternatives or evident:
+    if alternatives:
         return "inconclusive"
     if not outside_library(steps[-1], noise, structure, associations):
         # Above the noise without structure: scatter the noise estimate misses (e.g. between moves), not adequate.
