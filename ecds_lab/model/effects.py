@@ -101,6 +101,18 @@ class Effect:
     #: Parameter values that reduce the effect to a simpler law it contains (name -> value). A fit
     #: neither fixing nor starting them solves the simpler law first, then frees them (the better kept).
     simpler_form: ClassVar[dict[str, float]] = {}
+    #: Parameter values at which the effect does nothing, for an effect whose start values are the size the
+    #: physics predicts (a plate's skin recession from its material), not zero. The testability check then also
+    #: asks whether that predicted action, start against absent, is visible beyond a calibration: a signature
+    #: mostly absorbed by one (a shift of the distance at one frequency) may leave far more than the noise.
+    absent_form: ClassVar[dict[str, float]] = {}
+    #: Parameters that are one physical quantity with another effect's parameter of the same name (a plate's
+    #: thickness: its skin recession and its conductivity change are one plate's); a model with both effects
+    #: holds one, declared by the first, and fixes it only where every effect declaring it would.
+    shared_parameters: ClassVar[tuple[str, ...]] = ()
+    #: False for an effect a diagnosis tries only when named among its candidates (it would tie with a library
+    #: effect wherever it acts, and the tie would stand where that effect was claimed before).
+    tried_by_default: ClassVar[bool] = True
 
     def __init__(self, sensor: SensorConfig) -> None:
         self.sensor = sensor

@@ -51,17 +51,29 @@ class SensorModel:
         return [e.name for e in self.effects]
 
     def parameters(self) -> list[Parameter]:
-        """Every parameter with its default start, bounds and unit: baseline first, then each effect's."""
-        return baseline_parameters(self.sensor) + [p for e in self.effects for p in e.parameters()]
+        """Every parameter with its default start, bounds and unit: baseline first, then each effect's (a shared
+        parameter, ``Effect.shared_parameters``, once: as the first effect declaring it gives it)."""
+        out = baseline_parameters(self.sensor)
+        shared: set[str] = set()
+        for effect in self.effects:
+            out += [p for p in effect.parameters() if p.name not in shared]
+            shared |= set(effect.shared_parameters)
+        return out
 
     def unidentifiable(self, data: Measurements) -> dict[str, str]:
-        """Parameters these data cannot determine (name -> reason), from the baseline and every effect."""
+        """Parameters these data cannot determine (name -> reason), from the baseline and every effect; a shared
+        parameter only where every effect declaring it says so."""
         out = baseline_unidentifiable(data)
         for effect in self.effects:
             for name in effect.identifies(data):
                 out.pop(name, None)
+        determined: set[str] = set()
         for effect in self.effects:
-            out.update(effect.unidentifiable(data))
+            fixed = effect.unidentifiable(data)
+            out.update({k: v for k, v in fixed.items() if k not in determined})
+            determined |= {p.name for p in effect.parameters() if p.name in effect.shared_parameters} - set(fixed)
+        for name in determined:
+            out.pop(name, None)
         return out
 
     def coupling_hat(self, x_m: np.ndarray, p: Mapping[str, float]) -> np.ndarray:

@@ -100,6 +100,16 @@ def test_skin_recession_derivatives_thick_and_thin_plate(station: StationConfig,
     check(model, data, moved(model.parameters(), changes))
 
 
+@pytest.mark.parametrize("changes", [{"plate_thickness": 45e-3}, {"plate_thickness": 0.2e-3}])
+def test_plate_recession_derivatives_thick_and_thin_plate(station: StationConfig, data: Measurements,
+                                                          changes: dict[str, float]) -> None:
+    """A plate past THICK_GAMMA_D at both frequencies recedes by delta/2 whatever its thickness (d/dd is 0 there
+    and must be 0 analytically too); a sheet recedes by about d/3 at each frequency."""
+    model = SensorModel(station.sensor, ["plate_recession"])
+    thick = changes["plate_thickness"] > 10e-3  # |gamma d| > THICK_GAMMA_D at 500 Hz
+    check(model, data, moved(model.parameters(), changes), inert=("plate_thickness",) if thick else ())
+
+
 def test_steel_target_tau_temperature_derivatives(data: Measurements) -> None:
     """A magnetic target: the tau_T change alone (no skin recession, no thickness)."""
     model = SensorModel(load_sensor("steel_target"), ["target_tau_temperature"])
@@ -126,7 +136,8 @@ def test_moisture_derivatives_without_bound_water(station: StationConfig, data: 
 def test_effects_chain_through_each_other(station: StationConfig, data: Measurements) -> None:
     """Several effects at once: stage-1 tangents reach tau_T(x), the lag reaches every L term."""
     model = SensorModel(station.sensor, ["former_expansion", "target_bending", "tau_displacement", "thermal_lag",
-                                         "target_tau_temperature", "parasitic_capacitance", "slide_backlash"])
+                                         "target_tau_temperature", "parasitic_capacitance", "slide_backlash",
+                                         "plate_recession"])
     check(model, data, moved(model.parameters()))
 
 

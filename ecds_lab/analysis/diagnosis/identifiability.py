@@ -15,7 +15,12 @@ their noise):
   basis in x times the reading's response to the squared coupling (d ln L / d ln k^2). An effect whose
   key parameters' columns keep less than ``ABSORBED_SHARE`` of their norm after that projection moves
   nothing these data could tell from a calibration (at one frequency a change of tau_T with distance
-  is one; at two it is not, the two frequencies respond to it differently): it is ``untestable`` here.
+  is one; at two it is not, the two frequencies respond to it differently): it is ``untestable`` here,
+  unless the effect's start is the size its physics predicts (``Effect.absent_form``) and that predicted
+  action keeps more than ``MIN_CHI2_GAIN`` noise variances after the projection, or is too large for a
+  projection at the current solution to judge (``BEYOND_LINEAR``): a thick plate's millimetre of extra
+  set-back at 500 Hz is, to first order, a tau_T change and a smooth calibration, but the fit with it moves
+  tau_T to its bound and leaves the noise where the baseline left ten times it.
 """
 
 from __future__ import annotations
@@ -26,6 +31,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 from scipy.interpolate import BSpline
 
+from ecds_lab.analysis.diagnosis.checks import MIN_CHI2_GAIN
 from ecds_lab.analysis.noise import NoiseEstimate
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.data.sensor import SensorConfig
@@ -39,6 +45,8 @@ ABSORBED_SHARE = 0.1
 RELEASABLE = ("tau_t", "C_p")
 #: A parameter is determined when its standard error is below this share of its value.
 DETERMINED_SHARE = 0.5
+#: A predicted action with an RMS beyond this many noise sigmas is judged by its fit, not by a projection.
+BEYOND_LINEAR = 100.0
 #: Cubic B-spline functions of the calibration's smooth change of the coupling with x (at most).
 CALIBRATION_BASIS = 8
 
@@ -136,10 +144,28 @@ def absorbed(model: SensorModel, data: Measurements, values: Mapping[str, float]
         return "its signature moves none of these readings"
     left = np.linalg.norm(_project_out(space, target), axis=0)
     share = float(np.max(np.divide(left, norms, out=np.zeros_like(left), where=norms > 0)))
-    if share >= ABSORBED_SHARE:
+    if share >= ABSORBED_SHARE or _predicted_action_visible(model, data, values, space, noise):
         return None
     return (f"its signature is absorbed by the calibration in these data (after the baseline and a smooth "
             f"calibration curve in x take what they can, {share:.0%} of it is left)")
+
+
+def _predicted_action_visible(model: SensorModel, data: Measurements, values: Mapping[str, float],
+                              space: np.ndarray, noise: NoiseEstimate) -> bool:
+    """True when the last effect's predicted action (its start against its ``absent_form``) keeps more than
+    MIN_CHI2_GAIN noise variances (design effect applied) once ``space`` takes what it can, or is so large
+    (RMS beyond BEYOND_LINEAR x the noise) that a projection at the current solution cannot judge it: the fit
+    with it moves far (a millimetre of set-back at 500 Hz sends tau_T from 1.2 ms to its bound), and its own
+    standard errors decide, as for every candidate."""
+    absent = model.effects[-1].absent_form
+    if not absent or not noise.ppm > 0:
+        return False
+    action = (_log_prediction(model, data, values) - _log_prediction(model, data, {**values, **absent})) * 1e6
+    weighted = np.nan_to_num(action)[:, None] * _weights(data, noise)
+    if float(np.sqrt(np.mean(weighted**2))) > BEYOND_LINEAR * noise.ppm:
+        return True
+    left = _project_out(space, weighted)
+    return float(np.sum(left**2)) / noise.ppm**2 / noise.design_effect > MIN_CHI2_GAIN
 
 
 def releasable(model: SensorModel, data: Measurements, values: Mapping[str, float], free: Sequence[str],

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from itertools import pairwise
 from typing import Any
@@ -103,9 +103,10 @@ def run_diagnosis(data: Measurements, effects: Sequence[str] = (), sensor: Senso
     """Diagnose ``data`` against the baseline plus ``effects``; see the module docstring.
 
     ``registry``: the effects there are (default: the library and installed packages'; the command line
-    adds ``--effects-from`` files); ``candidates``: the effects to try (default: all of the registry's);
-    ``max_steps``: at most this many effects are added (reaching it is reported with what was left
-    untested); ``cross_validate`` False skips the held-out check (then it cannot refuse a claim);
+    adds ``--effects-from`` files); ``candidates``: the effects to try (default: the registry's tried by
+    default, ``default_candidates``); ``max_steps``: at most this many effects are added (reaching it is
+    reported with what was left untested); ``cross_validate`` False skips the held-out check (then it cannot
+    refuse a claim);
     ``fitted``: the baseline plus ``effects`` already fitted to ``data`` by the caller (the report's fit), where
     the robust start begins instead of fitting again.
     """
@@ -117,7 +118,7 @@ def run_diagnosis(data: Measurements, effects: Sequence[str] = (), sensor: Senso
     space = _Space(sensor or SensorConfig(), registry)
     clean, base, noise, outliers, released = _robust_fit(data, effects, space, screen_rows, fitted)
     space = _Space(space.sensor, registry, frozenset(released))
-    names = [n for n in (candidates if candidates is not None else registry) if n not in effects]
+    names = [n for n in (candidates if candidates is not None else default_candidates(registry)) if n not in effects]
     screen = screened(clean, screen_rows)
     folds = folds_of(screen) if cross_validate else None
     full_scale = float(np.ptp(clean.x_mm[np.isfinite(clean.x_m)])) if np.isfinite(clean.x_m).any() else 0.0
@@ -335,6 +336,29 @@ def _released(fitted: FitResult, data: Measurements, effects: list[str], space: 
     return trial, kept
 
 
+def default_candidates(registry: EffectRegistry) -> list[str]:
+    """The effects a diagnosis tries unless told which: those of ``registry`` tried by default
+    (``Effect.tried_by_default``)."""
+    return [n for n in registry if registry[n].tried_by_default]
+
+
+def _absorbed_at_every_shape(model: SensorModel, data: Measurements, current: Mapping[str, float],
+                             start: Mapping[str, float] | None, space: np.ndarray, noise: NoiseEstimate) -> str | None:
+    """Why the last effect of ``model`` is untestable (``absorbed``) at its start and at each alternative start
+    that only reshapes it (sets nuisance parameters alone: a plate's thickness), or None when any is testable: a
+    conductivity change seen through a sheet's tau_T vanishes once tau_T screens fully, through a thick plate's
+    skin recession it does not."""
+    effect = model.effects[-1]
+    shapes = [dict(start or {})] + [dict(start or {}, **alt) for alt in effect.alternative_starts
+                                    if alt and set(alt) <= set(effect.nuisance_parameters)]
+    why = None
+    for shape in shapes:
+        why = absorbed(model, data, start_values(model, {**current, **shape}), space, noise)
+        if why is None:
+            return None
+    return why
+
+
 def _round(screen: Measurements, clean: Measurements, current: Step, names: list[str], models: _Space,
            noise: NoiseEstimate, folds: np.ndarray | None,
            current_cv: float | None = None) -> tuple[list[Candidate], dict[str, str], float | None]:
@@ -355,7 +379,7 @@ def _round(screen: Measurements, clean: Measurements, current: Step, names: list
             continue
         from_residual = effect.starts_from_residual(screen, shift_m, shift_weights)
         start = from_residual[0] if from_residual else None
-        why = absorbed(model, screen, start_values(model, {**base.values, **(start or {})}), space, noise)
+        why = _absorbed_at_every_shape(model, screen, base.values, start, space, noise)
         if why is not None:
             untestable[name] = why
             continue

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from ecds_lab.model.library.former_expansion import FormerExpansion
 from ecds_lab.model.library.parasitic_capacitance import ParasiticCapacitance
+from ecds_lab.model.library.plate_recession import PlateRecession
 from ecds_lab.model.library.slide_backlash import SlideBacklash
 from ecds_lab.model.library.slide_lead_screw import SlideLeadScrew
 from ecds_lab.model.library.target_bending import TargetBending
@@ -17,4 +18,4 @@ from ecds_lab.model.library.tau_displacement import TauDisplacement
 from ecds_lab.model.library.thermal_lag import ThermalLag
 
 LIBRARY = (TargetTauTemperature, TauDisplacement, TargetBending, ParasiticCapacitance, ThermalLag, SlideBacklash,
-           FormerExpansion, SlideLeadScrew)
+           FormerExpansion, SlideLeadScrew, PlateRecession)

@@ -17,6 +17,7 @@ from ecds_lab.data.measurements import Measurements
 from ecds_lab.model.effects import Effect, register
 from ecds_lab.model.parameters import Parameter
 from ecds_lab.model.tangents import Tangent, chained
+from ecds_lab.model.temperature_levels import curvature_unseen
 
 
 @register
@@ -52,11 +53,8 @@ class TargetBending(Effect):
         if span < 5:
             return {n: f"target temperature span {span:.1f} K < 5 K with the target present"
                     for n in ("bending", "bending_quadratic", "bending_x")}
-        levels = len(np.unique(np.round(data.t_target_c[finite] / 5.0)))
-        if span < 30 or levels < 3:
-            return {"bending_quadratic": f"target temperature span {span:.1f} K over {levels} levels of 5 K "
-                                         "(a curvature needs 30 K and 3 levels)"}
-        return {}
+        why = curvature_unseen(data.t_target_c[finite])
+        return {"bending_quadratic": why} if why is not None else {}
 
     def effective_distance(self, x_m: np.ndarray, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
         d_t = data.t_target_c - self.sensor.reference_temperature_c

@@ -54,11 +54,15 @@ from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.model.effects import Effect, Inputs, register
 from ecds_lab.model.parameters import Parameter
 from ecds_lab.model.tangents import InputTangents, Tangent, plus, scaled
+from ecds_lab.model.temperature_levels import curvature_unseen
 
 #: Vacuum permeability (H/m).
 MU_0 = 4e-7 * math.pi
 #: Resistivity at 20 C (Ohm m) of the non-magnetic target materials (textbook: copper 1.68e-8).
 NON_MAGNETIC_RESISTIVITY_OHM_M = {"copper": 1.68e-8}
+#: ``plate_recession``'s scale of the set-back over the material's: where that effect is in the model, the change
+#: of set-back with the conductivity is the same plate's and scales with it.
+RECESSION_SCALE = "recession_scale"
 #: Above this |gamma d| coth(gamma d) is 1 to double precision (and tanh would overflow beyond).
 THICK_GAMMA_D = 20.0
 
@@ -116,6 +120,8 @@ class TargetTauTemperature(Effect):
     key_parameters = ("tau_tempco",)
     #: One frequency shows the thickness only through the shape in x of the change (shift or screening).
     nuisance_parameters = ("plate_thickness",)
+    #: One plate: ``plate_recession``'s thickness when both are in the model.
+    shared_parameters = ("plate_thickness",)
     #: The thickness is the one valley-prone parameter: the 500 Hz share of the recession rises to a
     #: flat maximum near 3 delta(500 Hz), so sheet-like and thick starts are tried as well.
     THICKNESS_STARTS: ClassVar[tuple[dict[str, float], ...]] = ({"plate_thickness": 1e-5},
@@ -158,8 +164,9 @@ class TargetTauTemperature(Effect):
             if thickness:
                 fixed["plate_thickness"] = "as tau_tempco"
             return fixed
-        if span < 30.0 or len(np.unique(np.round(data.t_target_c / 5.0))) < 3:
-            fixed["tau_tempco2"] = f"target temperature span {span:.1f} K < 30 K or fewer than 3 levels of 5 K"
+        why = curvature_unseen(data.t_target_c)
+        if why is not None:
+            fixed["tau_tempco2"] = why
         return fixed
 
     def identifies(self, data: Measurements) -> set[str]:
@@ -193,7 +200,7 @@ class TargetTauTemperature(Effect):
         delta = skin_depth_m(rho, data.freq_hz)  # rho(T)/rho_0 = tau_0/tau_T(T)
         (cold,) = per_frequency(lambda d: (recession_m(d, p["plate_thickness"]),), delta)
         change = recession_m(delta * np.exp(-0.5 * log_ratio), p["plate_thickness"]) - cold
-        return x_m + self._skin_share(data, p) * change
+        return x_m + self._skin_share(data, p) * p.get(RECESSION_SCALE, 1.0) * change
 
     def target_tau(self, tau_s: np.ndarray, inputs: Inputs, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
         log_ratio = self._log_tau_ratio(inputs.t_target_c, self.sensor.reference_temperature_c, p)
@@ -223,12 +230,15 @@ class TargetTauTemperature(Effect):
         thickness = p["plate_thickness"]
         hot_recession, hot_by_delta, hot_by_thickness = recession_and_derivatives_m(hot, thickness)
         cold, _, cold_by_thickness = per_frequency(lambda d: recession_and_derivatives_m(d, thickness), delta)
-        change = hot_recession - cold
+        scale = p.get(RECESSION_SCALE, 1.0)
+        change = scale * (hot_recession - cold)
         share = self._skin_share(data, p)
-        by_log_ratio = share * hot_by_delta * hot * -0.5
+        by_log_ratio = share * scale * hot_by_delta * hot * -0.5
         own = {"tau_tempco": by_log_ratio * d_t, "tau_tempco2": by_log_ratio * d_t**2,
                "plate_thickness": self._skin_share_thickness(data, p) * change
-               + share * (hot_by_thickness - cold_by_thickness)}
+               + share * scale * (hot_by_thickness - cold_by_thickness)}
+        if RECESSION_SCALE in p:
+            own[RECESSION_SCALE] = share * (hot_recession - cold)
         return x_m + share * change, plus(dx, own)
 
     def d_target_tau(self, tau_s: np.ndarray, dtau: Tangent, inputs: Inputs, d_inputs: InputTangents,
