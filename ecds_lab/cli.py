@@ -193,6 +193,8 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
     from ecds_lab.storage.data_file import open_campaign
 
     if args.each:
+        if args.also_try:
+            raise InvalidSettingError("--try applies to one campaign's diagnose, not yet to --each")
         return _diagnose_each(args)
     if args.scheduler or args.workers:
         raise InvalidSettingError("--scheduler and --workers apply to diagnose --each only")
@@ -200,7 +202,8 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
     opened = open_campaign(args.data, args.sensor)
     _require_readings(opened.data, args.data, 2, "a diagnosis compares readings")
     result = {"sensor": opened.sensor_summary(),
-              **diagnose(opened.data, _effects(args.effects), opened.sensor, registry=registry)}
+              **diagnose(opened.data, _effects(args.effects), opened.sensor, registry=registry,
+                         also_try=_effects(args.also_try))}
     _print(result, opened.sensor_note, args.json, format_diagnosis)
     return 0
 
@@ -425,6 +428,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--workers", type=int, metavar="N",
                    help="with --each: local worker processes (default: one per core)")
     p.add_argument("--effects", help="effects already added to the baseline (diagnose what is still missing)")
+    p.add_argument("--try", dest="also_try", metavar="EFFECTS",
+                   help="comma-separated effects not tried by default to try as well (e.g. plate_recession, on a "
+                   "thick plate measured at two frequencies or more; docs/diagnosis.md)")
     p.add_argument("--effects-from", type=Path, action="append", metavar="FILE.py",
                    help="a Python file of your own effects (Effect subclasses); may be given several times")
     p.add_argument("--sensor", help="sensor YAML (a path, or a shipped name such as steel_target); "

@@ -81,3 +81,24 @@ def test_with_the_recession_named_three_frequencies_claim_the_conductivity_chang
     result = run_diagnosis(data, candidates=WITH_RECESSION)
     assert "target_tau_temperature" in result.claimed, result.explanation
     assert "target_bending" not in result.claimed, result.explanation
+
+
+def test_diagnose_on_the_command_line_tries_the_recession_when_named(field_lab, tmp_path, capsys):
+    """``ecds-lab diagnose --try plate_recession`` on the cold joined campaign's CSV claims it; without ``--try`` it
+    is not tried; a name the library lacks is refused in one line naming it."""
+    import json
+
+    from ecds_lab.cli import main
+
+    lab = field_lab()
+    data = Measurements.concatenate([campaign.displacement_sweep(lab, POSITIONS_MM, (f,), repeats=2)
+                                     for f in (15000.0, 500.0)])
+    csv = tmp_path / "cold.csv"
+    data.to_csv(csv)
+    assert main(["diagnose", str(csv), "--try", "plate_recession", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["claimed"] == ["plate_recession"]
+    assert main(["diagnose", str(csv), "--json"]) == 0
+    assert "plate_recession" not in json.dumps(json.loads(capsys.readouterr().out)["ranking"])
+    assert main(["diagnose", str(csv), "--try", "plate_recesion"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "plate_recesion" in err[0]

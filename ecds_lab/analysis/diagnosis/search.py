@@ -206,9 +206,14 @@ def run_diagnosis(data: Measurements, effects: Sequence[str] = (), sensor: Senso
 
 
 def diagnose(data: Measurements, effects: Sequence[str] = (), sensor: SensorConfig | None = None, *,
-             registry: EffectRegistry | None = None) -> dict[str, Any]:
-    """The diagnosis as DESIGN.md's JSON object."""
-    return run_diagnosis(data, effects, sensor, registry=registry).to_json()
+             registry: EffectRegistry | None = None, also_try: Sequence[str] = ()) -> dict[str, Any]:
+    """The diagnosis as DESIGN.md's JSON object; ``also_try``: effects not tried by default to try as well
+    (``diagnose --try``, e.g. plate_recession)."""
+    candidates = None
+    if also_try:
+        known = registry if registry is not None else library()
+        candidates = [*default_candidates(known), *(n for n in also_try if n not in default_candidates(known))]
+    return run_diagnosis(data, effects, sensor, registry=registry, candidates=candidates).to_json()
 
 
 def _mark_partial(steps: list[Step], data: Measurements, noise: NoiseEstimate) -> None:
