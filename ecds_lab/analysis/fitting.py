@@ -3,9 +3,9 @@
 Free parameters are scaled by their prior scale; the start comes from an analytic
 guess (L0, alpha, beta by linear least squares on de-embedded readings of the coil in
 air or far away); further starts are tried only when the first fit stays well above
-the noise seen between repeated readings (on a campaign of more than ``_SEARCH_ROWS`` readings, solved on a
-random subsample of that many, and only a start that wins there polished on every reading). Standard errors come from the Jacobian,
-scaled by the residual variance. The noise of the readings is estimated once, by
+the noise seen between repeated readings (on a campaign of more than ``_SEARCH_ROWS`` readings, solved
+on a random subsample of that many, and only a start that wins there polished on every reading).
+Standard errors come from the Jacobian, scaled by the residual variance. The noise of the readings is estimated once, by
 ``analysis.noise.estimate_noise`` on the final residuals (with the slide's positioning scatter
 through the fitted model's sensitivity), and carried by the result.
 
@@ -409,7 +409,8 @@ class _Trivial:
 
 
 def _restarts_on_sample(model: SensorModel, data: Measurements, best: tuple[Any, Scaling],
-                        alternatives: Sequence[Sequence[Parameter]], screening: bool) -> tuple[tuple[Any, Scaling], int]:
+                        alternatives: Sequence[Sequence[Parameter]],
+                        screening: bool) -> tuple[tuple[Any, Scaling], int]:
     """The global stage of a large campaign: every alternative start solved on a random subsample of
     ``_SEARCH_ROWS`` readings beside the first solution polished there, and only a start that ends clearly lower
     there (by ``_SEARCH_GAIN`` of the cost) polished on every reading, kept if lower there too. Which valley is
