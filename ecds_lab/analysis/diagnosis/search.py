@@ -388,7 +388,7 @@ def _evaluate(result: FitResult, data: Measurements) -> FitResult:
     """A fit's solution on other rows (no refit): the screening subsample's reference."""
     residuals = (data.ls_h / result.predict(data) - 1) * 1e6
     return FitResult(result.model, result.parameters, result.stderr, result.fixed, residuals, result.covariance,
-                     result.free_names, result.success, result.message, 0, 0, 0.0, result.noise)
+                     result.free_names, result.success, result.message, 0, 0, 0.0, result.noise_estimate)
 
 
 def _candidate(data: Measurements, model: SensorModel, name: str, base: FitResult, noise: NoiseEstimate,
