@@ -219,7 +219,9 @@ def fit_model(model: SensorModel, data: Measurements, *, start: Mapping[str, flo
         best, terms = _reweighted(model, data, best, rows, screening, terms)
     # The noise is estimated when first asked for: most fits of a diagnosis's search (candidates, held-out folds,
     # alternative starts) never ask, and its estimate cost 5 % of a 10^5-reading diagnosis.
-    estimate = functools.partial(_noise, model, fitted, best, terms)
+    # It keeps the solution's values and residuals only (not the solver's result and its Jacobian).
+    estimate = functools.partial(_noise, model, fitted, best[1].values(best[0].x), np.asarray(best[0].fun, float),
+                                 terms)
     return _result(model, data, best, reasons, estimate, starts, time.perf_counter() - began, terms)
 
 
@@ -320,14 +322,14 @@ def huber_residuals(r: np.ndarray, scale: float) -> np.ndarray:
     return np.sign(r) * scale * np.sqrt(rho)
 
 
-def _noise(model: SensorModel, data: Measurements, solved: tuple[Any, Scaling],
+def _noise(model: SensorModel, data: Measurements, values: Mapping[str, float], residuals: np.ndarray,
            terms: _ErrorTerms = _ErrorTerms()) -> NoiseEstimate:
-    """The noise of a solution's readings: reading noise from its (unweighted) residuals, and the slide's
-    positioning scatter through the fitted model's sensitivity where the coil faces the target."""
+    """The noise of a solution's readings (its parameter ``values`` and residuals as solved): reading noise from
+    its (unweighted) residuals, and the slide's positioning scatter through the fitted model's sensitivity where
+    the coil faces the target."""
     sensitivity = None
     if np.isfinite(data.x_m).any():
-        sensitivity = model.relative_sensitivity(data, solved[1].values(solved[0].x))
-    residuals = np.asarray(solved[0].fun, float)
+        sensitivity = model.relative_sensitivity(data, values)
     return estimate_noise(data, terms.plain(residuals), sensitivity)
 
 
