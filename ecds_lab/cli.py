@@ -240,14 +240,16 @@ def _print(result: dict, note: str | None, as_json: bool, as_text: Callable[[dic
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
+    from ecds_lab.analysis.blas_threads import one_blas_thread
     from ecds_lab.report.html import write_report
     from ecds_lab.storage.outputs import check_output, write_output
 
     registry = _load_user_effects(args.effects_from)
     inputs = [Path(p) for p in args.data]
     check_output(args.output, inputs, overwrite=args.overwrite)  # before minutes of analysis
-    write_output(args.output, inputs, args.overwrite,
-                 lambda path: write_report(inputs, path, effects=registry, investigation=args.investigation))
+    with one_blas_thread():  # as the fit and the diagnosis: tall, thin matrices, slowed by BLAS threads on busy cores
+        write_output(args.output, inputs, args.overwrite,
+                     lambda path: write_report(inputs, path, effects=registry, investigation=args.investigation))
     print(f"report -> {args.output}")
     return 0
 

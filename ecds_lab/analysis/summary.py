@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from ecds_lab.analysis.blas_threads import one_blas_thread
 from ecds_lab.analysis.calibration import (
     Calibration,
     PositionErrors,
@@ -61,7 +62,14 @@ JOINT_EQ4_METHOD = "alpha, beta of the joint model fit of every reading at every
 def fit_summary(data: Measurements, effects: Sequence[str] = (), sensor: SensorConfig | None = None,
                 registry: EffectRegistry | None = None) -> dict[str, Any]:
     """Fit baseline plus ``effects`` (from ``registry``, default the library) to ``data``; the fit,
-    calibration and position-error summary."""
+    calibration and position-error summary. On one BLAS thread, as the diagnosis (``search.run_diagnosis``)."""
+    with one_blas_thread():
+        return _fit_summary(data, effects, sensor, registry)
+
+
+def _fit_summary(data: Measurements, effects: Sequence[str], sensor: SensorConfig | None,
+                 registry: EffectRegistry | None) -> dict[str, Any]:
+    """``fit_summary``'s work."""
     model = SensorModel(sensor, list(effects), registry=registry)
     result = fit_model(model, data)
     summary: dict[str, Any] = {

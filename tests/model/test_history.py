@@ -44,3 +44,15 @@ def test_relaxation_restarts_where_a_new_recording_begins():
     restart = np.array([False, False, True, False])
     y = relaxation(time_s, np.full(4, 0.01), np.zeros(4), 1.0, restart=restart)
     assert y == pytest.approx([1.0, np.exp(-1.0), np.exp(-2.0), 1.0, np.exp(-1.0)], rel=1e-12)
+
+
+def test_recurrences_over_the_same_decays_share_their_chunks_and_each_follows_its_own_target():
+    """A value and its derivatives integrate one timeline with equal decays: the chunks cut for the first call serve
+    the next (``history._chunks``), and each still follows its own recurrence."""
+    rng = np.random.default_rng(4)
+    time_s = np.cumsum(rng.uniform(0.0, 100.0, 5000))  # enough chunks for the heads' own recurrence
+    rate = rng.uniform(0.0, 0.05, 4999)
+    targets = [rng.uniform(0.0, 1.0, 4999) for _ in range(3)]
+    for target in targets:
+        assert relaxation(time_s, rate, target, 1.0) == pytest.approx(
+            stepwise_relaxation(time_s, rate, target, 1.0), abs=1e-10)

@@ -34,6 +34,7 @@ from typing import Any
 import numpy as np
 
 from ecds_lab.analysis.associations import residual_associations
+from ecds_lab.analysis.blas_threads import one_blas_thread
 from ecds_lab.analysis.diagnosis.advice import suggestions
 from ecds_lab.analysis.diagnosis.checks import (
     SIGNATURE_SHARE,
@@ -109,7 +110,19 @@ def run_diagnosis(data: Measurements, effects: Sequence[str] = (), sensor: Senso
     refuse a claim);
     ``fitted``: the baseline plus ``effects`` already fitted to ``data`` by the caller (the report's fit), where
     the robust start begins instead of fitting again.
+
+    All of it runs on one BLAS thread (``one_blas_thread``): its least squares, projections and smooths factor tall,
+    thin matrices, which BLAS threads slow down a hundredfold on a machine whose cores are busy.
     """
+    with one_blas_thread():
+        return _run_diagnosis(data, effects, sensor, candidates=candidates, max_steps=max_steps,
+                              cross_validate=cross_validate, screen_rows=screen_rows, registry=registry, fitted=fitted)
+
+
+def _run_diagnosis(data: Measurements, effects: Sequence[str], sensor: SensorConfig | None, *,
+                   candidates: Sequence[str] | None, max_steps: int, cross_validate: bool, screen_rows: int,
+                   registry: EffectRegistry | None, fitted: FitResult | None) -> Diagnosis:
+    """``run_diagnosis``'s work."""
     registry = registry if registry is not None else library()
     unknown = [e for e in [*effects, *(candidates or ())] if e not in registry]
     if unknown:
@@ -426,7 +439,7 @@ def _evaluate(result: FitResult, data: Measurements) -> FitResult:
     """A fit's solution on other rows (no refit): the screening subsample's reference."""
     residuals = (data.ls_h / result.predict(data) - 1) * 1e6
     return FitResult(result.model, result.parameters, result.stderr, result.fixed, residuals, result.covariance,
-                     result.free_names, result.success, result.message, 0, 0, 0.0, result.noise)
+                     result.free_names, result.success, result.message, 0, 0, 0.0, result.noise_estimate)
 
 
 def _candidate(data: Measurements, model: SensorModel, name: str, base: FitResult, noise: NoiseEstimate,

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 #: Largest decay (in e-folds) handled in one vectorised block; keeps exp() far from overflow.
@@ -86,9 +88,57 @@ def linear_recurrence(efolds: np.ndarray, b: np.ndarray, start: float) -> np.nda
     than _BLOCK_EFOLDS (so no exp() overflows); the sums run within every chunk at once (one row of
     a 2-D array each, so every sum starts from an exact zero), and a recurrence of the same form carries y
     from chunk to chunk (solved the same way when there are many chunks, so no Python loop per chunk).
+    The chunks depend on ``efolds`` only (``_chunks``): a value and its derivatives share them.
     """
-    efolds = np.asarray(efolds, float)
     b = np.asarray(b, float)
+    c = _chunks(np.asarray(efolds, float))
+    entering = np.zeros((len(c.first), _CHUNK_ROWS))
+    entering[c.owner[1:], c.pos[1:]] = b * c.into_chunk
+    entering[:, 0] = 0.0  # a chunk's first row gets its value from the chunk before
+    within = np.cumsum(entering, axis=1)[c.owner, c.pos]
+    carried, into = within[c.last], b[c.first[1:] - 1]
+    # the heads are a recurrence of the same form, one row per chunk: solved alike when that makes it much shorter
+    # (not where fast decays cut the rows into chunks of one or two)
+    if _CHUNK_ROWS < len(c.first) <= c.n // 4:
+        heads = linear_recurrence(c.chunk_efolds, c.decay * carried[:-1] + into, start)
+    else:
+        heads_list = [float(start)]
+        for g, (d, k, i) in enumerate(zip(c.decay_list, carried.tolist(), into.tolist(), strict=False)):
+            heads_list.append(d * (heads_list[g] + k) + i)
+        heads = np.asarray(heads_list)
+    return c.out_of_chunk * (heads[c.owner] + within)
+
+
+@dataclass(frozen=True)
+class _Chunks:
+    """How ``linear_recurrence`` cuts its rows (``n`` of them), from the decays alone: each row's chunk (``owner``)
+    and place in it (``pos``), each chunk's first and last row, the factors into and out of a chunk's sums, and
+    the decay across each chunk."""
+
+    n: int
+    first: np.ndarray
+    owner: np.ndarray
+    pos: np.ndarray
+    last: np.ndarray
+    into_chunk: np.ndarray
+    out_of_chunk: np.ndarray
+    chunk_efolds: np.ndarray
+    decay: np.ndarray
+    decay_list: list[float]
+
+
+#: The chunks cut lately, by the decays they were cut for (a model evaluation integrates one timeline with the same
+#: decays for a value and each of its derivatives; the heads' recurrence has decays of its own).
+_recent_chunks: dict[bytes, _Chunks] = {}
+_RECENT_CHUNKS = 4
+
+
+def _chunks(efolds: np.ndarray) -> _Chunks:
+    """The chunks of ``linear_recurrence`` for these decays (cut once for equal decays called for lately)."""
+    key = efolds.tobytes()
+    cached = _recent_chunks.get(key)
+    if cached is not None:
+        return cached
     n = len(efolds) + 1
     log_a = np.concatenate([[0.0], np.cumsum(-efolds)])
     level = np.floor(-log_a / _BLOCK_EFOLDS)
@@ -98,21 +148,11 @@ def linear_recurrence(efolds: np.ndarray, b: np.ndarray, start: float) -> np.nda
     owner = np.repeat(np.arange(len(first)), np.diff(np.append(first, n)))
     pos = np.arange(n) - first[owner]
     ref = log_a[first][owner]
-    entering = np.zeros((len(first), _CHUNK_ROWS))
-    entering[owner[1:], pos[1:]] = b * np.exp(ref[1:] - log_a[1:])
-    entering[:, 0] = 0.0  # a chunk's first row gets its value from the chunk before
-    within = np.cumsum(entering, axis=1)[owner, pos]
-    last = np.append(first[1:] - 1, n - 1)
     chunk_efolds = log_a[first[:-1]] - log_a[first[1:]]
     decay = np.exp(-chunk_efolds)
-    carried, into = within[last], b[first[1:] - 1]
-    # the heads are a recurrence of the same form, one row per chunk: solved alike when that makes it much shorter
-    # (not where fast decays cut the rows into chunks of one or two)
-    if _CHUNK_ROWS < len(first) <= n // 4:
-        heads = linear_recurrence(chunk_efolds, decay * carried[:-1] + into, start)
-    else:
-        heads_list = [float(start)]
-        for g, (d, c, i) in enumerate(zip(decay.tolist(), carried.tolist(), into.tolist(), strict=False)):
-            heads_list.append(d * (heads_list[g] + c) + i)
-        heads = np.asarray(heads_list)
-    return np.exp(log_a - ref) * (heads[owner] + within)
+    chunks = _Chunks(n, first, owner, pos, np.append(first[1:] - 1, n - 1), np.exp(ref[1:] - log_a[1:]),
+                     np.exp(log_a - ref), chunk_efolds, decay, decay.tolist())
+    if len(_recent_chunks) >= _RECENT_CHUNKS:
+        _recent_chunks.clear()
+    _recent_chunks[key] = chunks
+    return chunks

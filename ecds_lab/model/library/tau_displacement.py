@@ -51,27 +51,33 @@ class TauDisplacement(Effect):
         return {n: f"{positions} distinct positions" for n in FREE_KNOTS} if positions < 8 else {}
 
     def target_tau(self, tau_s: np.ndarray, inputs: Inputs, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
-        values = np.zeros(len(KNOTS_M))
-        for name, index in FREE_KNOTS.items():
-            values[index] = p[name]
-        spline = CubicSpline(KNOTS_M, values, bc_type="natural")
         x = np.clip(np.where(np.isfinite(inputs.x_m), inputs.x_m, KNOTS_M[3]), KNOTS_M[0], KNOTS_M[-1])
-        return tau_s * np.exp(spline(x))
+        return tau_s * np.exp(CubicSpline(KNOTS_M, _knot_values(p), bc_type="natural")(x))
 
     def d_target_tau(self, tau_s: np.ndarray, dtau: Tangent, inputs: Inputs, d_inputs: InputTangents,
                      data: Measurements, p: Mapping[str, float]) -> tuple[np.ndarray, Tangent]:
-        values = np.zeros(len(KNOTS_M))
-        for name, index in FREE_KNOTS.items():
-            values[index] = p[name]
-        spline = CubicSpline(KNOTS_M, values, bc_type="natural")
+        spline = CubicSpline(KNOTS_M, _knot_values(p), bc_type="natural")
         finite = np.isfinite(inputs.x_m)
         x = np.clip(np.where(finite, inputs.x_m, KNOTS_M[3]), KNOTS_M[0], KNOTS_M[-1])
         inside = finite & (inputs.x_m > KNOTS_M[0]) & (inputs.x_m < KNOTS_M[-1])
         out = tau_s * np.exp(spline(x))
-        # the spline is linear in its knot values: d/d value_i is the spline through the unit vector e_i
-        own = {name: out * CubicSpline(KNOTS_M, np.eye(len(KNOTS_M))[index], bc_type="natural")(x)
-               for name, index in FREE_KNOTS.items()}
+        # the spline is linear in its knot values: d/d value_i is the spline through the unit vector e_i (_BASIS)
+        basis = _BASIS(x)
+        own = {name: out * basis[:, index] for name, index in FREE_KNOTS.items()}
         slope = np.where(inside, out * spline(x, 1), 0.0)
         with np.errstate(invalid="ignore"):
             by_distance = {name: np.where(inside, slope * values, 0.0) for name, values in d_inputs.x_m.items()}
         return out, plus(scaled(dtau, out / tau_s), own, by_distance)
+
+
+#: The natural cubic spline through each unit vector of knot values (one column per knot), built once: the
+#: derivatives of the spline with respect to its knot values (it is linear in them), not rebuilt per evaluation.
+_BASIS = CubicSpline(KNOTS_M, np.eye(len(KNOTS_M)), bc_type="natural")
+
+
+def _knot_values(p: Mapping[str, float]) -> np.ndarray:
+    """ln(tau_T / tau_T at 60 mm) at every knot (zero at 60 mm)."""
+    values = np.zeros(len(KNOTS_M))
+    for name, index in FREE_KNOTS.items():
+        values[index] = p[name]
+    return values
