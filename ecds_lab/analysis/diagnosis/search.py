@@ -224,8 +224,8 @@ def diagnose(data: Measurements, effects: Sequence[str] = (), sensor: SensorConf
     (``diagnose --try``, e.g. plate_recession)."""
     candidates = None
     if also_try:
-        known = registry if registry is not None else library()
-        candidates = [*default_candidates(known), *(n for n in also_try if n not in default_candidates(known))]
+        defaults = default_candidates(registry if registry is not None else library())
+        candidates = [*defaults, *(n for n in also_try if n not in defaults)]
     return run_diagnosis(data, effects, sensor, registry=registry, candidates=candidates).to_json()
 
 

@@ -84,15 +84,11 @@ def _screening_argument(gamma: np.ndarray, thickness_m: float) -> np.ndarray:
     return np.minimum(np.abs(gamma) * thickness_m, THICK_GAMMA_D) * (1 + 1j) / math.sqrt(2.0)
 
 
-def recession_derivatives_m(delta_m: np.ndarray, thickness_m: float) -> tuple[np.ndarray, np.ndarray]:
-    """d recession / d delta and d recession / d thickness (``recession_m`` = Re{coth(u) delta/(1 + j)},
-    u = (1 + j) d/delta: d/dd = Re{-csch^2 u}, d/d delta = Re{coth(u)/(1 + j) + csch^2(u) d/delta});
-    beyond THICK_GAMMA_D, where coth is held at 1, only the first term of d/d delta remains."""
-    return recession_and_derivatives_m(delta_m, thickness_m)[1:]
-
-
 def recession_and_derivatives_m(delta_m: np.ndarray, thickness_m: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``recession_m`` and ``recession_derivatives_m`` from one complex tanh (a Jacobian needs all three)."""
+    """``recession_m``, d recession / d delta and d recession / d thickness from one complex tanh (a Jacobian needs
+    all three): with ``recession_m`` = Re{coth(u) delta/(1 + j)}, u = (1 + j) d/delta, d/dd = Re{-csch^2 u} and
+    d/d delta = Re{coth(u)/(1 + j) + csch^2(u) d/delta}; beyond THICK_GAMMA_D, where coth is held at 1, only the
+    first term of d/d delta remains."""
     q = 1 + 1j
     gamma = q / delta_m
     tanh = np.tanh(_screening_argument(gamma, thickness_m))
