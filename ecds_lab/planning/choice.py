@@ -5,10 +5,11 @@ station can do (``candidates``) is scored on each question by the T-criterion (`
 candidate decides at any lab time is one this station cannot answer (``NextPlan.unanswerable``), and only candidates
 within the time allowed are chosen from. A candidate's worth is the number of questions it decides (its guaranteed
 Delta chi-square reaching ``DECISIVE_CHI2``, a partial share below) per hour of lab time (its plan's estimate plus
-``SETUP_HOURS``). The questions come in priority order (ties first: the diagnosis's own question, then sizes, then
-effects not excluded); among the candidates that decide the first question any candidate can decide, the worthiest
-is chosen. When none decides any question within the time, the one with the largest separation is named, and said
-not to decide.
+``SETUP_HOURS``); a separation beyond the decisive one counts for nothing more, since a margin is only as good as
+the rival models' predictions (docs/planning.md, Scoring). The questions come in priority order (ties first: the
+diagnosis's own question, then sizes, then effects not excluded); among the candidates that decide the first
+question any candidate can decide, the worthiest is chosen. When none decides any question within the time, the
+one with the largest separation is named, and said not to decide.
 """
 
 from __future__ import annotations

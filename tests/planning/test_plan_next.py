@@ -93,10 +93,12 @@ PHYSICIST = {
     "c",
     pytest.param("d", marks=pytest.mark.xfail(strict=True, reason=(
         "plan-next names the coil's ramps logged every minute (1.0 h), not a 1 h hold (1.3 h): both decide moisture "
-        "against lag, and after a smooth calibration change of the run (docs/planning.md) the hold keeps more "
-        "(guaranteed Delta chi-square 9758 against 6525: less of its evidence is what a drift could fake, as a "
-        "physicist expects), but both decide over 250-fold; the worth counts questions decided per hour, so the "
-        "shorter ramps, which also fix the lag's size and end in the cool-down's hysteresis, win")))])
+        "against lag (guaranteed Delta chi-square 6525 and 9758 after the calibration change) and the worth counts "
+        "questions decided per hour. Ranking the hold first needs a separation beyond 25 to count, and every such "
+        "rule growing with the separations names the target hot at 2000 Hz in (a), which at the same 0.70 h "
+        "guarantees more on every question (650.8 against 87.9 on the tie); tried: (a) measured 20.4 against 936 "
+        "predicted (the factor 3 fails), (b) claims the bending, (d) names the 2 h hold (docs/planning.md, Scoring, "
+        "tried and not adopted (3))")))])
 def test_plan_next_names_the_experiment_a_physicist_would_choose(case, started):
     station, run = started(case)
     plan = planned(station, [run])
