@@ -44,7 +44,7 @@ class ResidualStructure:
     def beyond(self, sigmas: float) -> bool:
         return self.significance > sigmas
 
-    def to_json(self) -> dict[str, float | int]:
+    def to_json(self) -> dict[str, float | int | None]:
         ratio = round(self.noise_ratio, 3) if math.isfinite(self.noise_ratio) else None
         return {"excess_chi2": round(self.excess_chi2, 1), "states": self.states,
                 "significance": round(self.significance, 2), "noise_ratio": ratio}
