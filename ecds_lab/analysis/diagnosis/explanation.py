@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import math
 from itertools import pairwise
 from typing import Any
 
 from ecds_lab.analysis.diagnosis.result import Diagnosis, figure_from_json
+from ecds_lab.analysis.diagnosis.structure import ResidualStructure
 from ecds_lab.analysis.diagnosis.verdict import FAILING_RATIO, STRUCTURE_SIGNIFICANCE, noise_ratio, outside_library
 from ecds_lab.analysis.noise import noise_parts_text
 from ecds_lab.analysis.quantities import parameter_text
@@ -96,8 +98,9 @@ def explain(result: Diagnosis, registry: EffectRegistry | None = None) -> str:
     elif outside and not result.limits_reached and structure is not None:
         rejected = [f"{c.effect} ({'; '.join(c.rejected)})" for c in final.candidates[:3] if c.rejected]
         lines.append(("Even so the residual stays " if len(result.steps) > 1 else "The residual stays ")
-                     + f"{final_ratio:.1f}x the noise; every remaining library effect was refitted at the final "
-                     "model and none passes its checks" + (f" ({', '.join(rejected)})" if rejected else "")
+                     + f"{final_ratio:.1f}x the noise{_own_noise(structure, final_ratio)}; every remaining library "
+                     "effect was refitted at the final model and none passes its checks"
+                     + (f" ({', '.join(rejected)})" if rejected else "")
                      + ", while a flexible smooth of the residual finds structure beyond chance "
                      f"({_significance(result):.0f} standard deviations): it lies outside the library. It lives in "
                      + _where(result) + ".")
@@ -115,6 +118,14 @@ def explain(result: Diagnosis, registry: EffectRegistry | None = None) -> str:
         lines.append(f"With {', '.join(result.claimed)} the model is adequate ({final.rmse_ppm:.1f} ppm, "
                      f"{final_ratio:.2f}x the noise).")
     return " ".join(lines)
+
+
+def _own_noise(structure: ResidualStructure, pooled: float) -> str:
+    """The residual against each reading's own noise (as the verdict judges it), where it differs from the pooled
+    figure in the first decimal."""
+    ratio = structure.noise_ratio
+    return (f" ({ratio:.1f}x each reading's own noise)" if math.isfinite(ratio) and f"{ratio:.1f}" != f"{pooled:.1f}"
+            else "")
 
 
 def _significance(result: Diagnosis) -> float:

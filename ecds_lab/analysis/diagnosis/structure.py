@@ -9,6 +9,8 @@ their energy (sum over states of count x mean^2, in noise variances) is chi-squa
 freedom per state; the excess, in standard deviations of that chi-square, is the ``significance``.
 Readings are weighed by their own noise (``NoiseEstimate.sigma_ppm``) and the energy divided by the
 design effect (``NoiseEstimate.design_effect``: correlated readings count as fewer independent ones).
+The residual's size is judged the same way (``noise_ratio``: its RMS in units of each reading's own noise), so a
+residual above the noise where the noise is small is not hidden by readings far below a larger noise elsewhere.
 """
 
 from __future__ import annotations
@@ -30,18 +32,22 @@ TIME_BIN_S = 1800.0
 @dataclass(frozen=True)
 class ResidualStructure:
     """What a flexible smooth finds in a residual: its energy beyond chance (``excess_chi2``, in noise
-    variances, design effect applied), the states it used and how far beyond chance that is."""
+    variances, design effect applied), the states it used and how far beyond chance that is; and the residual's
+    RMS in units of each reading's own noise (``noise_ratio``, 1 for a residual that is noise of the estimated
+    size)."""
 
     excess_chi2: float
     states: int
     significance: float
+    noise_ratio: float = math.nan
 
     def beyond(self, sigmas: float) -> bool:
         return self.significance > sigmas
 
-    def to_json(self) -> dict[str, float | int]:
+    def to_json(self) -> dict[str, float | int | None]:
+        ratio = round(self.noise_ratio, 3) if math.isfinite(self.noise_ratio) else None
         return {"excess_chi2": round(self.excess_chi2, 1), "states": self.states,
-                "significance": round(self.significance, 2)}
+                "significance": round(self.significance, 2), "noise_ratio": ratio}
 
 
 def state_labels(data: Measurements) -> np.ndarray:
@@ -62,16 +68,17 @@ def residual_structure(data: Measurements, residuals_ppm: np.ndarray, noise: Noi
     """The flexible smooth's energy beyond chance (see the module docstring); over ``rows`` only if given
     (a boolean mask: the states are those of the whole campaign)."""
     if not len(data) or not noise.ppm > 0:
-        return ResidualStructure(0.0, 0, 0.0)
+        return ResidualStructure(0.0, 0, 0.0, 0.0)
     whitened = np.asarray(residuals_ppm, float) / noise.sigma_ppm(data)
     labels = state_labels(data)
     if rows is not None:
         whitened, labels = whitened[rows], labels[rows]
         if not len(labels):
-            return ResidualStructure(0.0, 0, 0.0)
+            return ResidualStructure(0.0, 0, 0.0, 0.0)
     counts = np.bincount(labels)
     sums = np.bincount(labels, weights=whitened)
     energy = float(np.sum(sums[counts > 0] ** 2 / counts[counts > 0])) / noise.design_effect
     states = int((counts > 0).sum())
     excess = energy - states
-    return ResidualStructure(max(excess, 0.0), states, excess / math.sqrt(2.0 * states))
+    ratio = float(np.sqrt(np.mean(whitened**2)))
+    return ResidualStructure(max(excess, 0.0), states, excess / math.sqrt(2.0 * states), ratio)

@@ -26,10 +26,19 @@ def outside_library(final: Step, noise: NoiseEstimate, structure: ResidualStruct
     """The final residual holds what the library does not explain: a flexible smooth of it finds structure
     STRUCTURE_SIGNIFICANCE standard deviations beyond chance (the smooth over every state, or the bin means
     over one variable: x, a temperature, time within a phase, which see a trend the many states dilute),
-    and it is at least a little above the noise."""
+    and it is at least a little above the noise: each reading judged against its own noise
+    (``ResidualStructure.noise_ratio``), since the noise differs between phases (a hold in air read at 15 ppm
+    beside sweeps at 40 ppm: a residual twice the noise in the hold and half of it in the sweeps is, in one
+    pooled RMS, below the pooled noise)."""
     smooth = structure.beyond(STRUCTURE_SIGNIFICANCE) or any(a.significance > STRUCTURE_SIGNIFICANCE
                                                               for a in associations)
-    return smooth and noise_ratio(final, noise) > STRUCTURE_RATIO
+    return smooth and judged_ratio(final, noise, structure) > STRUCTURE_RATIO
+
+
+def judged_ratio(final: Step, noise: NoiseEstimate, structure: ResidualStructure) -> float:
+    """The residual's size in units of the noise as the verdict judges it: against each reading's own noise where
+    the structure's smooth measured it, else the RMS against the pooled noise (``noise_ratio``)."""
+    return structure.noise_ratio if math.isfinite(structure.noise_ratio) else noise_ratio(final, noise)
 
 
 def noise_ratio(step: Step, noise: NoiseEstimate) -> float:
