@@ -282,8 +282,10 @@ def _cmd_plan_next(args: argparse.Namespace) -> int:
         print(json.dumps(plan.to_json(), indent=2))
     else:
         print(f"verdict: {result.verdict}")
-        for question in plan.questions:
+        for index, question in enumerate(plan.questions):
             print(f"open question ({question.kind}): {question.text}")
+            if index in plan.decided:
+                print(f"  decided: {plan.decided[index]}")
         if plan.chosen is not None:
             print(f"chosen: {plan.chosen.candidate.what} ({plan.chosen.candidate.hours:.2f} h of lab time), "
                   f"predicted Delta chi-square {plan.predicted_delta_chi2:.1f}")

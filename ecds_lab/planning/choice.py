@@ -74,6 +74,8 @@ class NextPlan:
     #: the campaign planned from (the diagnosis's clean readings) and its noise model
     campaign: Measurements | None = None
     noise: NoiseEstimate | None = None
+    #: ties (indices) the campaign decides already, with why (``decided_by_campaign``): nothing is designed for them
+    decided: dict[int, str] = field(default_factory=dict)
 
     @property
     def main_question(self) -> int | None:
@@ -116,6 +118,7 @@ class NextPlan:
                 "candidates": [s.to_json(self.questions) for s in self.scored],
                 "refused": dict(self.refused), "not_asked": dict(self.not_asked),
                 "unanswerable": [self.questions[i].text for i in self.unanswerable],
+                "decided": {self.questions[i].text: why for i, why in self.decided.items()},
                 "chosen": chosen, "why": self.why,
                 "predicted_delta_chi2": None if self.predicted_delta_chi2 is None
                 else round(self.predicted_delta_chi2, 1)}
@@ -128,6 +131,24 @@ def rivals_of(question: OpenQuestion, result: Diagnosis, registry: EffectRegistr
     if question.kind == "undetermined":
         return size_rivals(result, question.effects[0], registry)
     return nested_rivals(result, question.effects[0], registry, hypothetical=True)
+
+
+def decided_by_campaign(question: OpenQuestion, rivals: Sequence[Rival], result: Diagnosis) -> str | None:
+    """Why a tie is no longer open, or None: the diagnosis's own final model, fitted to the campaign, fits it better
+    than every rival model by DECISIVE_CHI2 or more. A contested claim is judged in the round it was made; a rival
+    that tied there may fail once a later effect takes its share (a bending beside a conductivity change the
+    search found after it), and what the campaign decides needs no experiment."""
+    if question.kind != "tie":
+        return None
+    held = next((r for r in rivals if list(r.effects) == list(result.final.effects)), None)
+    others = [r for r in rivals if r is not held]
+    if held is None or not others:
+        return None
+    margin = min(r.chi2 - held.chi2 for r in others)
+    if not margin >= DECISIVE_CHI2:
+        return None
+    return (f"the campaign decides it: {held.label} ({', '.join(held.effects)}) fits it better than "
+            f"{' and '.join(r.label for r in others)} by {margin:.1f} noise variances (>= {DECISIVE_CHI2:g})")
 
 
 def plan_next(result: Diagnosis, registry: EffectRegistry, station: StationConfig,
@@ -143,9 +164,12 @@ def plan_next(result: Diagnosis, registry: EffectRegistry, station: StationConfi
         return NextPlan(questions, {}, [], {}, None, _nothing_to_design(questions), asked)
     rivals = {i: rivals_of(questions[i], result, registry) for i in designable}
     rivals = {i: r for i, r in rivals.items() if len(r) >= 2}
+    decided = {i: why for i, r in rivals.items() if (why := decided_by_campaign(questions[i], r, result)) is not None}
+    rivals = {i: r for i, r in rivals.items() if i not in decided}
     if not rivals:  # e.g. an undetermined size no two sizes of which the campaign leaves as rivals
+        reasons = [decided.get(i, questions[i].text) for i in designable]
         return NextPlan(questions, {}, [], {}, None, "no open question has rival models to design for: "
-                        + "; ".join(questions[i].text for i in designable), asked, [], result.data, result.noise)
+                        + "; ".join(reasons), asked, [], result.data, result.noise, decided)
     candidates, refused = station_candidates(result.data, station, None, done)
     room = room_temperature_c(result.data)
     scored = []
@@ -186,7 +210,7 @@ def plan_next(result: Diagnosis, registry: EffectRegistry, station: StationConfi
     else:
         chosen, why = None, "the station can do no candidate experiment within the time allowed"
     return NextPlan(questions, rivals, scored, refused, chosen, why, asked, unanswerable, result.data,
-                    result.noise)
+                    result.noise, decided)
 
 
 def _nothing_to_design(questions: list[OpenQuestion]) -> str:

@@ -31,7 +31,7 @@ from ecds_lab.runner.session import run_experiment
 from ecds_lab.storage.data_file import open_campaign
 
 #: What each round records from its plan (``NextPlan.to_json``).
-ROUND_PLAN_KEYS = ("open_questions", "unanswerable", "candidates", "chosen", "why", "predicted_delta_chi2")
+ROUND_PLAN_KEYS = ("open_questions", "unanswerable", "decided", "candidates", "chosen", "why", "predicted_delta_chi2")
 
 
 @dataclass

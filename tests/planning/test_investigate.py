@@ -7,8 +7,6 @@ import json
 from pathlib import Path
 from typing import Any
 
-import pytest
-
 import ecds_lab.runner.session
 from ecds_lab.cli import main
 from ecds_lab.clock import SimulatedClock
@@ -126,17 +124,16 @@ def test_an_output_folder_with_an_investigation_is_refused_before_anything_runs(
     assert (loop / "investigate.json").read_text(encoding="utf-8") == "{}"
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "round 1 runs the target hot at 500 Hz as a physicist would (the start ties target_bending with "
-    "target_tau_temperature), but on the joined campaign tau_displacement (128 ppm), then target_bending (64 ppm) "
-    "are added; the truth then takes the rest to 17.5 ppm (0.8x the noise) but is not claimed: its linear and "
-    "quadratic tempco trade (0.0020 +- 0.0108 1/K, -9.0e-5 +- 1.8e-4 1/K^2, outside the plausible +-5e-5), the "
-    "curvature seen only on the heating log at 100 mm; both claims are then partial, nothing is claimed, and the "
-    "loop stops after 0.70 h (a residual outside the library)"))
 def test_investigate_b_ends_with_the_conductivity_change_claimed_and_no_open_question(tmp_path, started):
     _, record = investigated(started, "b", tmp_path, 2.0)
+    assert record["rounds"][0]["chosen"]["name"] == "target_hot_500hz"
+    # the truth, and tau_T(x), true of the faithful lab at two frequencies; no bending beside them
     assert "target_tau_temperature" in record["final"]["claimed"]
+    assert "target_bending" not in record["final"]["claimed"]
+    # copper's conductivity falls ~0.39 %/K, its tau_T with it
+    assert -0.006 < record["final"]["steps"][-1]["params"]["tau_tempco"]["value"] < -0.002
     assert record["stopped"].startswith("no open question"), record["stopped"]
+    assert record["hours_spent"] <= 2.0
 
 
 def test_investigate_c_ends_with_the_bending_and_the_backlash_claimed_and_no_open_question(tmp_path, started):

@@ -56,8 +56,8 @@ def test_plan_next_on_a_one_frequency_tie_names_the_other_frequency_and_writes_a
     capsys.readouterr()
     assert main(["plan-next", str(run), "--station", str(station), "--json"]) == 0
     printed = json.loads(capsys.readouterr().out)
-    assert {"open_questions", "rivals", "candidates", "refused", "not_asked", "unanswerable", "chosen", "why",
-            "predicted_delta_chi2"} <= set(printed)
+    assert {"open_questions", "rivals", "candidates", "refused", "not_asked", "unanswerable", "decided", "chosen",
+            "why", "predicted_delta_chi2"} <= set(printed)
     assert printed["chosen"]["name"] == yaml_name(text) and printed["predicted_delta_chi2"] >= 25.0
     assert main(["run", str(output), "--station", str(station), "-o", str(tmp_path / "next.h5"), "-q"]) == 0
 
@@ -163,3 +163,30 @@ def test_every_candidate_keeps_inside_tight_station_limits(tight_limits):
     short = plan_next(run_diagnosis(opened.data, (), opened.sensor), library(), config, max_hours=0.1)
     assert all(s.candidate.hours <= 0.1 for s in short.scored)
     assert any("more than the 0.1 h allowed" in why for why in short.refused.values())
+
+
+def test_a_tie_the_campaign_decides_already_is_not_designed_for():
+    """A contested claim is judged in its own round; once a later effect takes its share the rival may fit the
+    campaign far worse than the diagnosis's final model: then the campaign decides it (chi-square in noise
+    variances, DECISIVE_CHI2 = 25), and nothing is designed for it. Within the margin, or with the rival ahead, the
+    question stays open; a question that is not a tie is never decided this way."""
+    from types import SimpleNamespace
+
+    from ecds_lab.planning.choice import decided_by_campaign
+    from ecds_lab.planning.questions import OpenQuestion
+    from ecds_lab.planning.rivals import Rival
+
+    final = ("tau_displacement", "target_tau_temperature")
+    result = SimpleNamespace(final=SimpleNamespace(effects=list(final)))
+    tie = OpenQuestion("tie", ("tau_displacement", "target_bending"), "which of tau_displacement or target_bending")
+
+    def rivals(held: float, other: float) -> list[Rival]:
+        return [Rival("tau_displacement", final, None, {}, held),  # type: ignore[arg-type]
+                Rival("target_bending", ("target_bending", "target_tau_temperature"), None, {}, other)]  # type: ignore[arg-type]
+
+    why = decided_by_campaign(tie, rivals(130.2, 4403.5), result)  # type: ignore[arg-type]
+    assert why is not None and "tau_displacement" in why and "4273.3" in why
+    assert decided_by_campaign(tie, rivals(130.2, 150.0), result) is None  # type: ignore[arg-type]
+    assert decided_by_campaign(tie, rivals(4403.5, 130.2), result) is None  # type: ignore[arg-type]
+    backlash = OpenQuestion("not_excluded", ("slide_backlash",), "is slide_backlash present")
+    assert decided_by_campaign(backlash, rivals(130.2, 4403.5), result) is None  # type: ignore[arg-type]

@@ -84,6 +84,13 @@ def check_candidate(candidate: Candidate) -> None:
     reasons += why
 
 
+def at_bound(fit: FitResult, name: str) -> bool:
+    """A parameter within BOUND_MARGIN of its range from a bound (a fit there ran into a wall, not a minimum)."""
+    p = fit.parameter(name)
+    span = p.upper - p.lower
+    return math.isfinite(span) and min(p.value - p.lower, p.upper - p.value) <= BOUND_MARGIN * span
+
+
 def identified(candidate: Candidate) -> tuple[bool, list[str]]:
     """Key parameters free, off their bounds, and clearly non-zero: one more than MIN_Z standard errors from
     zero, or the effect's size parameters (``Effect.size_parameters``, default the key ones) jointly at the same
@@ -95,8 +102,7 @@ def identified(candidate: Candidate) -> tuple[bool, list[str]]:
         p = candidate.fit.parameter(name)
         if p.fixed:
             continue
-        span = p.upper - p.lower
-        if math.isfinite(span) and min(p.value - p.lower, p.upper - p.value) <= BOUND_MARGIN * span:
+        if at_bound(candidate.fit, name):
             reasons.append(f"{name} sits at its bound ({_shown(p.value, p.unit)})")
         best_z = max(best_z, _z(candidate, name))
     size = tuple(n for n in (effect.size_parameters or keys) if not candidate.fit.parameter(n).fixed)

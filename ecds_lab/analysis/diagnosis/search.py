@@ -38,6 +38,7 @@ from ecds_lab.analysis.blas_threads import one_blas_thread
 from ecds_lab.analysis.diagnosis.advice import suggestions
 from ecds_lab.analysis.diagnosis.checks import (
     SIGNATURE_SHARE,
+    at_bound,
     check_candidate,
     evidence_rank,
     score_candidate,
@@ -407,14 +408,15 @@ def _round(screen: Measurements, clean: Measurements, current: Step, names: list
     ranked.sort(key=evidence_rank)
     # Alternative starts where another valley could change the outcome: not once the model is at the
     # noise, and not for candidates far behind the leader; once the leader is at the noise, only for
-    # those close enough to tie with it (a tie is judged between each candidate's best fits).
+    # those close enough to tie with it (a tie is judged between each candidate's best fits). A candidate
+    # whose fit ran into a wall (``_walled``) is refitted however far behind: its gain says nothing of its valley.
     leader_gain = max((c.chi2_gain for c in ranked), default=0.0)
     solved = any(c.rmse_ppm <= ADEQUATE_RATIO * noise.ppm and not c.not_better for c in ranked[:1])
     if current.rmse_ppm > ADEQUATE_RATIO * noise.ppm:
         for i, candidate in enumerate(ranked[:LEADING]):
             behind = candidate.rmse_ppm > ADEQUATE_RATIO * noise.ppm
-            if (candidate.not_better and not solved) or (
-                    behind and candidate.chi2_gain >= (TIE_REACH if solved else 0.1) * leader_gain):
+            if (candidate.not_better and not solved) or (behind and (
+                    candidate.chi2_gain >= (TIE_REACH if solved else 0.1) * leader_gain or _walled(candidate))):
                 ranked[i] = _refined(screen, candidate, base, noise, len(clean), candidate.from_residual)
     for candidate in ranked:
         check_candidate(candidate)
@@ -433,6 +435,18 @@ def _round(screen: Measurements, clean: Measurements, current: Step, names: list
             leader = candidate
     ranked.sort(key=lambda c: (not c.passes, evidence_rank(c)))
     return ranked, untestable, base_cv
+
+
+def _walled(candidate: Candidate) -> bool:
+    """The fit left one of the effect's nuisance parameters (``Effect.nuisance_parameters``, the shape the search
+    knows to be valley-prone) at a bound while the effect has other starts: it ran into a wall on its way from the
+    default start (a plate's thickness to its thinnest, where the conductivity change acts through tau_T alone), not
+    into the valley those starts reach (the thick plate's skin recession). Key parameters at a bound fail the
+    identifiability check anyway; secondary ones (a drying's widths) are not refitted for: each refit from a dozen
+    starts doubled a coil-heated campaign's diagnosis and changed no verdict of the validation study."""
+    effect = candidate.effect_object
+    return bool(effect.alternative_starts) and any(at_bound(candidate.fit, name) for name in effect.nuisance_parameters
+                                                   if name in candidate.fit.values)
 
 
 def _evaluate(result: FitResult, data: Measurements) -> FitResult:

@@ -112,8 +112,16 @@ class TargetTauTemperature(Effect):
     explains = ("the target's conductivity changes with target temperature: its eddy-current time constant and "
                 "the skin-depth recession of its effective surface follow")
     #: Conductivity of metals falls ~0.3-0.45 %/K; permeability changes of steel add to it: |a| <= 2 %/K.
+    #: The curvature b: a pure metal's resistivity is linear in temperature above a third of its Debye temperature
+    #: (copper 1.54 -> 2.23e-8 Ohm m from 0 to 100 C, its slope constant to ~2 %), so ln tau_T = -ln(1 + alpha dT)
+    #: curves by +alpha^2/2: copper 7.6e-6/K^2, aluminium 9e-6/K^2. Steel's conductivity falling 5 -> 3 MS/m while
+    #: its mu_r doubles over ~100 K (docs/physics.md), each linear, gives (alpha^2 - beta^2)/2 ~ -3e-5/K^2, and
+    #: -5e-5 if the permeability's rise alone bends it. +-5e-5: ln tau_T off its tangent by at most 0.5 at 100 K.
     plausible: ClassVar[dict[str, tuple[float, float]]] = {"tau_tempco": (-0.02, 0.02), "tau_tempco2": (-5e-5, 5e-5)}
     key_parameters = ("tau_tempco",)
+    #: ln tau_T moves by a dT + b dT^2: with sweeps at two temperatures (a curvature seen only on a heating log at
+    #: one position) a and b trade along a + b dT_hot, each undetermined while the change they make is not.
+    size_parameters = ("tau_tempco", "tau_tempco2")
     #: One frequency shows the thickness only through the shape in x of the change (shift or screening).
     nuisance_parameters = ("plate_thickness",)
     #: One plate: ``plate_recession``'s thickness when both are in the model.
