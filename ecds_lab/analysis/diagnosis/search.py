@@ -44,6 +44,7 @@ from ecds_lab.analysis.diagnosis.checks import (
     tied,
     whitened,
 )
+from ecds_lab.analysis.diagnosis.drift import gain_beside_drift
 from ecds_lab.analysis.diagnosis.explanation import explain
 from ecds_lab.analysis.diagnosis.held_out import SCREEN_ROWS, check_held_out, cv_rmse, folds_of, screened
 from ecds_lab.analysis.diagnosis.identifiability import (
@@ -77,6 +78,9 @@ MAX_OUTLIER_ROUNDS = 3
 #: An effect leaving at least this share of its own chi-square gain as structure where it acts, with the residual
 #: outside the library, explained only part of something else (``_mark_partial``).
 PARTIAL_SHARE = 0.5
+#: The final residual drifts in time when time is among its first this many associations (as the study judges
+#: where a residual lives); then each claim is asked what it adds beside a slow drift (``_mark_drift``).
+DRIFT_ASSOCIATIONS = 2
 #: A tied group explains the residual well (a tie, not a set of partial explanations) when its best
 #: member's chi-square gain is at least this share of the structure a flexible smooth finds beyond chance.
 GOOD_SHARE = 0.6
@@ -205,7 +209,10 @@ def _run_diagnosis(data: Measurements, effects: Sequence[str], sensor: SensorCon
     structure = residual_structure(clean, final.fit.residuals_ppm, noise)
     if not limits and outside_library(final, noise, structure, associations):
         _mark_partial(steps, clean, noise)
-        partial += [[step.effects[-1]] for step in steps[1:] if step.leaves_structure is not None]
+        if any(a.variable == "time_s" for a in associations[:DRIFT_ASSOCIATIONS]):
+            _mark_drift(steps, clean, noise)
+        partial += [[step.effects[-1]] for step in steps[1:]
+                    if step.leaves_structure is not None or step.part_of_drift is not None]
     if len(steps) == 1 and len(undetermined) > 1:
         alternatives.append(list(undetermined))
         undetermined = []
@@ -246,6 +253,27 @@ def _mark_partial(steps: list[Step], data: Measurements, noise: NoiseEstimate) -
         left = residual_structure(data, final, noise, rows=acts)
         if left.beyond(STRUCTURE_SIGNIFICANCE) and left.excess_chi2 > PARTIAL_SHARE * step.added_from(before).chi2_gain:
             step.leaves_structure = left.significance
+
+
+def _mark_drift(steps: list[Step], data: Measurements, noise: NoiseEstimate) -> None:
+    """With the final residual drifting in time (outside the library, time among its leading associations), an
+    effect claimed on the way that keeps less than PARTIAL_SHARE of its gain once a slow drift of every reading is
+    read where it does not act is taken out (``drift.gain_beside_drift``) may be a part of the drift: it is not
+    claimed (``Step.part_of_drift``). A state's effect (a bending while the target is hot) switches with its state
+    and keeps its gain; a bending fitted to the offset of a hot sweep that the readings in air around it show as
+    well does not (validation study case 141)."""
+    residuals = [whitened(_residuals_on(step, data), data, noise) for step in steps]
+    predictions = [step.fit.predict(data) for step in steps]
+    threshold = SIGNATURE_SHARE * noise.sigma_ppm(data)
+    for (step, (r_before, r_after), (previous, prediction)) in zip(steps[1:], pairwise(residuals),
+                                                                   pairwise(predictions), strict=True):
+        if step.stands_for or step.leaves_structure is not None:
+            continue
+        gain = float(r_before @ r_before - r_after @ r_after)
+        acts = np.abs((prediction / previous - 1) * 1e6) >= threshold
+        kept = gain_beside_drift(data, r_before, r_after, acts) if gain > 0 else None
+        if kept is not None and kept < PARTIAL_SHARE * gain:
+            step.part_of_drift = kept / gain
 
 
 def _rival(best: Candidate, other: Candidate, current: Step, noise: NoiseEstimate) -> bool:
