@@ -84,7 +84,8 @@ def test_a_gain_drift_beside_one_hot_sweep_is_not_claimed_as_a_bending():
                 {"imperfections": {"bridge_gain_drift": {"enabled": True, "ppm_per_hour": 100.0, "wander_ppm": 5.0}}})
     result = run_diagnosis(measure(case))
     assert "target_bending" not in result.claimed, result.explanation
-    assert set(result.claimed) <= {"tau_displacement"}, result.explanation  # true of the faithful lab at two frequencies
+    # tau_displacement is true of the faithful lab at two frequencies
+    assert set(result.claimed) <= {"tau_displacement"}, result.explanation
     assert "outside the library" in result.explanation
     assert "time_s" in [a.variable for a in result.associations[:2]]
     bending = next(s for s in result.steps[1:] if s.effects[-1] == "target_bending")
