@@ -32,3 +32,9 @@ def test_what_only_the_hot_readings_show_is_left():
     offset = np.where(hot, 100.0 * (data.x_mm / 100.0), 0.0)
     left = beyond_idle_states(data, offset, hot)
     np.testing.assert_allclose(left, offset)
+
+
+def test_an_effect_acting_on_every_reading_keeps_its_residual():
+    data = _cold_and_hot_sweeps()
+    residual = np.random.default_rng(2).normal(0, 1.0, len(data))
+    np.testing.assert_array_equal(beyond_idle_states(data, residual, np.ones(len(data), bool)), residual)

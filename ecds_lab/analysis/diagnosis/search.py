@@ -267,7 +267,7 @@ def beyond_idle_states(data: Measurements, residual: np.ndarray, acts: np.ndarra
     state = state.ravel()
     idle = ~acts
     counts = np.bincount(state[idle], minlength=state.max() + 1)
-    sums = np.bincount(state[idle], weights=np.asarray(residual, float)[idle], minlength=state.max() + 1)
+    sums = np.bincount(state[idle], weights=np.asarray(residual, float)[idle], minlength=state.max() + 1).astype(float)
     shared = np.divide(sums, counts, out=np.zeros_like(sums), where=counts > 0)
     return np.where(acts, residual - shared[state], residual)
 
