@@ -41,19 +41,14 @@ def verdict_of(steps: list[Step], effects: list[str], noise: NoiseEstimate, stru
                alternatives: list[list[str]], untestable: dict[str, str], limits: list[str],
                associations: Sequence[Association] = ()) -> str:
     """missing_effect when effects were claimed, or when every candidate was refitted at the final model
-    and the residual still holds structure (outside the library, a tie beside it or not); inconclusive when the
-    data cannot separate the candidates, could test none of them, the search stopped at a limit first, or the
-    residual is clearly above the noise without structure a model could take (scatter the noise estimate
-    misses)."""
+    and the residual still holds structure (outside the library); inconclusive when the data cannot
+    separate the candidates, could test none of them, the search stopped at a limit first, or the residual is
+    clearly above the noise without structure a model could take (scatter the noise estimate misses)."""
     if any(step.claims for step in steps[1:]):
-        return "missing_effect"
-    outside = outside_library(steps[-1], noise, structure, associations)
-    if outside and steps[0].candidates and not limits:
-        # Something the library lacks is missing whether or not a tie stands beside it (listed in alternatives).
         return "missing_effect"
     if alternatives:
         return "inconclusive"
-    if not outside:
+    if not outside_library(steps[-1], noise, structure, associations):
         # Above the noise without structure: scatter the noise estimate misses (e.g. between moves), not adequate.
         return "adequate" if noise_ratio(steps[-1], noise) <= FAILING_RATIO else "inconclusive"
-    return "inconclusive"
+    return "missing_effect" if steps[0].candidates and not limits else "inconclusive"
