@@ -10,7 +10,10 @@ at close range), never a glitch, so a suspect is kept when
   deviates the same way by more than ``REPEATED`` sigmas and a tenth of the suspect's deviation
   (``RUN_SHARE``): the deviation runs on in time or in x;
 - the reading of the same state at another frequency, taken moments apart, deviates by more than
-  ``REPEATED`` sigmas (either way: the bridge errs on one reading, physics shows at every frequency);
+  ``REPEATED`` sigmas and a tenth of the suspect's deviation (either way: the bridge errs on one reading,
+  physics shows at every frequency, by the frequencies' sensitivities within a factor of a few, not a
+  thousand: a reading 1000 sigmas off whose partner at the other frequency is 3.5 sigmas off, the partner's
+  repeat 3.5 sigmas the other way, is a glitch beside noise);
 - readings of the same state elsewhere in the campaign (same frequency, direction and commanded
   distance) share the deviation: their median by more than ``REPEATED`` sigmas, or at least a
   ``SHARED`` part of them beyond ``THRESHOLD`` the same way.
@@ -155,7 +158,7 @@ def _in_structure(data: Measurements, deviation: np.ndarray, neighbours: np.ndar
             return True
     partners = position[(data.segment[position] == data.segment[i]) & (data.freq_hz[position] != data.freq_hz[i])
                         & (np.abs(data.time_s[position] - data.time_s[i]) <= PARTNER_GAP_S)]
-    if np.any(np.abs(deviation[partners]) > REPEATED):
+    if np.any(np.abs(deviation[partners]) > run):
         return True
     same = position[(data.freq_hz[position] == data.freq_hz[i]) & (position != i)]
     others = deviation[same]

@@ -358,14 +358,17 @@ def _chain_table(steps: Sequence[Any], noise_ppm: float) -> Html:
 
 
 def _tie_note(step: Any) -> str:
-    """For a step whose effect is not claimed: the tied group it stands for, or the structure it leaves where it
-    acts (a part of a residual outside the library)."""
+    """For a step whose effect is not claimed: the tied group it stands for, the structure it leaves where it
+    acts (a part of a residual outside the library), or what it keeps beside a drift in time."""
     group = getattr(step, "stands_for", None)
     if group:
         return f" (stands for {' / '.join(group)}: not claimed)"
     left = getattr(step, "leaves_structure", None)
-    return f" (only part of a residual outside the library: {left:.0f} sd left where it acts; not claimed)" \
-        if left is not None else ""
+    if left is not None:
+        return f" (only part of a residual outside the library: {left:.0f} sd left where it acts; not claimed)"
+    kept = getattr(step, "part_of_drift", None)
+    return f" (may be part of a drift in time: keeps {100 * max(kept, 0.0):.0f} % of its gain beside one; " \
+        "not claimed)" if kept is not None else ""
 
 
 def _step_plot(diagnosis: Any, before: Any, after: Any) -> Html | Plot:

@@ -7,6 +7,8 @@ import pytest
 
 from ecds_lab.analysis.associations import residual_associations
 from ecds_lab.data.measurements import Measurements
+from ecds_lab.study.campaigns import measure
+from ecds_lab.study.cases import Case, Design
 
 
 @pytest.fixture
@@ -41,3 +43,33 @@ def test_detail_names_the_frequency_where_the_residual_is_larger(data):
     residual = np.where(data.freq_hz == 500, 5.0, 1.0) * (data.t_target_c - 22)
     target = next(a for a in residual_associations(data, residual, 1.0) if a.variable == "t_target_c")
     assert "larger at 500 Hz" in target.detail
+
+
+@pytest.fixture(scope="module")
+def cold_then_hot() -> Measurements:
+    """The readings' inputs of a short campaign on the quiet faithful lab (the validation study's design of case 25):
+    readings in air, a cold sweep at two frequencies, the target heated to 75 C for an hour, a hot sweep, the target
+    cooling back to room temperature with the coil in air; the coil's temperature wanders 0.1 K with the room."""
+    design = Design((500.0, 15000.0), ("forward",), 9, False, (75.0,), (), 1)
+    return measure(Case(0, 1, design, (), {}))
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_a_drift_between_phases_ranks_time_before_the_target_temperature_it_moves_with(cold_then_hot, seed):
+    """A gain drift of 150 ppm/h is small within each short phase, but the target temperature explains nothing of it
+    once time is taken out (readings in air before and after) while time explains it beyond the temperature: time
+    leads (validation study case 25 named the target temperature and the coil's 0.1 K wander instead)."""
+    data = cold_then_hot
+    residual = 150.0 * data.time_s / 3600.0 + np.random.default_rng(seed).normal(0, 20, len(data))
+    found = residual_associations(data, residual - residual.mean(), noise_ppm=20.0)
+    assert found[0].variable == "time_s", [(a.variable, a.significance) for a in found]
+    assert "along the campaign it explains what" in found[0].detail
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_an_effect_of_the_hot_target_keeps_the_target_temperature_first(cold_then_hot, seed):
+    data = cold_then_hot
+    hot = np.isfinite(data.x_m) & (data.t_target_c > 50)
+    residual = np.where(hot, 150.0, 0.0) + np.random.default_rng(seed).normal(0, 20, len(data))
+    found = residual_associations(data, residual - residual.mean(), noise_ppm=20.0)
+    assert found[0].variable == "t_target_c", [(a.variable, a.significance) for a in found]

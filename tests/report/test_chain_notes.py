@@ -20,3 +20,9 @@ def test_a_tie_names_its_group():
 def test_a_partial_explanation_says_what_it_leaves():
     note = _tie_note(SimpleNamespace(stands_for=[], leaves_structure=38.4))
     assert "outside the library" in note and "38 sd" in note and "not claimed" in note
+
+
+def test_a_part_of_a_drift_says_what_it_keeps():
+    note = _tie_note(SimpleNamespace(stands_for=[], leaves_structure=None, part_of_drift=-0.59))
+    assert "drift in time" in note and "keeps 0 %" in note and "not claimed" in note
+    assert _tie_note(SimpleNamespace(stands_for=[], leaves_structure=None, part_of_drift=None)) == ""

@@ -66,6 +66,12 @@ def explain(result: Diagnosis, registry: EffectRegistry | None = None) -> str:
                          f"{step.leaves_structure:.0f} standard deviations beyond chance: it takes only part of "
                          "something the library does not describe, so it is not claimed.")
             continue
+        if step.part_of_drift is not None:
+            lines.append(f"Adding {added} ({effect.explains}) brings it from {before.rmse_ppm:.1f} to "
+                         f"{step.rmse_ppm:.1f} ppm, but the residual drifts in time, and beside a slow drift of "
+                         f"every reading it keeps only {100 * max(step.part_of_drift, 0.0):.0f} % of that gain: it "
+                         "may be a part of the drift, so it is not claimed.")
+            continue
         lines.append(f"Adding {added} ({effect.explains}) brings it from {before.rmse_ppm:.1f} to "
                      f"{step.rmse_ppm:.1f} ppm{error} (BIC gain on its signature "
                      f"{candidate.delta_bic_signature:+.0f}{cv}); fitted {values}.")

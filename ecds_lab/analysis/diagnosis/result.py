@@ -84,6 +84,9 @@ class Step:
     #: When the effect added explains only part of a residual the library does not describe: the structure
     #: (standard deviations beyond chance) the final residual keeps where the effect acts. Not claimed.
     leaves_structure: float | None = None
+    #: When the final residual drifts in time and the effect keeps less than half its gain once a slow drift is
+    #: allowed (``drift.gain_beside_drift``): the share of its gain it keeps. Not claimed.
+    part_of_drift: float | None = None
 
     @property
     def rmse_ppm(self) -> float:
@@ -95,8 +98,9 @@ class Step:
 
     @property
     def claims(self) -> bool:
-        """The effect added is claimed: it stands for no tied group and leaves no structure where it acts."""
-        return not self.stands_for and self.leaves_structure is None
+        """The effect added is claimed: it stands for no tied group, leaves no structure where it acts and is no
+        part of a drift in time."""
+        return not self.stands_for and self.leaves_structure is None and self.part_of_drift is None
 
     def position_error(self, noise_ppm: float | None) -> PositionErrorFigure:
         """This model's position error over the readings it can speak for, or why it is no length: "model
@@ -110,6 +114,7 @@ class Step:
         return {"effects": list(self.effects), "rmse_ppm": round(self.rmse_ppm, 3), "bic": round(self.fit.bic, 2),
                 **position_error_json(figure),
                 "stands_for": list(self.stands_for), "leaves_structure": rounded(self.leaves_structure, 1),
+                "part_of_drift": rounded(self.part_of_drift, 2),
                 "params": fit_params_json(self.fit)}
 
 

@@ -45,6 +45,7 @@ from ecds_lab.analysis.diagnosis.checks import (
     tied,
     whitened,
 )
+from ecds_lab.analysis.diagnosis.drift import gain_beside_drift
 from ecds_lab.analysis.diagnosis.explanation import explain
 from ecds_lab.analysis.diagnosis.held_out import SCREEN_ROWS, check_held_out, cv_rmse, folds_of, screened
 from ecds_lab.analysis.diagnosis.identifiability import (
@@ -78,6 +79,9 @@ MAX_OUTLIER_ROUNDS = 3
 #: An effect leaving at least this share of its own chi-square gain as structure where it acts, with the residual
 #: outside the library, explained only part of something else (``_mark_partial``).
 PARTIAL_SHARE = 0.5
+#: The final residual drifts in time when time is among its first this many associations (as the study judges
+#: where a residual lives); then each claim is asked what it adds beside a slow drift (``_mark_drift``).
+DRIFT_ASSOCIATIONS = 2
 #: A tied group explains the residual well (a tie, not a set of partial explanations) when its best
 #: member's chi-square gain is at least this share of the structure a flexible smooth finds beyond chance.
 GOOD_SHARE = 0.6
@@ -206,7 +210,10 @@ def _run_diagnosis(data: Measurements, effects: Sequence[str], sensor: SensorCon
     structure = residual_structure(clean, final.fit.residuals_ppm, noise)
     if not limits and outside_library(final, noise, structure, associations):
         _mark_partial(steps, clean, noise)
-        partial += [[step.effects[-1]] for step in steps[1:] if step.leaves_structure is not None]
+        if any(a.variable == "time_s" for a in associations[:DRIFT_ASSOCIATIONS]):
+            _mark_drift(steps, clean, noise)
+        partial += [[step.effects[-1]] for step in steps[1:]
+                    if step.leaves_structure is not None or step.part_of_drift is not None]
     if len(steps) == 1 and len(undetermined) > 1:
         alternatives.append(list(undetermined))
         undetermined = []
@@ -236,6 +243,8 @@ def _mark_partial(steps: list[Step], data: Measurements, noise: NoiseEstimate) -
     least PARTIAL_SHARE of what it took (its chi-square gain), only took a part of what the library does not
     describe (a bending a part of a drift in time): it is not claimed (``Step.leaves_structure``). An effect
     that took nearly all of what lives where it acts (moisture drying written another way) stays claimed.
+    Structure the same states show where the effect does not act is not the effect's to leave
+    (``beyond_idle_states``): a metal object's bump in x, cold and hot alike, is no part a bending missed.
     Tie representatives stay as they are."""
     final = steps[-1].fit.residuals_ppm
     threshold = SIGNATURE_SHARE * noise.sigma_ppm(data)
@@ -244,9 +253,45 @@ def _mark_partial(steps: list[Step], data: Measurements, noise: NoiseEstimate) -
         if step.stands_for:
             continue
         acts = np.abs((prediction / previous - 1) * 1e6) >= threshold
-        left = residual_structure(data, final, noise, rows=acts)
+        left = residual_structure(data, beyond_idle_states(data, final, acts), noise, rows=acts)
         if left.beyond(STRUCTURE_SIGNIFICANCE) and left.excess_chi2 > PARTIAL_SHARE * step.added_from(before).chi2_gain:
             step.leaves_structure = left.significance
+
+
+def beyond_idle_states(data: Measurements, residual: np.ndarray, acts: np.ndarray) -> np.ndarray:
+    """``residual`` with, on the readings in ``acts``, the mean residual of the readings of the same state (frequency,
+    direction, commanded distance) outside ``acts`` taken out, where there are such readings: what is left is what
+    the readings where an effect acts show beyond the same states where it does not (validation study case 99: a
+    metal object's bump in x, in the cold sweep as in the hot ones, made the bending for a tilt look partial)."""
+    x = np.where(np.isfinite(data.x_commanded_m), np.round(data.x_commanded_m, 6), -1.0)
+    _, state = np.unique(np.column_stack([data.freq_hz, data.direction, x]), axis=0, return_inverse=True)
+    state = state.ravel()
+    idle = ~acts
+    counts = np.bincount(state[idle], minlength=state.max() + 1)
+    sums = np.bincount(state[idle], weights=np.asarray(residual, float)[idle], minlength=state.max() + 1).astype(float)
+    shared = np.divide(sums, counts, out=np.zeros_like(sums), where=counts > 0)
+    return np.where(acts, residual - shared[state], residual)
+
+
+def _mark_drift(steps: list[Step], data: Measurements, noise: NoiseEstimate) -> None:
+    """With the final residual drifting in time (outside the library, time among its leading associations), an
+    effect claimed on the way that keeps less than PARTIAL_SHARE of its gain once a slow drift of every reading is
+    read where it does not act is taken out (``drift.gain_beside_drift``) may be a part of the drift: it is not
+    claimed (``Step.part_of_drift``). A state's effect (a bending while the target is hot) switches with its state
+    and keeps its gain; a bending fitted to the offset of a hot sweep that the readings in air around it show as
+    well does not (validation study case 141)."""
+    residuals = [whitened(_residuals_on(step, data), data, noise) for step in steps]
+    predictions = [step.fit.predict(data) for step in steps]
+    threshold = SIGNATURE_SHARE * noise.sigma_ppm(data)
+    for (step, (r_before, r_after), (previous, prediction)) in zip(steps[1:], pairwise(residuals),
+                                                                   pairwise(predictions), strict=True):
+        if step.stands_for or step.leaves_structure is not None:
+            continue
+        gain = float(r_before @ r_before - r_after @ r_after)
+        acts = np.abs((prediction / previous - 1) * 1e6) >= threshold
+        kept = gain_beside_drift(data, r_before, r_after, acts) if gain > 0 else None
+        if kept is not None and kept < PARTIAL_SHARE * gain:
+            step.part_of_drift = kept / gain
 
 
 def _rival(best: Candidate, other: Candidate, current: Step, noise: NoiseEstimate) -> bool:

@@ -158,7 +158,10 @@ class TargetTauTemperature(Effect):
         return out
 
     def unidentifiable(self, data: Measurements) -> dict[str, str]:
-        span = float(np.ptp(data.t_target_c)) if len(data) else 0.0
+        """tau_T acts only with the target under the coil: readings in air (a hot target cooling while the coil
+        is away) show nothing of it, so its span and curvature are judged on the readings with a distance."""
+        present = data.t_target_c[np.isfinite(data.x_m)]
+        span = float(np.ptp(present)) if len(present) else 0.0
         thickness = self.resistivity_ohm_m is not None
         fixed: dict[str, str] = {}
         if thickness and self.sensor.target_thickness_m is not None:
@@ -168,7 +171,7 @@ class TargetTauTemperature(Effect):
             if thickness:
                 fixed["plate_thickness"] = "as tau_tempco"
             return fixed
-        why = curvature_unseen(data.t_target_c)
+        why = curvature_unseen(present)
         if why is not None:
             fixed["tau_tempco2"] = why
         return fixed
