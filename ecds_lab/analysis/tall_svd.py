@@ -39,23 +39,32 @@ _users = 0
 
 
 class _ImplicitU:
-    """U = Q U_r of a tall matrix's thin SVD, Q held as its Householder reflectors: only U^T v can be asked."""
+    """U = Q U_r of a tall matrix's thin SVD, Q held as its Householder reflectors: only ``U.T.dot(v)`` is offered
+    (all the solver asks of U)."""
 
     def __init__(self, reflectors: np.ndarray, tau: np.ndarray, u_r: np.ndarray) -> None:
-        self._reflectors, self._tau, self._u_r = reflectors, tau, u_r
+        self.reflectors, self.tau, self.u_r = reflectors, tau, u_r
 
     @property
-    def T(self) -> _ImplicitU:  # noqa: N802 (numpy's name for the transpose, as the solver calls it)
-        return self
+    def T(self) -> _ImplicitUTransposed:
+        return _ImplicitUTransposed(self)
+
+
+class _ImplicitUTransposed:
+    """U^T of an ``_ImplicitU``."""
+
+    def __init__(self, u: _ImplicitU) -> None:
+        self.u = u
 
     def dot(self, v: np.ndarray) -> np.ndarray:
         """U^T v = U_r^T (Q^T v)[:k]."""
-        k = self._u_r.shape[0]
+        u = self.u
+        k = u.u_r.shape[0]
         column = np.asfortranarray(np.asarray(v, float).reshape(-1, 1))
-        qtv, _, info = lapack.dormqr("L", "T", self._reflectors, self._tau, column, lwork=max(64, k))
+        qtv, _, info = lapack.dormqr("L", "T", u.reflectors, u.tau, column, lwork=max(64, k))
         if info != 0:
             raise np.linalg.LinAlgError(f"dormqr failed (info {info})")
-        return self._u_r.T @ qtv[:k, 0]
+        return u.u_r.T @ qtv[:k, 0]
 
 
 def thin_svd(a: np.ndarray, full_matrices: bool = True, **options: Any) -> tuple[Any, np.ndarray, np.ndarray]:

@@ -23,8 +23,8 @@ def test_thin_svd_agrees_with_scipy_on_a_tall_matrix():
 
 def test_short_or_full_matrices_keep_scipys_svd():
     a = np.arange(12.0).reshape(4, 3)
-    u, s, vt = tall_svd.thin_svd(a, full_matrices=False)
-    assert isinstance(u, np.ndarray) and u.shape == (4, 3)
+    u, _, vt = tall_svd.thin_svd(a, full_matrices=False)
+    assert isinstance(u, np.ndarray) and u.shape == (4, 3) and vt.shape == (3, 3)
 
 
 def test_a_fit_through_it_reaches_scipys_solution_and_the_solver_gets_its_svd_back():
