@@ -73,7 +73,7 @@ def thin_svd(a: np.ndarray, full_matrices: bool = True, **options: Any) -> tuple
     a = np.asarray(a)
     if full_matrices or a.ndim != 2 or a.shape[0] < max(TALL_ROWS, 4 * a.shape[1]) or a.shape[1] == 0:
         return _scipy_svd(a, full_matrices=full_matrices, **options)
-    (reflectors, tau), r = scipy.linalg.qr(a, mode="raw", check_finite=False)
+    (reflectors, tau), r = scipy.linalg.qr(a, mode="raw")  # a NaN or inf is refused, as by scipy's SVD
     u_r, s, vt = _scipy_svd(r, full_matrices=False, check_finite=False)
     return _ImplicitU(reflectors, tau, u_r), s, vt
 

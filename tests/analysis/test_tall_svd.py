@@ -2,6 +2,7 @@
 U^T f, and a fit through it the same solution."""
 
 import numpy as np
+import pytest
 import scipy.linalg
 from scipy.optimize import least_squares
 
@@ -45,3 +46,10 @@ def test_a_fit_through_it_reaches_scipys_solution_and_the_solver_gets_its_svd_ba
     assert trf.svd is before
     np.testing.assert_allclose(through_qr.x, plain.x, rtol=1e-8)
     assert through_qr.nfev == plain.nfev
+
+
+def test_a_matrix_with_a_nan_is_refused_as_by_scipys_svd():
+    a = np.ones((5000, 3))
+    a[10, 1] = np.nan
+    with pytest.raises(ValueError):
+        tall_svd.thin_svd(a, full_matrices=False)
