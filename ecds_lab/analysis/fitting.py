@@ -39,6 +39,7 @@ from ecds_lab.analysis.blas_threads import one_blas_thread
 from ecds_lab.analysis.cluster_errors import cluster_robust_covariance
 from ecds_lab.analysis.heap import retain_freed_memory
 from ecds_lab.analysis.noise import REPEATED, NoiseEstimate, estimate_noise
+from ecds_lab.analysis.tall_svd import tall_svd
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.model import ecm
@@ -394,8 +395,8 @@ def _solve(model: SensorModel, data: Measurements, params: Sequence[Parameter],
     jac = _jacobian_function(model, data, scaling, rows, terms.solve_weights) if model.has_derivatives else "2-point"
     retain_freed_memory()  # the model's arrays are reused between evaluations, not faulted in anew (``heap``)
     # The trust-region step factors the tall n x k Jacobian (cost linear in n); on one BLAS thread,
-    # since threads only contend on a matrix this thin (``blas_threads``).
-    with one_blas_thread():
+    # since threads only contend on a matrix this thin (``blas_threads``), and through its QR (``tall_svd``).
+    with one_blas_thread(), tall_svd():
         result = least_squares(residuals, theta0, jac=jac, bounds=(lower, upper), method="trf", x_scale=1.0,
                                ftol=tolerance, xtol=tolerance, gtol=tolerance, max_nfev=budget * (len(theta0) + 1))
     return result, scaling

@@ -253,11 +253,13 @@ def calibration_cases(data: Measurements, model: SensorModel, result: FitResult,
         if target_hot.any():
             case.target_heated = HeatedErrors(position_errors(cal, at_f.select(target_hot)), target_rise[target_hot])
         if len(hot_coil):
+            # Other alpha, beta on the same room-temperature sweep: the same valley, from the calibration's solution.
+            start = {name: cal.fit.values[name] for name in _CALIBRATED}
             plain = calibrate(sweep, model.sensor, n_points=n_points, fixed={**held, "alpha": 0.0, "beta": 0.0},
-                              effects=model.effects)
+                              effects=model.effects, start=start)
             compensated = cal
             if eq4 is not None:
-                compensated = calibrate(sweep, model.sensor, n_points=n_points, effects=model.effects,
+                compensated = calibrate(sweep, model.sensor, n_points=n_points, effects=model.effects, start=start,
                                         fixed={**held, "alpha": eq4.alpha_per_k, "beta": eq4.beta_per_k2})
                 case.compensation_method = eq4.method
             case.coil_compensated = HeatedErrors(position_errors(compensated, hot_coil), hot_coil_rise)
