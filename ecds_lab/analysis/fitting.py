@@ -513,6 +513,29 @@ def _result(model: SensorModel, data: Measurements, solved: tuple[Any, Scaling],
                      jacobian / np.asarray(scaling.scale, float) if k else jacobian)
 
 
+@dataclass(frozen=True)
+class _NormalEigen:
+    """The column-normalised k x k normal matrix of a Jacobian, eigen-decomposed: its directions the data
+    constrain (``kept``) and those they leave open (``tiny``, relative eigenvalue <= 1e-14; a column of zeros is
+    ``dead``)."""
+
+    norms: np.ndarray
+    dead: np.ndarray
+    eigenvalues: np.ndarray
+    vectors: np.ndarray
+    tiny: np.ndarray
+
+    @classmethod
+    def of(cls, jac: np.ndarray) -> _NormalEigen:
+        norms = np.sqrt(np.einsum("ij,ij->j", jac, jac))
+        dead = ~(norms > 0)
+        norms = np.where(dead, 1.0, norms)
+        eigenvalues, vectors = np.linalg.eigh((jac.T @ jac) / np.outer(norms, norms))
+        top = eigenvalues.max(initial=0.0)
+        tiny = eigenvalues <= top * 1e-14 if top > 0 else np.ones_like(eigenvalues, bool)
+        return cls(norms, dead, eigenvalues, vectors, tiny)
+
+
 def _covariance(jac: np.ndarray, residuals: np.ndarray, dof: int) -> np.ndarray:
     """s^2 (J^T J)^-1 from the eigen-decomposition of the column-normalised k x k normal matrix (no SVD
     of the tall n x k Jacobian). Directions the data do not constrain give infinite variance to the
@@ -523,19 +546,38 @@ def _covariance(jac: np.ndarray, residuals: np.ndarray, dof: int) -> np.ndarray:
     if dof <= 0:
         return np.full((k, k), np.inf)
     s2 = float(residuals @ residuals) / dof
-    norms = np.sqrt(np.einsum("ij,ij->j", jac, jac))
-    dead = ~(norms > 0)
-    norms = np.where(dead, 1.0, norms)
-    normal = (jac.T @ jac) / np.outer(norms, norms)
-    eigenvalues, vectors = np.linalg.eigh(normal)
-    top = eigenvalues.max(initial=0.0)
-    tiny = eigenvalues <= top * 1e-14 if top > 0 else np.ones_like(eigenvalues, bool)
-    kept = vectors[:, ~tiny]
-    cov = (kept / eigenvalues[~tiny]) @ kept.T / np.outer(norms, norms)
-    unconstrained = dead | (np.abs(vectors[:, tiny]) > 0.01).any(axis=1)
+    e = _NormalEigen.of(jac)
+    kept = e.vectors[:, ~e.tiny]
+    cov = (kept / e.eigenvalues[~e.tiny]) @ kept.T / np.outer(e.norms, e.norms)
+    unconstrained = e.dead | (np.abs(e.vectors[:, e.tiny]) > 0.01).any(axis=1)
     cov[unconstrained, :] = np.inf
     cov[:, unconstrained] = np.inf
     return s2 * cov
+
+
+def combination_stderr(fit: FitResult, gradient: Mapping[str, float]) -> float:
+    """Standard error of sum_i g_i p_i over the fit's free parameters (``gradient``: g by name): finite whenever
+    the data determine the combination, even where they leave its parameters open one by one (an estimable
+    function: g has no share in a direction the data leave open; a share above 1 % of it gives inf). Judging
+    the combination itself, not the per-parameter covariance, keeps the answer from flipping with rounding
+    when a direction it does not use sits at the rank threshold."""
+    g = np.array([gradient.get(name, 0.0) for name in fit.free_names], float)
+    if not g.any():
+        return math.inf
+    if fit.jacobian is None or fit.dof <= 0:
+        with np.errstate(invalid="ignore", over="ignore"):
+            variance = float(g @ fit.covariance @ g)
+        return math.sqrt(variance) if math.isfinite(variance) and variance >= 0 else math.inf
+    e = _NormalEigen.of(fit.jacobian)
+    if (g[e.dead] != 0).any():
+        return math.inf
+    scaled = g / e.norms
+    along = e.vectors.T @ scaled
+    if float(along[e.tiny] @ along[e.tiny]) > 1e-4 * float(scaled @ scaled):
+        return math.inf
+    effective = fit.effective_residuals_ppm
+    s2 = float(effective @ effective) / fit.dof
+    return math.sqrt(s2 * float(np.sum(along[~e.tiny] ** 2 / e.eigenvalues[~e.tiny])))
 
 
 def _finite_or_none(value: float) -> float | None:

@@ -9,7 +9,7 @@ import numpy as np
 from scipy import stats
 
 from ecds_lab.analysis.diagnosis.result import DISPLAY_UNITS, Candidate
-from ecds_lab.analysis.fitting import FitResult
+from ecds_lab.analysis.fitting import FitResult, combination_stderr
 from ecds_lab.analysis.noise import NoiseEstimate
 from ecds_lab.data.measurements import Measurements
 
@@ -137,8 +137,9 @@ def joint_wald(candidate: Candidate, keys: tuple[str, ...]) -> float:
 
 
 def signature_spread(candidate: Candidate) -> float | None:
-    """Standard error of the ln of the effect's signature quantity (``Effect.signature``) from the fit's covariance
-    (inf when none of its parameters is free), or None for an effect without one."""
+    """Standard error of the ln of the effect's signature quantity (``Effect.signature``), judged as the one
+    combination of parameters it is (``fitting.combination_stderr``: inf when the data leave it open), or None for
+    an effect without one."""
     effect = candidate.effect_object
     if candidate.fit_data is None:
         return None
@@ -146,13 +147,7 @@ def signature_spread(candidate: Candidate) -> float | None:
     if shown is None:
         return None
     _, slopes = shown
-    names = candidate.fit.free_names
-    gradient = np.array([slopes.get(name, 0.0) for name in names])
-    if not gradient.any():
-        return math.inf
-    with np.errstate(invalid="ignore", over="ignore"):  # a singular fit's covariance holds inf or nan: undetermined
-        variance = float(gradient @ candidate.fit.covariance @ gradient)
-    return math.sqrt(variance) if math.isfinite(variance) and variance >= 0 else math.inf
+    return combination_stderr(candidate.fit, slopes)
 
 
 def _factor(spread: float) -> str:
