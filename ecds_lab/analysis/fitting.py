@@ -39,6 +39,7 @@ from ecds_lab.analysis.blas_threads import one_blas_thread
 from ecds_lab.analysis.cluster_errors import cluster_robust_covariance
 from ecds_lab.analysis.heap import retain_freed_memory
 from ecds_lab.analysis.noise import REPEATED, NoiseEstimate, estimate_noise
+from ecds_lab.analysis.subsample import screened
 from ecds_lab.analysis.tall_svd import tall_svd
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.data.sensor import SensorConfig
@@ -434,7 +435,7 @@ def _restarts_on_sample(model: SensorModel, data: Measurements, best: tuple[Any,
     there (by ``_SEARCH_GAIN`` of the cost) polished on every reading, kept if lower there too. Which valley is
     deepest shows on tens of thousands of readings as on all; a full solve per start cost seconds at 10^5 readings
     and minutes at 10^6. Also the number of solves."""
-    sample = data.select(np.sort(np.random.default_rng(0).choice(len(data), _SEARCH_ROWS, replace=False)))
+    sample = screened(data, _SEARCH_ROWS)
     result, scaling = best
     incumbent = _solve(model, sample, update(scaling.parameters, values=scaling.values(result.x)), None, screening)
     winner = incumbent

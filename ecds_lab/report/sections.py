@@ -24,6 +24,7 @@ from ecds_lab.analysis.quantities import (
     model_fails,
     parameter_rows,
 )
+from ecds_lab.analysis.subsample import random_rows
 from ecds_lab.analysis.summary import (
     CALIBRATIONS_FROM_FIT,
     CalibrationCase,
@@ -33,6 +34,7 @@ from ecds_lab.analysis.summary import (
     temperature_stability_top_step,
     ts_key,
 )
+from ecds_lab.data.measurements import Measurements
 from ecds_lab.data.sensor import DEFAULT_SENSOR_NOTE
 from ecds_lab.report import figures_model as fm
 from ecds_lab.report import figures_temperature as ft
@@ -231,11 +233,9 @@ def residual_section(findings: Findings) -> Parts:
                "colours show what it goes with."
                + (f" The {air} coil-in-air readings have no distance and are light grey where x is the colour."
                   if air else ""))
-    data, residuals = main.data, np.asarray(fit.residuals_ppm)
-    if len(data) > MAX_MAP_POINTS:  # the fit and its RMS are of every reading; the scatter shows a random share
-        shown = np.sort(np.random.default_rng(0).choice(len(data), MAX_MAP_POINTS, replace=False))
-        caption += f" {MAX_MAP_POINTS:,} of the {len(data):,} readings shown, at random."
-        data, residuals = data.select(shown), residuals[shown]
+    # the fit and its RMS are of every reading; the scatter shows a random share
+    data, (residuals,), shown = _shown_at_random(main.data, [np.asarray(fit.residuals_ppm)], MAX_MAP_POINTS)
+    caption += shown
     rows = fm.MAP_AXES
     return [Plot(fm.residual_map_row, (data, residuals, fit.noise_ppm, name, i == 0),
                  caption if i == len(rows) - 1 else "") for i, name in enumerate(rows)]
@@ -393,12 +393,22 @@ def _step_plot(diagnosis: Any, before: Any, after: Any) -> Html | Plot:
                f"{after.rmse_ppm:.1f} ppm, position error RMS {_step_error_text(before, noise)} → "
                f"{_step_error_text(after, noise)}. First panel: {fm.VARIABLES[variables[0]].label}, where the "
                f"residual changes most when {added} is added.")
-    if len(data) > MAX_STEP_POINTS:  # a scatter of every reading of a huge campaign only costs time
-        shown = np.sort(np.random.default_rng(0).choice(len(data), MAX_STEP_POINTS, replace=False))
-        caption += f" {MAX_STEP_POINTS:,} of the {len(data):,} readings shown, at random."
-        data, r0, r1 = data.select(shown), r0[shown], r1[shown]
+    # a scatter of every reading of a huge campaign only costs time
+    data, (r0, r1), shown = _shown_at_random(data, [r0, r1], MAX_STEP_POINTS)
+    caption += shown
     return Plot(fm.before_after, (data, r0, r1, added, variables, diagnosis.noise_ppm, _chain_label(before.effects)),
                 caption)
+
+
+def _shown_at_random(data: Measurements, arrays: list[np.ndarray], limit: int
+                     ) -> tuple[Measurements, list[np.ndarray], str]:
+    """At most ``limit`` readings for a scatter (and the same rows of ``arrays``), drawn at random
+    (``subsample.random_rows``), with the caption's note saying so ('' when every reading is shown)."""
+    if len(data) <= limit:
+        return data, arrays, ""
+    rows = random_rows(len(data), limit)
+    return (data.select(rows), [a[rows] for a in arrays],
+            f" {limit:,} of the {len(data):,} readings shown, at random.")
 
 
 def _step_params(step: Any, title: str) -> Html:

@@ -49,16 +49,6 @@ def check_held_out(candidate: Candidate, base_cv: float | None, folds: np.ndarra
                                   f"(needs {HELD_OUT_CHI2:g})")
 
 
-def screened(data: Measurements, limit: int) -> Measurements:
-    """The data themselves, or a random subsample of ``limit`` readings (fixed seed, time order kept):
-    every position, frequency and phase stays represented, which a fixed stride through sweeps of
-    equal length would not guarantee."""
-    if len(data) <= limit:
-        return data
-    rows = np.sort(np.random.default_rng(0).choice(len(data), limit, replace=False))
-    return data.select(rows)
-
-
 def folds_of(data: Measurements) -> np.ndarray | None:
     """Fold number per row: blocks of neighbouring readings (a phase's readings in one band of distance,
     or a stretch of time for the coil in air) dealt to the folds at random; None if too few readings.

@@ -47,7 +47,7 @@ from ecds_lab.analysis.diagnosis.checks import (
 )
 from ecds_lab.analysis.diagnosis.drift import gain_beside_drift
 from ecds_lab.analysis.diagnosis.explanation import explain
-from ecds_lab.analysis.diagnosis.held_out import SCREEN_ROWS, check_held_out, cv_rmse, folds_of, screened
+from ecds_lab.analysis.diagnosis.held_out import SCREEN_ROWS, check_held_out, cv_rmse, folds_of
 from ecds_lab.analysis.diagnosis.identifiability import (
     ReleasedModel,
     absorbed,
@@ -61,6 +61,7 @@ from ecds_lab.analysis.diagnosis.verdict import ADEQUATE_RATIO, STRUCTURE_SIGNIF
 from ecds_lab.analysis.fitting import FitResult, fit_model
 from ecds_lab.analysis.noise import NoiseEstimate
 from ecds_lab.analysis.outliers import Outlier, describe, find_glitches
+from ecds_lab.analysis.subsample import screened
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.model.effects import EffectRegistry, library
@@ -209,9 +210,10 @@ def _run_diagnosis(data: Measurements, effects: Sequence[str], sensor: SensorCon
                                          noise.ppm * math.sqrt(max(noise.design_effect, 1.0)))
     structure = residual_structure(clean, final.fit.residuals_ppm, noise)
     if not limits and outside_library(final, noise, structure, associations):
-        _mark_partial(steps, clean, noise)
+        acting = _where_each_acts(steps, clean, noise)
+        _mark_partial(steps, clean, noise, acting)
         if any(a.variable == "time_s" for a in associations[:DRIFT_ASSOCIATIONS]):
-            _mark_drift(steps, clean, noise)
+            _mark_drift(steps, clean, noise, acting)
         partial += [[step.effects[-1]] for step in steps[1:]
                     if step.leaves_structure is not None or step.part_of_drift is not None]
     if len(steps) == 1 and len(undetermined) > 1:
@@ -237,7 +239,15 @@ def diagnose(data: Measurements, effects: Sequence[str] = (), sensor: SensorConf
     return run_diagnosis(data, effects, sensor, registry=registry, candidates=candidates).to_json()
 
 
-def _mark_partial(steps: list[Step], data: Measurements, noise: NoiseEstimate) -> None:
+def _where_each_acts(steps: list[Step], data: Measurements, noise: NoiseEstimate) -> list[np.ndarray]:
+    """Per step after the first, the readings where its effect acts: those whose prediction it moved by
+    SIGNATURE_SHARE of their noise."""
+    threshold = SIGNATURE_SHARE * noise.sigma_ppm(data)
+    predictions = [step.fit.predict(data) for step in steps]
+    return [np.abs((prediction / previous - 1) * 1e6) >= threshold for previous, prediction in pairwise(predictions)]
+
+
+def _mark_partial(steps: list[Step], data: Measurements, noise: NoiseEstimate, acting: list[np.ndarray]) -> None:
     """With a residual outside the library left at the end, an effect claimed on the way that leaves structure
     beyond chance where it acts (the readings whose prediction it moved by SIGNATURE_SHARE of the noise), at
     least PARTIAL_SHARE of what it took (its chi-square gain), only took a part of what the library does not
@@ -245,14 +255,11 @@ def _mark_partial(steps: list[Step], data: Measurements, noise: NoiseEstimate) -
     that took nearly all of what lives where it acts (moisture drying written another way) stays claimed.
     Structure the same states show where the effect does not act is not the effect's to leave
     (``beyond_idle_states``): a metal object's bump in x, cold and hot alike, is no part a bending missed.
-    Tie representatives stay as they are."""
+    Tie representatives stay as they are. ``acting``: where each step's effect acts (``_where_each_acts``)."""
     final = steps[-1].fit.residuals_ppm
-    threshold = SIGNATURE_SHARE * noise.sigma_ppm(data)
-    predictions = [step.fit.predict(data) for step in steps]
-    for (before, step), (previous, prediction) in zip(pairwise(steps), pairwise(predictions), strict=True):
+    for (before, step), acts in zip(pairwise(steps), acting, strict=True):
         if step.stands_for:
             continue
-        acts = np.abs((prediction / previous - 1) * 1e6) >= threshold
         left = residual_structure(data, beyond_idle_states(data, final, acts), noise, rows=acts)
         if left.beyond(STRUCTURE_SIGNIFICANCE) and left.excess_chi2 > PARTIAL_SHARE * step.added_from(before).chi2_gain:
             step.leaves_structure = left.significance
@@ -273,7 +280,7 @@ def beyond_idle_states(data: Measurements, residual: np.ndarray, acts: np.ndarra
     return np.where(acts, residual - shared[state], residual)
 
 
-def _mark_drift(steps: list[Step], data: Measurements, noise: NoiseEstimate) -> None:
+def _mark_drift(steps: list[Step], data: Measurements, noise: NoiseEstimate, acting: list[np.ndarray]) -> None:
     """With the final residual drifting in time (outside the library, time among its leading associations), an
     effect claimed on the way that keeps less than PARTIAL_SHARE of its gain once a slow drift of every reading is
     read where it does not act is taken out (``drift.gain_beside_drift``) may be a part of the drift: it is not
@@ -281,14 +288,10 @@ def _mark_drift(steps: list[Step], data: Measurements, noise: NoiseEstimate) -> 
     and keeps its gain; a bending fitted to the offset of a hot sweep that the readings in air around it show as
     well does not (validation study case 141)."""
     residuals = [whitened(_residuals_on(step, data), data, noise) for step in steps]
-    predictions = [step.fit.predict(data) for step in steps]
-    threshold = SIGNATURE_SHARE * noise.sigma_ppm(data)
-    for (step, (r_before, r_after), (previous, prediction)) in zip(steps[1:], pairwise(residuals),
-                                                                   pairwise(predictions), strict=True):
+    for step, (r_before, r_after), acts in zip(steps[1:], pairwise(residuals), acting, strict=True):
         if step.stands_for or step.leaves_structure is not None:
             continue
         gain = float(r_before @ r_before - r_after @ r_after)
-        acts = np.abs((prediction / previous - 1) * 1e6) >= threshold
         kept = gain_beside_drift(data, r_before, r_after, acts) if gain > 0 else None
         if kept is not None and kept < PARTIAL_SHARE * gain:
             step.part_of_drift = kept / gain
