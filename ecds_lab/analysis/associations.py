@@ -8,7 +8,9 @@ The frequency itself is scored on the offsets between frequencies, every other v
 residual within each frequency. Variables that only count along a campaign (time, the coil's
 temperature rate) are scored on the variation within each phase (``analysis.phases``): the
 differences between phases are what the set-up did in between, and the state variables (x,
-temperatures, direction) are the ones to explain them.
+temperatures, direction) are the ones to explain them. Given how well the noise is known (``uncertainty``:
+``NoiseEstimate.variance_shares``), the significance leaves a margin for the noise estimate's own scatter
+(``analysis.noise_margin``).
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ecds_lab.analysis.noise_margin import loadings, significance
 from ecds_lab.analysis.phases import phase_labels, within_phase
 from ecds_lab.data.columns import VARIABLES, Variable
 from ecds_lab.data.measurements import Measurements
@@ -117,8 +120,11 @@ def _describe(variable: Variable, data: Measurements, values: np.ndarray, r: np.
     return "residual changes by " + text
 
 
-def residual_associations(data: Measurements, residuals_ppm: np.ndarray, noise_ppm: float) -> list[Association]:
-    """Score every variable by how much of the residual it explains; strongest first.
+def residual_associations(data: Measurements, residuals_ppm: np.ndarray, noise_ppm: float,
+                          uncertainty: tuple[np.ndarray, np.ndarray] | None = None) -> list[Association]:
+    """Score every variable by how much of the residual it explains; strongest first. ``uncertainty``: each
+    reading's shares in the noise estimates and their degrees of freedom (``NoiseEstimate.variance_shares``);
+    without it the noise is taken as known.
 
     Time runs along the whole campaign, so a residual that lives in time (a drift of the bridge's gain) is
     partly explained by whatever state changed along the campaign (the coil heated last), and the other way
@@ -130,7 +136,7 @@ def residual_associations(data: Measurements, residuals_ppm: np.ndarray, noise_p
     and a coil temperature that wandered 0.1 K with the room is no more than a clock (case 27).
     ``significance`` stays each variable's own."""
     full = np.asarray(residuals_ppm, float)
-    scorer = _Scorer(data, full, noise_ppm)
+    scorer = _Scorer(data, full, noise_ppm, uncertainty)
     out = [scorer.association(variable, full) for variable in VARIABLES.values()]
     ranked = sorted(out, key=lambda a: -(a.score / TIME_MARGIN if a.variable == "time_s" else a.score))
     time = next(a for a in ranked if a.variable == "time_s")
@@ -154,8 +160,12 @@ def residual_associations(data: Measurements, residuals_ppm: np.ndarray, noise_p
 class _Scorer:
     """The bin-means statistic of each variable on a residual (per frequency; time-like variables within phases)."""
 
-    def __init__(self, data: Measurements, full: np.ndarray, noise_ppm: float) -> None:
+    def __init__(self, data: Measurements, full: np.ndarray, noise_ppm: float,
+                 uncertainty: tuple[np.ndarray, np.ndarray] | None = None) -> None:
         self.data, self.noise_ppm = data, noise_ppm
+        empty = (np.zeros((len(data), 0)), np.zeros(0))
+        self.shares: np.ndarray = (uncertainty or empty)[0]
+        self.dof: np.ndarray = (uncertainty or empty)[1]
         self.frequencies = [data.freq_hz == f for f in np.unique(data.freq_hz)]
         self.total = float(np.sum((full - full.mean()) ** 2)) or 1.0
         self.within = sum(float(np.sum((full[g] - full[g].mean()) ** 2)) for g in self.frequencies) or 1.0
@@ -173,17 +183,20 @@ class _Scorer:
         values = variable.values(data)
         r = within_phase(full, self.labels, data.freq_hz) if variable.name in WITHIN_PHASE else full
         between, dof = 0.0, 0
+        loads = np.zeros(len(self.dof))
         groups = [np.ones(len(r), bool)] if variable.name == "freq_hz" else self.frequencies
         for rows, index, bins in _binned(values, variable.categorical, groups):
             if bins < 2:
                 continue
             energy, groups_dof = _between(r[rows], index, bins)
             between, dof = between + energy, dof + groups_dof
-        # Under pure noise, between / noise^2 is chi-square with dof degrees of freedom.
+            # bin means about the group's mean: each estimate's loading less its mean share over the group
+            loads += loadings(index, self.shares[rows]) - self.shares[rows].mean(axis=0)
+        # Under pure noise of a known size, between / noise^2 is chi-square with dof degrees of freedom.
         explained = max(0.0, between - dof * noise_ppm**2)
-        significance = (between / noise_ppm**2 - dof) / np.sqrt(2 * dof) if dof and noise_ppm > 0 else 0.0
+        beyond = significance(between / noise_ppm**2, dof, loads, self.dof) if dof and noise_ppm > 0 else 0.0
         # Frequency is scored against all the residual, every other variable against what is
         # left within each frequency (an offset between frequencies is the frequency's to explain).
         score = min(1.0, explained / (self.total if variable.name == "freq_hz" else self.within))
         return Association(variable.name, round(score, 4), _describe(variable, data, values, r),
-                           round(float(significance), 1))
+                           round(float(beyond), 1))

@@ -66,6 +66,15 @@ class Positioning:
         return self.from_data_m if has_data and self.dof >= MIN_REVISIT_DOF else 0.0
 
     @property
+    def variance_dof(self) -> float:
+        """Effective degrees of freedom of ``sigma_m``'s square: the revisits' plus the prior's where both are
+        pooled, the revisits' alone, or infinite for a declared figure taken as stated (a GUM type-B component)."""
+        has_data = self.dof > 0 and math.isfinite(self.from_data_m)
+        if self.declared_m > 0:
+            return DECLARED_DOF + self.dof if has_data else math.inf
+        return self.dof if self.sigma_m > 0 else math.inf
+
+    @property
     def source(self) -> str:
         """Where the figure used comes from, in words."""
         has_data = self.dof > 0 and math.isfinite(self.from_data_m)

@@ -96,22 +96,12 @@ def test_readings_of_one_visit_sharing_a_position_error_have_a_design_effect(fai
     assert shared_ratio > 2 * quiet.stderr["p1"] / independent.stderr["p1"]
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "open: the at-target classes are estimated about a local quadratic smooth of the baseline's residual, whose "
-    "~200 ppm of tau(x) a 7-reading smooth of a 9-point sweep cannot follow: 65 and 53 ppm at 500 Hz, 28 and 41 ppm "
-    "at 15 kHz beside 14-25 ppm from repeats in air, the final residual 0.88x the noise. Re-estimating those classes "
-    "on each claimed model (18-24 and 13-19 ppm; 1.01-1.03x) breaks "
-    "test_bridge_noise_larger_while_heating_is_found_per_phase_and_is_no_finding (structure at the final model 5.2 "
-    "sd with the old figures, 8.8 with the new, against 8) and the expansion_hysteresis case of "
-    "test_diagnosis_wider_world (a thermal_lag/parasitic_capacitance tie): on 16 positions the smooth's own scatter "
-    "is 12.6-25.8 ppm at the target against 15-22 ppm documented, and the structure test has no margin for it. "
-    "Standardising each remainder by its own leverage (a run's end reading is 0.49 sigma about the smooth, not "
-    "0.82) makes the heating test pass, but the tie stays, and the validation study gains a wrong claim"))
 def test_the_noise_at_the_target_is_not_the_structure_a_nine_position_sweep_leaves(field_config):
     """Nine positions, one reading each, no effect but the faithful lab's own: the baseline leaves ~200 ppm of
     tau(x) that a local quadratic over seven readings of a nine-point sweep cannot follow, so the noise about it
-    reads 2.5-4x the bridge's at the target. The diagnosis should report the bridge's noise there about as in air
-    (its noise does not change with the coil's place), and the final residual at the noise."""
+    reads 2.5-4x the bridge's at the target (47-68 ppm at 500 Hz beside 13-25 ppm from repeats in air). The
+    diagnosis judges the final model with those figures found on it: the bridge's noise at the target about as in
+    air (its noise does not change with the coil's place), and the final residual at the noise."""
     config = field_config(5)
     data = campaign.paper_campaign(config, seed=config.seed, positions_mm=tuple(np.linspace(20.0, 100.0, 9)),
                                    target_setpoints_c=(75, 130), coil_setpoints_c=(60.0, 100.0))

@@ -16,6 +16,9 @@
    refitted at the final model), or at ``max_steps`` (then said, with the effects left untested).
 3. Verdict (``verdict``): ``adequate``, ``missing_effect`` (effects claimed, or a residual the library
    does not explain and a flexible smooth finds structure in, with where it lives), ``inconclusive``.
+   The search judges candidates against the noise found on the start model; the final residual is judged
+   with the noise figures found about a smooth re-estimated on the final model (``noise.refreshed``), and
+   every structure test leaves a margin for the noise estimate's own uncertainty (``noise_margin``).
 
 Large campaigns are screened on a random subsample of readings; what is claimed is refitted on all
 readings and must pass the evidence, identifiability and plausibility checks there too (a claim that
@@ -59,7 +62,7 @@ from ecds_lab.analysis.diagnosis.result import Candidate, Diagnosis, Step
 from ecds_lab.analysis.diagnosis.structure import residual_structure
 from ecds_lab.analysis.diagnosis.verdict import ADEQUATE_RATIO, STRUCTURE_SIGNIFICANCE, outside_library, verdict_of
 from ecds_lab.analysis.fitting import FitResult, fit_model
-from ecds_lab.analysis.noise import NoiseEstimate
+from ecds_lab.analysis.noise import NoiseEstimate, refreshed
 from ecds_lab.analysis.outliers import Outlier, describe, find_glitches
 from ecds_lab.analysis.subsample import screened
 from ecds_lab.data.measurements import Measurements
@@ -205,15 +208,20 @@ def _run_diagnosis(data: Measurements, effects: Sequence[str], sensor: SensorCon
         claimed_cv = best.cv_rmse_ppm if refit is best.fit else None
         fresh = True
     final = steps[-1]
+    # The search judged every candidate against the noise found on the start model; the final model's residual is
+    # judged, and its noise reported, with the figures found about a smooth taken from the final model itself.
+    searched, noise = noise, refreshed(noise, final.fit.noise, clean)
     # Where the residual lives, each reading weighed by its noise, correlated readings counted as fewer.
     associations = residual_associations(clean, whitened(final.fit.residuals_ppm, clean, noise),
-                                         noise.ppm * math.sqrt(max(noise.design_effect, 1.0)))
+                                         noise.ppm * math.sqrt(max(noise.design_effect, 1.0)),
+                                         noise.variance_shares(clean))
     structure = residual_structure(clean, final.fit.residuals_ppm, noise)
     if not limits and outside_library(final, noise, structure, associations):
-        acting = _where_each_acts(steps, clean, noise)
-        _mark_partial(steps, clean, noise, acting)
+        # what each claim left is weighed against its gain, both in the noise the search measured the gain in
+        acting = _where_each_acts(steps, clean, searched)
+        _mark_partial(steps, clean, searched, acting)
         if any(a.variable == "time_s" for a in associations[:DRIFT_ASSOCIATIONS]):
-            _mark_drift(steps, clean, noise, acting)
+            _mark_drift(steps, clean, searched, acting)
         partial += [[step.effects[-1]] for step in steps[1:]
                     if step.leaves_structure is not None or step.part_of_drift is not None]
     if len(steps) == 1 and len(undetermined) > 1:

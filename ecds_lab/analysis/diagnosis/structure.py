@@ -6,7 +6,11 @@ frequency, direction, commanded distance (or the coil in air), target and coil t
 function of x, the temperatures and time within a phase would follow, these means follow as well; what
 they cannot follow is the scatter between readings of one state. For pure noise of the estimated size
 their energy (sum over states of count x mean^2, in noise variances) is chi-square with one degree of
-freedom per state; the excess, in standard deviations of that chi-square, is the ``significance``.
+freedom per state, were the noise known exactly. It is estimated, each phase class's figure from its own
+effective degrees of freedom, so the null mean and spread are widened by that estimate's own uncertainty
+(``analysis.noise_margin``): how far beyond chance the energy lies with that uncertainty counted, on the
+known-noise test's scale (chi-square standard deviations), is the ``significance``, and a noise figure
+estimated from few readings cannot by itself make structure.
 Readings are weighed by their own noise (``NoiseEstimate.sigma_ppm``) and the energy divided by the
 design effect (``NoiseEstimate.design_effect``: correlated readings count as fewer independent ones).
 The residual's size is judged the same way (``noise_ratio``: its RMS in units of each reading's own noise), so a
@@ -21,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ecds_lab.analysis.noise import NoiseEstimate
+from ecds_lab.analysis.noise_margin import loadings, null_moments, significance
 from ecds_lab.analysis.phases import phase_labels
 from ecds_lab.data.measurements import Measurements
 
@@ -32,7 +37,10 @@ TIME_BIN_S = 1800.0
 @dataclass(frozen=True)
 class ResidualStructure:
     """What a flexible smooth finds in a residual: its energy beyond chance (``excess_chi2``, in noise
-    variances, design effect applied), the states it used and how far beyond chance that is; and the residual's
+    variances, design effect applied, over the null mean with the noise estimate's uncertainty), the states it
+    used and how far beyond chance that is, that uncertainty counted (``noise_margin.significance``: on the
+    known-noise test's scale, standard deviations of a chi-square with one degree of freedom per state);
+    ``margin``: the factor by which the noise estimate's uncertainty widened the null's spread; and the residual's
     RMS in units of each reading's own noise (``noise_ratio``, 1 for a residual that is noise of the estimated
     size)."""
 
@@ -40,6 +48,7 @@ class ResidualStructure:
     states: int
     significance: float
     noise_ratio: float = math.nan
+    margin: float = 1.0
 
     def beyond(self, sigmas: float) -> bool:
         return self.significance > sigmas
@@ -47,7 +56,7 @@ class ResidualStructure:
     def to_json(self) -> dict[str, float | int | None]:
         ratio = round(self.noise_ratio, 3) if math.isfinite(self.noise_ratio) else None
         return {"excess_chi2": round(self.excess_chi2, 1), "states": self.states,
-                "significance": round(self.significance, 2), "noise_ratio": ratio}
+                "significance": round(self.significance, 2), "noise_ratio": ratio, "margin": round(self.margin, 3)}
 
 
 def state_labels(data: Measurements) -> np.ndarray:
@@ -71,14 +80,17 @@ def residual_structure(data: Measurements, residuals_ppm: np.ndarray, noise: Noi
         return ResidualStructure(0.0, 0, 0.0, 0.0)
     whitened = np.asarray(residuals_ppm, float) / noise.sigma_ppm(data)
     labels = state_labels(data)
+    shares, dof = noise.variance_shares(data)
     if rows is not None:
-        whitened, labels = whitened[rows], labels[rows]
+        whitened, labels, shares = whitened[rows], labels[rows], shares[rows]
         if not len(labels):
             return ResidualStructure(0.0, 0, 0.0, 0.0)
     counts = np.bincount(labels)
     sums = np.bincount(labels, weights=whitened)
     energy = float(np.sum(sums[counts > 0] ** 2 / counts[counts > 0])) / noise.design_effect
     states = int((counts > 0).sum())
-    excess = energy - states
+    loads = loadings(labels, shares)
+    mean, sd = null_moments(states, loads, dof)
     ratio = float(np.sqrt(np.mean(whitened**2)))
-    return ResidualStructure(max(excess, 0.0), states, excess / math.sqrt(2.0 * states), ratio)
+    return ResidualStructure(max(energy - mean, 0.0), states, significance(energy, states, loads, dof), ratio,
+                             sd / math.sqrt(2.0 * states))
