@@ -15,17 +15,15 @@ So the null mean and variance become
     mean = B + sum_k L_k (E[R_k] - 1),
     variance = 2B + sum_k 2 L_k (E[R_k^2] - 1) + sum_k L_k^2 var R_k
 
-(one estimate serving every bin: the F(B, m) distribution's, times B; to first order in 1/m, B + 2B/m and
-2B + 2B^2/m). The variance is infinite for m <= 4: such an estimate is counted as ``MIN_DOF`` (its bins can
-then hardly show structure). A ratio to an estimated variance has a heavier upper tail than a chi-square
-(a figure from 8 readings comes out at a tenth of the truth about once in 10^4), so ``significance`` reads the
-statistic's upper tail probability from B times an F(B, nu) distribution scaled to those two moments, and
-states it on the known-noise test's own scale: the excess, in standard deviations of chi-square(B), of the
-chi-square value with the same tail (with the noise known, exactly (statistic - B) / sqrt(2B), as before).
-A statistic judged against a figure from few readings needs more to stand out, and a figure that happens to
-come out low by its own scatter cannot by itself make a finding. The residual
-and its noise come from the same readings, which makes the two positively correlated under pure noise: the
-variance above is then an upper bound (a margin, not an exact law).
+(one estimate serving every bin: B times the F(B, m) distribution's; to first order in 1/m, B + 2B/m and
+2B + 2B^2/m, the relative standard error sqrt(2/m) of the estimate entering the spread). The variance is
+infinite for m <= 4: such an estimate is counted as ``MIN_DOF``. ``significance`` is the statistic's excess
+over that mean in standard deviations of that spread: with the noise known, (statistic - B) / sqrt(2B) as
+before, so the thresholds keep their meaning, and a figure that happens to come out low by its own scatter
+cannot by itself make a finding. The residual and its noise come from the same readings, which makes the two
+positively correlated under pure noise: the spread above is then an upper bound (a margin, not an exact law).
+The inverse chi-square's upper tail is heavier than a normal's, so beyond 8 of these standard deviations a
+figure of very few dof still leaves a small chance (8 dof: 0.07 %; 30 dof: none in 20,000 draws).
 """
 
 from __future__ import annotations
@@ -33,12 +31,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.special import chdtrc, chdtri, fdtrc
 
 #: Fewest degrees of freedom an estimate is counted with (the inverse chi-square's variance is infinite at 4).
 MIN_DOF = 5.0
-#: Tail probabilities below this are beyond what the quantile functions resolve.
-TINY = 1e-280
 
 
 def loadings(labels: np.ndarray, shares: np.ndarray) -> np.ndarray:
@@ -67,18 +62,9 @@ def null_moments(bins: float, loads: np.ndarray, dof: np.ndarray) -> tuple[float
 
 def significance(statistic: float, bins: float, loads: np.ndarray, dof: np.ndarray) -> float:
     """How far beyond chance the bin-means ``statistic`` (``bins`` degrees of freedom, the noise estimates'
-    ``loads`` and ``dof``) lies, on the known-noise test's scale (see the module docstring): the upper tail
-    probability under a scaled F matched to ``null_moments``, as the chi-square(bins) excess with that tail
-    in its standard deviations. Beyond the tails double precision holds, the moments' own standardised excess."""
+    ``loads`` and ``dof``) lies: its excess over the null mean in standard deviations of the null, the noise
+    estimates' uncertainty counted (``null_moments``)."""
     if not bins > 0:
         return 0.0
     mean, sd = null_moments(bins, loads, dof)
-    spread = sd * sd * bins / (2.0 * mean * mean)  # 1 for a chi-square(bins) scaled to its mean
-    if spread <= 1.0 + 1e-9:
-        tail = float(chdtrc(bins, statistic * bins / mean))
-    else:
-        nu = (bins - 2.0 + 4.0 * spread) / (spread - 1.0)
-        tail = float(fdtrc(bins, nu, max(statistic, 0.0) / (mean * (nu - 2.0) / nu)))
-    if not TINY < tail < 1.0:
-        return (statistic - mean) / sd
-    return (float(chdtri(bins, tail)) - bins) / math.sqrt(2.0 * bins)
+    return (statistic - mean) / sd if sd > 0 else 0.0

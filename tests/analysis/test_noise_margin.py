@@ -57,7 +57,8 @@ def test_pure_noise_judged_against_a_noise_from_few_readings_makes_no_structure(
     """300 states of 2 readings of pure noise, half read against one estimated noise and half against another,
     each from ``dof`` degrees of freedom. Taken as exact, the noise's own scatter alone puts the bin-means statistic
     many of its standard deviations beyond chance (a figure that came out low by chance is a "finding"); with the
-    margin it is beyond chance about as often as a chi-square of known noise is."""
+    margin it has about a standard normal's spread, and the structure test's 8 is out of reach but for the
+    inverse chi-square's heavy tail at very few dof (8 dof: 0.07 % in 20,000 draws, 30 dof: none)."""
     rng = np.random.default_rng(3)
     states, per_state = 300, 2
     labels = np.repeat(np.arange(states), per_state)
@@ -74,12 +75,12 @@ def test_pure_noise_judged_against_a_noise_from_few_readings_makes_no_structure(
         margin.append(significance(energy, states, loads, estimates))
     plain, margin = np.array(plain), np.array(margin)
     assert abs(float(np.median(margin))) < 0.3
-    assert np.mean(margin > 3.0) < 0.01  # a known-noise chi-square(300): 0.3 %
-    assert np.mean(plain > 3.0) > 0.1
-    # the structure test's 8 sd: a noise figure's own scatter crosses it without the margin, not with it
-    assert margin.max() < 8.0
-    if dof < 10:
-        assert np.mean(plain > 8.0) > 0.01
+    assert float(np.std(margin)) == pytest.approx(1.0, abs=0.15)
+    assert np.mean(margin > 3.0) < 0.025
+    assert np.mean(plain > 3.0) > 0.15
+    # the structure test's 8 sd: a noise figure's own scatter crosses it often without the margin, not with it
+    assert np.mean(margin > 8.0) < 0.002
+    assert np.mean(plain > 8.0) > (0.1 if dof < 10 else 0.01)
     assert sd > 2 * math.sqrt(2 * states) and mean > states
 
 
