@@ -169,7 +169,7 @@ def plan_next(result: Diagnosis, registry: EffectRegistry, station: StationConfi
     if not rivals:  # e.g. an undetermined size no two sizes of which the campaign leaves as rivals
         reasons = [decided.get(i, questions[i].text) for i in designable]
         return NextPlan(questions, {}, [], {}, None, "no open question has rival models to design for: "
-                        + "; ".join(reasons), asked, [], result.data, result.noise, decided)
+                        + "; ".join(reasons), asked, [], result.data, result.evidence_noise, decided)
     candidates, refused = station_candidates(result.data, station, None, done)
     room = room_temperature_c(result.data)
     scored = []
@@ -179,7 +179,7 @@ def plan_next(result: Diagnosis, registry: EffectRegistry, station: StationConfi
         if not len(planned):
             refused[candidate.name] = "takes no readings"
             continue
-        separations = {i: question_separations(questions[i].kind, rs, result.data, planned, result.noise)
+        separations = {i: question_separations(questions[i].kind, rs, result.data, planned, result.evidence_noise)
                        for i, rs in rivals.items()}
         decides = sum(min(max(decisive(s), 0.0), DECISIVE_CHI2) / DECISIVE_CHI2 for s in separations.values())
         scored.append(Scored(candidate, separations, decides, decides / (candidate.hours + SETUP_HOURS),
@@ -210,7 +210,7 @@ def plan_next(result: Diagnosis, registry: EffectRegistry, station: StationConfi
     else:
         chosen, why = None, "the station can do no candidate experiment within the time allowed"
     return NextPlan(questions, rivals, scored, refused, chosen, why, asked, unanswerable, result.data,
-                    result.noise, decided)
+                    result.evidence_noise, decided)
 
 
 def _nothing_to_design(questions: list[OpenQuestion]) -> str:

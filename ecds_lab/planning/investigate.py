@@ -57,12 +57,12 @@ def _diagnose(files: Sequence[Path], registry: EffectRegistry) -> tuple[Diagnosi
 
 def _measured(plan: NextPlan, result: Diagnosis) -> dict[str, Any] | None:
     """The chosen question's rivals refitted to the joined campaign: their chi-squares and the measured Delta
-    chi-square between the best and the next (in the new diagnosis's noise model)."""
+    chi-square between the best and the next (in the new diagnosis's evidence noise, the units of the prediction)."""
     index = plan.main_question
     if index is None:
         return None
-    fits = measured_fits(plan.rivals[index], result.data, result.noise)
-    chi2 = {label: chi2_of(fit, result.noise) for label, fit in fits.items()}
+    fits = measured_fits(plan.rivals[index], result.data, result.evidence_noise)
+    chi2 = {label: chi2_of(fit, result.evidence_noise) for label, fit in fits.items()}
     ordered = sorted(chi2.items(), key=lambda item: item[1])
     winner, best = ordered[0]
     runner_up = ordered[1][1] if len(ordered) > 1 else best

@@ -74,8 +74,8 @@ def fitted_rival(label: str, effects: Sequence[str], result: Diagnosis, registry
     model = ReleasedModel(result.final.fit.model.sensor, list(effects), registry, frozenset(result.released))
     names = {p.name for p in model.parameters()}
     start = {k: v for k, v in start.items() if k in names}
-    fit = weighted_fit(model, result.data, result.noise, start, held)
-    return Rival(label, tuple(effects), model, fit.values, chi2_of(fit, result.noise), dict(held or {}))
+    fit = weighted_fit(model, result.data, result.evidence_noise, start, held)
+    return Rival(label, tuple(effects), model, fit.values, chi2_of(fit, result.evidence_noise), dict(held or {}))
 
 
 def effect_start(result: Diagnosis, effect: str) -> dict[str, float]:

@@ -146,6 +146,14 @@ class Diagnosis:
     released: dict[str, str] = field(default_factory=dict)
     #: The flexible smooth of the final residual (``structure.ResidualStructure``).
     structure: ResidualStructure | None = None
+    #: The noise the search judged every candidate's evidence against (found on the start model); ``noise`` is the
+    #: one the final model is judged and reported with (``noise.refreshed``). None: the same as ``noise``.
+    searched_noise: NoiseEstimate | None = None
+
+    @property
+    def evidence_noise(self) -> NoiseEstimate:
+        """The noise chi-square gains between candidate models are stated in: the search's (``searched_noise``)."""
+        return self.searched_noise if self.searched_noise is not None else self.noise
 
     @property
     def noise_ppm(self) -> float:

@@ -230,7 +230,8 @@ def _run_diagnosis(data: Measurements, effects: Sequence[str], sensor: SensorCon
     verdict = verdict_of(steps, effects, noise, structure, alternatives, untestable, limits, associations)
     result = Diagnosis(clean, effects, noise, steps, associations, verdict, "", outliers, alternatives, [],
                        untestable, base_cv, limits, untested, partial, undetermined,
-                       {name: "the data determine it (see docs/diagnosis.md)" for name in released}, structure)
+                       {name: "the data determine it (see docs/diagnosis.md)" for name in released}, structure,
+                       searched)
     result.suggested_measurements = suggestions(result, registry)
     result.explanation = explain(result, registry)
     return result
