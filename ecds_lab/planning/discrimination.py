@@ -18,16 +18,18 @@ any experiment; what an experiment can do is show it if it is there.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
+from ecds_lab.analysis.diagnosis import Diagnosis
 from ecds_lab.analysis.fitting import FitResult
 from ecds_lab.analysis.noise import NoiseEstimate
 from ecds_lab.data.measurements import Measurements
+from ecds_lab.model.effects import EffectRegistry
 from ecds_lab.planning.calibration_change import absorbed_fit
-from ecds_lab.planning.rivals import Rival, chi2_of, weighted_fit
+from ecds_lab.planning.rivals import Rival, chi2_of, joined_fit, weighted_fit
 
 #: Delta chi-square (noise variances) that decides: the diagnosis's evidence threshold (docs/diagnosis.md).
 DECISIVE_CHI2 = 25.0
@@ -101,8 +103,25 @@ def expected(separations: list[Separation], truth: str) -> float | None:
 
 
 def measured_fits(rivals: list[Rival], campaign: Measurements, noise: NoiseEstimate) -> dict[str, FitResult]:
-    """Each rival refitted (noise-weighted, nothing held) to the joined campaign: label -> its fit."""
+    """Each rival alone refitted (noise-weighted, nothing held) to the joined campaign: label -> its fit. Kept
+    beside ``joined_fits``: where the joined campaign needs an effect neither rival holds, both pay for it and
+    their difference measures that shared misfit more than the question (docs/planning.md, investigate)."""
     return {r.label: weighted_fit(r.model, campaign, noise, r.values) for r in rivals}
+
+
+def joined_fits(rivals: list[Rival], question: Sequence[str], joined: Diagnosis,
+                registry: EffectRegistry) -> dict[str, FitResult]:
+    """Each rival refitted to the joined campaign with what its diagnosis needs beyond the ``question``'s effects
+    (``rivals.joined_fit``): label -> its fit. The measured separation is the difference of their chi-squares."""
+    return {r.label: joined_fit(r, question, joined, registry) for r in rivals}
+
+
+def measured_separation(fits: Mapping[str, FitResult], noise: NoiseEstimate) -> tuple[str, float, dict[str, float]]:
+    """The rival that fits best, its lead over the next (noise variances) and every rival's chi-square."""
+    chi2 = {label: chi2_of(fit, noise) for label, fit in fits.items()}
+    ordered = sorted(chi2.values())
+    winner = min(chi2, key=chi2.__getitem__)
+    return winner, (ordered[1] if len(ordered) > 1 else ordered[0]) - ordered[0], chi2
 
 
 def at_measured_size(truth: Rival, rival: Rival, measured: Mapping[str, float], campaign: Measurements,

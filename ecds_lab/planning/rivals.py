@@ -136,6 +136,22 @@ def size_rivals(result: Diagnosis, effect: str, registry: EffectRegistry) -> lis
     return []
 
 
+def joined_fit(rival: Rival, question: Sequence[str], joined: Diagnosis, registry: EffectRegistry) -> FitResult:
+    """``rival`` refitted (noise-weighted, nothing held) to a joined campaign together with what that campaign's
+    diagnosis needs beyond the question: the effects of its final model the question is not about, and the
+    baseline parameters it found determined. So the rivals differ only by their hypotheses, and neither pays for
+    a misfit both share (docs/planning.md, investigate). The better of two starts: the rival's values over the
+    joined model's, and the reverse."""
+    needs = [name for name in joined.final.effects if name not in question and name not in rival.effects]
+    released = frozenset(getattr(rival.model, "released", frozenset())) | frozenset(joined.released)
+    model = ReleasedModel(joined.final.fit.model.sensor, [*rival.effects, *needs], registry, released)
+    names = {p.name for p in model.parameters()}
+    found = joined.final.fit.values
+    fits = [weighted_fit(model, joined.data, joined.noise, {k: v for k, v in start.items() if k in names})
+            for start in ({**rival.values, **found}, {**found, **rival.values})]
+    return min(fits, key=lambda fit: chi2_of(fit, joined.noise))
+
+
 def nested_rivals(result: Diagnosis, effect: str, registry: EffectRegistry, *, hypothetical: bool) -> list[Rival]:
     """The final model without ``effect`` and with it (fitted, or ``hypothetical``: held at a plausible size)."""
     base = list(result.final.effects)

@@ -11,13 +11,13 @@ from pathlib import Path
 import pytest
 import yaml
 
-from ecds_lab.analysis.diagnosis import run_diagnosis
+from ecds_lab.analysis.diagnosis import Diagnosis, run_diagnosis
 from ecds_lab.cli import main
 from ecds_lab.config.loading import parse_yaml, read_text, validate
 from ecds_lab.config.station import StationConfig
 from ecds_lab.model.effects import library
 from ecds_lab.planning.choice import NextPlan, plan_next, write_experiment
-from ecds_lab.planning.discrimination import expected, measured_fits
+from ecds_lab.planning.discrimination import expected, joined_fits, measured_fits, measured_separation
 from ecds_lab.planning.rivals import chi2_of
 from ecds_lab.runner.session import run_experiment
 from ecds_lab.storage.data_file import open_campaign
@@ -106,35 +106,82 @@ def test_plan_next_names_the_experiment_a_physicist_would_choose(case, started):
     assert PHYSICIST[case](plan.chosen.candidate.settings()), plan.chosen.candidate.what
 
 
+_AFTER: dict[tuple[Path, ...], Diagnosis] = {}
+
+
+def diagnosed_after(station: Path, run: Path, folder: Path) -> tuple[NextPlan, Diagnosis]:
+    """The plan, run on the station, and the joined campaign's diagnosis (once per campaign in a session)."""
+    plan = planned(station, [run])
+    assert plan.chosen is not None and plan.decides, plan.why
+    key = (station, run)
+    if key not in _AFTER:
+        experiment = write_experiment(plan, folder / "next.yaml")
+        result = run_experiment(experiment, station, folder / "next.h5", progress=False)
+        assert result.status == "completed", result.error
+        opened = open_campaign([run, folder / "next.h5"])
+        _AFTER[key] = run_diagnosis(opened.data, (), opened.sensor)
+    return plan, _AFTER[key]
+
+
+def predicted_for(plan: NextPlan, winner: str, values: dict[str, float]) -> tuple[float | None, float | None]:
+    """The prediction the choice was made on had ``winner`` been the truth (at a nested rival's hypothetical size),
+    and the figure the measured separation is held to: the same T-criterion at the size the run measured when the
+    winner supposed one."""
+    index = plan.main_question
+    assert plan.chosen is not None and index is not None
+    as_planned = expected(plan.chosen.separations[index], winner)
+    at_size = plan.predicted_at_measured_size(winner, values)
+    return as_planned, as_planned if at_size is None else at_size
+
+
 @pytest.mark.parametrize("case", [
     "a",
     pytest.param("b", marks=pytest.mark.xfail(strict=True, reason=(
         "the starting diagnosis ties target_bending with target_tau_temperature; plan-next names the target hot at "
         "500 Hz (70196 predicted if the conductivity change is true), but neither rival fits the joined campaign "
         "(chi-square 3057 and 3050 over 110 readings; neither holds tau_T(x), which takes the joined campaign's "
-        "baseline from 205 to 128 ppm), so they differ by 7.3"))),
+        "baseline from 205 to 128 ppm), so they differ by 7.3; with tau_T(x) in both (the next test) 226.5"))),
     "c", "d"])
 def test_the_measured_separation_is_within_a_factor_3_of_the_prediction(case, tmp_path, started):
     station, run = started(case)
-    plan = planned(station, [run])
-    assert plan.chosen is not None and plan.decides, plan.why
-    experiment = write_experiment(plan, tmp_path / "next.yaml")
-    result = run_experiment(experiment, station, tmp_path / "next.h5", progress=False)
-    assert result.status == "completed", result.error
-    opened = open_campaign([run, tmp_path / "next.h5"])
-    after = run_diagnosis(opened.data, (), opened.sensor)
+    plan, after = diagnosed_after(station, run, tmp_path)
     index = plan.main_question
     fits = measured_fits(plan.rivals[index], after.data, after.noise)
     chi2 = {label: chi2_of(fit, after.noise) for label, fit in fits.items()}
     winner = min(chi2, key=chi2.__getitem__)
     delta = sorted(chi2.values())[1] - chi2[winner]
-    # the prediction the choice was made on (at a nested rival's hypothetical size), and, when the winner supposed
-    # a size, the same T-criterion at the size the run measured: the figure a measured separation can be held to
-    as_planned = expected(plan.chosen.separations[index], winner)
-    at_size = plan.predicted_at_measured_size(winner, fits[winner].values)
-    predicted = as_planned if at_size is None else at_size
+    as_planned, predicted = predicted_for(plan, winner, fits[winner].values)
     assert predicted is not None and predicted > 0
     assert predicted / 3 <= delta <= predicted * 3, (winner, predicted, delta, as_planned)
+
+
+@pytest.mark.parametrize("case", [
+    pytest.param("a", marks=pytest.mark.xfail(strict=True, reason=(
+        "with tau_T(x), which the joined campaign claims, in both rivals the bending fits it at chi-square 103.9 "
+        "and the conductivity change at 767.0 (110 readings): 663.1 measured against 148.2 predicted if the "
+        "bending is true (4.5x; the rivals alone, 57.9, passed the test above only because both missed the same "
+        "tau_T(x) by chi-square 5480 and 5538). Counted in the joined campaign's noise model (the 500 Hz readings "
+        "have 32 ppm where the start, which never measured 500 Hz, supposed 15) the prediction is 40.7: the start's "
+        "bending, fitted with tau_T held at its default (one frequency cannot determine it), predicts the 500 Hz "
+        "readings less separable than the truth is (docs/planning.md, investigate)"))),
+    pytest.param("b", marks=pytest.mark.xfail(strict=True, reason=(
+        "with tau_T(x), which the joined campaign claims, in both rivals the conductivity change fits it at "
+        "chi-square 60.4 and the bending at 286.9 (110 readings): 226.5 measured against 70196 predicted if the "
+        "conductivity change is true. The start (15 kHz only) fitted the change in a 1.07 mm plate, the joined "
+        "campaign finds 5.12 mm: at 500 Hz the thin plate's change differs from a bending far more than the truth "
+        "does; counted in the joined noise model the prediction is still 7207 (docs/planning.md, investigate)"))),
+    "c", "d"])
+def test_the_separation_measured_with_what_the_joined_campaign_needs_is_within_a_factor_3(case, tmp_path, started):
+    """The measured separation investigate records: each rival fitted to the joined campaign together with what its
+    diagnosis needs beyond the question (``discrimination.joined_fits``), so a misfit both share does not count."""
+    station, run = started(case)
+    plan, after = diagnosed_after(station, run, tmp_path)
+    index = plan.main_question
+    fits = joined_fits(plan.rivals[index], plan.questions[index].effects, after, library())
+    winner, delta, chi2 = measured_separation(fits, after.noise)
+    as_planned, predicted = predicted_for(plan, winner, fits[winner].values)
+    assert predicted is not None and predicted > 0
+    assert predicted / 3 <= delta <= predicted * 3, (winner, predicted, delta, as_planned, chi2)
 
 
 def test_plan_next_outside_the_library_designs_nothing_and_says_where_the_residual_lives(tmp_path, capsys, started):
