@@ -133,9 +133,28 @@ def at_measured_size(truth: Rival, rival: Rival, measured: Mapping[str, float], 
     like the square of that size: a prediction at a supposed size cannot be checked against a truth of another
     size. This is the same T-criterion with the size the run found, the figure a measured separation is compared
     with; the prediction at the hypothetical size stays the one the choice was made on."""
-    if not truth.held:
+    return _at_measured(truth, rival, measured, list(truth.held), campaign, planned, noise)
+
+
+def at_measured_values(truth: Rival, rival: Rival, measured: Mapping[str, float], campaign: Measurements,
+                       planned: Measurements, noise: NoiseEstimate) -> float | None:
+    """``at_measured_size`` for every value the prediction supposed rather than measured: the truth's held size,
+    and the parameters the campaign cannot determine, which the model's rules hold at a default (tau_T at one
+    frequency, where Ls ties it to the coupling's gain exactly; C_p there). Such a default is a supposition like
+    a hypothetical size: the campaign fits as well at any value, and the separation at a new frequency depends on
+    it. The truth's fitted parameters stay the campaign's: its estimates, not suppositions. None if it supposed
+    nothing (docs/planning.md, investigate)."""
+    supposed = [*truth.held, *truth.model.unidentifiable(campaign)]
+    return _at_measured(truth, rival, measured, supposed, campaign, planned, noise)
+
+
+def _at_measured(truth: Rival, rival: Rival, measured: Mapping[str, float], supposed: Sequence[str],
+                 campaign: Measurements, planned: Measurements, noise: NoiseEstimate) -> float | None:
+    """The T-criterion with ``truth``'s ``supposed`` parameters held at the ``measured`` values, the rest refitted
+    to the campaign; None if nothing was supposed."""
+    held = {name: measured[name] for name in supposed if name in measured}
+    if not held:
         return None
-    held = {name: measured[name] for name in truth.held if name in measured}
     fit = weighted_fit(truth.model, campaign, noise, {**truth.values, **held}, held)
     sized = dataclasses.replace(truth, values=fit.values, chi2=chi2_of(fit, noise), held=held)
     return separation(sized, rival, campaign, planned, noise).delta_chi2

@@ -69,10 +69,12 @@ def _measured(plan: NextPlan, result: Diagnosis, registry: EffectRegistry) -> di
         measured_fits(plan.rivals[index], result.data, result.noise), result.noise)
     separations = plan.chosen.separations[index] if plan.chosen else []
     at_size = plan.predicted_at_measured_size(winner, fits[winner].values)
+    at_values = plan.predicted_at_measured_values(winner, fits[winner].values)
     return {"chi2": {k: round(v, 1) for k, v in chi2.items()}, "winner": winner, "delta_chi2": round(delta, 1),
             "joined_needs": [name for name in result.final.effects if name not in question],
             "predicted_if_winner": _rounded(expected(separations, winner)),
             "predicted_at_measured_size": _rounded(at_size),
+            "predicted_at_measured_values": _rounded(at_values),
             "rivals_alone": {"chi2": {k: round(v, 1) for k, v in alone_chi2.items()}, "winner": alone_winner,
                              "delta_chi2": round(alone_delta, 1)}}
 
