@@ -109,8 +109,8 @@ class NextPlan:
         supposed no size."""
         return self._at_measured(winner, measured, at_measured_size)
 
-    def _at_measured(self, winner: str, measured: Mapping[str, float], criterion: Callable[..., float | None]
-                     ) -> float | None:
+    def _at_measured(self, winner: str, measured: Mapping[str, float], criterion: Callable[..., float | None],
+                     **options: bool) -> float | None:
         index = self.main_question
         chosen = self.chosen
         if index is None or chosen is None or chosen.planned is None or self.campaign is None or self.noise is None:
@@ -120,12 +120,14 @@ class NextPlan:
         other = next((rivals[s.rival] for s in chosen.separations[index] if s.truth == winner), None)
         if truth is None or other is None:
             return None
-        return criterion(truth, other, measured, self.campaign, chosen.planned, self.noise)
+        return criterion(truth, other, measured, self.campaign, chosen.planned, self.noise, **options)
 
-    def predicted_at_measured_values(self, winner: str, measured: Mapping[str, float]) -> float | None:
+    def predicted_at_measured_values(self, winner: str, measured: Mapping[str, float], *, at_fit: bool = False
+                                     ) -> float | None:
         """The same with every value the winner supposed (its held size and the parameters the campaign cannot
-        determine) at the joined campaign's (``discrimination.at_measured_values``)."""
-        return self._at_measured(winner, measured, at_measured_values)
+        determine) at the joined campaign's (``discrimination.at_measured_values``; ``at_fit``: the winner's
+        shape parameters at their fit alone, not over their plausible range)."""
+        return self._at_measured(winner, measured, at_measured_values, at_fit=at_fit)
 
     def to_json(self) -> dict[str, Any]:
         chosen = self.chosen.to_json(self.questions) if self.chosen is not None else None

@@ -75,6 +75,9 @@ def _measured(plan: NextPlan, result: Diagnosis, registry: EffectRegistry) -> di
             "predicted_if_winner": _rounded(expected(separations, winner)),
             "predicted_at_measured_size": _rounded(at_size),
             "predicted_at_measured_values": _rounded(at_values),
+            "at_fit": {"predicted_if_winner": _rounded(expected(separations, winner, at_fit=True)),
+                       "predicted_at_measured_values": _rounded(
+                           plan.predicted_at_measured_values(winner, fits[winner].values, at_fit=True))},
             "rivals_alone": {"chi2": {k: round(v, 1) for k, v in alone_chi2.items()}, "winner": alone_winner,
                              "delta_chi2": round(alone_delta, 1)}}
 

@@ -96,7 +96,8 @@ PHYSICIST = {
         "against lag (guaranteed Delta chi-square 6525 and 9758 after the calibration change) and the worth counts "
         "questions decided per hour. Ranking the hold first needs a separation beyond 25 to count, and every such "
         "rule growing with the separations names the target hot at 2000 Hz in (a), which at the same 0.70 h "
-        "guarantees more on every question (650.8 against 87.9 on the tie); tried: (a) measured 20.4 against 936 "
+        "guarantees more on every question (650.8 against 80.6 on the tie; 87.9 with the plate at its fit); "
+        "tried: (a) measured 20.4 against 936 "
         "predicted (the factor 3 fails), (b) claims the bending, (d) names the 2 h hold (docs/planning.md, Scoring, "
         "tried and not adopted (3))")))])
 def test_plan_next_names_the_experiment_a_physicist_would_choose(case, started):
@@ -138,9 +139,10 @@ def predicted_for(plan: NextPlan, winner: str, values: dict[str, float]) -> tupl
     "a",
     pytest.param("b", marks=pytest.mark.xfail(strict=True, reason=(
         "the starting diagnosis ties target_bending with target_tau_temperature; plan-next names the target hot at "
-        "500 Hz (70196 predicted if the conductivity change is true), but neither rival fits the joined campaign "
-        "(chi-square 3057 and 3050 over 110 readings; neither holds tau_T(x), which takes the joined campaign's "
-        "baseline from 205 to 128 ppm), so they differ by 7.3; with tau_T(x) in both (the next test) 226.5"))),
+        "500 Hz (56.9 predicted if the conductivity change is true, the least over the plate thicknesses the start "
+        "allows; 70196 at its fitted 1.07 mm), but neither rival fits the joined campaign (chi-square 3057 and 3050 "
+        "over 110 readings; neither holds tau_T(x), which takes the joined campaign's baseline from 205 to 128 "
+        "ppm), so they differ by 7.3; with tau_T(x) in both (the next test) 226.5"))),
     "c", "d"])
 def test_the_measured_separation_is_within_a_factor_3_of_the_prediction(case, tmp_path, started):
     station, run = started(case)
@@ -155,17 +157,7 @@ def test_the_measured_separation_is_within_a_factor_3_of_the_prediction(case, tm
     assert predicted / 3 <= delta <= predicted * 3, (winner, predicted, delta, as_planned)
 
 
-@pytest.mark.parametrize("case", [
-    "a",
-    pytest.param("b", marks=pytest.mark.xfail(strict=True, reason=(
-        "with tau_T(x), which the joined campaign claims, in both rivals the conductivity change fits it at "
-        "chi-square 60.4 and the bending at 286.9 (110 readings): 226.5 measured against 38063 predicted with "
-        "tau_T at the joined campaign's 1.57e-3 /K (70196 at the start's default). The start (15 kHz only) fitted "
-        "the change in a 1.07 mm plate; its chi-square is flat in the thickness (70.9 to 71.1 from 1.07 to 8 mm, "
-        "though the linearised standard error says 0.45 mm) while the prediction falls from 70105 to 100 (277.7 "
-        "at the joined diagnosis's 5.12 mm): a point estimate the data do not fix, not a supposition "
-        "(docs/planning.md, investigate)"))),
-    "c", "d"])
+@pytest.mark.parametrize("case", ["a", "b", "c", "d"])
 def test_the_separation_measured_with_what_the_joined_campaign_needs_is_within_a_factor_3(case, tmp_path, started):
     """The measured separation investigate records: each rival fitted to the joined campaign together with what its
     diagnosis needs beyond the question (``discrimination.joined_fits``), so a misfit both share does not count;
@@ -181,6 +173,26 @@ def test_the_separation_measured_with_what_the_joined_campaign_needs_is_within_a
     predicted = as_planned if at_values is None else at_values
     assert predicted is not None and predicted > 0
     assert predicted / 3 <= delta <= predicted * 3, (winner, predicted, delta, as_planned, chi2)
+
+
+def test_a_shape_parameter_the_start_leaves_flat_is_taken_over_its_plausible_range(tmp_path, started):
+    """Case (b): one frequency leaves the conductivity change's plate thickness flat (its linearised standard error
+    0.45 mm at 1.07 mm); its profile interval on the start (Delta chi-square <= 1) holds the thickness the joined
+    campaign finds, every point of it fits the start within 1 noise variance, and the prediction is the least
+    over it, the figure at the fit kept beside (``Separation.at_fit``)."""
+    station, run = started("b")
+    plan, after = diagnosed_after(station, run, tmp_path)
+    index = plan.main_question
+    assert plan.chosen is not None and index is not None
+    rival = next(r for r in plan.rivals[index] if r.label == "target_tau_temperature")
+    low, high = rival.plausible_ranges["plate_thickness"]
+    assert all(v.chi2 - rival.chi2 <= 1.0 for v in rival.plausible)
+    fits = joined_fits(plan.rivals[index], plan.questions[index].effects, after, library())
+    assert low <= fits["target_tau_temperature"].values["plate_thickness"] <= high, (low, high)
+    assert low <= after.final.fit.values["plate_thickness"] <= high, (low, high)
+    separation = next(s for s in plan.chosen.separations[index] if s.truth == "target_tau_temperature")
+    assert separation.at_fit is not None and separation.delta_chi2 <= separation.at_fit.delta_chi2
+    assert separation.guaranteed <= separation.at_fit.guaranteed
 
 
 def test_plan_next_outside_the_library_designs_nothing_and_says_where_the_residual_lives(tmp_path, capsys, started):
