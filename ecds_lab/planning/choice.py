@@ -14,7 +14,7 @@ one with the largest separation is named, and said not to decide.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -28,7 +28,14 @@ from ecds_lab.data.measurements import Measurements
 from ecds_lab.model.effects import EffectRegistry
 from ecds_lab.planning.candidates import CandidateExperiment, station_candidates
 from ecds_lab.planning.conditions import planned_readings, room_temperature_c
-from ecds_lab.planning.discrimination import DECISIVE_CHI2, Separation, at_measured_size, decisive, question_separations
+from ecds_lab.planning.discrimination import (
+    DECISIVE_CHI2,
+    Separation,
+    at_measured_size,
+    at_measured_values,
+    decisive,
+    question_separations,
+)
 from ecds_lab.planning.questions import DESIGNABLE, OpenQuestion, not_asked, open_questions
 from ecds_lab.planning.rivals import Rival, nested_rivals, size_rivals, tie_rivals
 
@@ -100,6 +107,10 @@ class NextPlan:
         """The main question's predicted Delta chi-square had ``winner`` been the truth at the size the joined
         campaign measured (``discrimination.at_measured_size``, in the plan's noise model); None when the winner
         supposed no size."""
+        return self._at_measured(winner, measured, at_measured_size)
+
+    def _at_measured(self, winner: str, measured: Mapping[str, float], criterion: Callable[..., float | None],
+                     **options: bool) -> float | None:
         index = self.main_question
         chosen = self.chosen
         if index is None or chosen is None or chosen.planned is None or self.campaign is None or self.noise is None:
@@ -109,7 +120,14 @@ class NextPlan:
         other = next((rivals[s.rival] for s in chosen.separations[index] if s.truth == winner), None)
         if truth is None or other is None:
             return None
-        return at_measured_size(truth, other, measured, self.campaign, chosen.planned, self.noise)
+        return criterion(truth, other, measured, self.campaign, chosen.planned, self.noise, **options)
+
+    def predicted_at_measured_values(self, winner: str, measured: Mapping[str, float], *, at_fit: bool = False
+                                     ) -> float | None:
+        """The same with every value the winner supposed (its held size and the parameters the campaign cannot
+        determine) at the joined campaign's (``discrimination.at_measured_values``; ``at_fit``: the winner's
+        shape parameters at their fit alone, not over their plausible range)."""
+        return self._at_measured(winner, measured, at_measured_values, at_fit=at_fit)
 
     def to_json(self) -> dict[str, Any]:
         chosen = self.chosen.to_json(self.questions) if self.chosen is not None else None

@@ -13,21 +13,29 @@ change of the new run's calibration (``calibration_chi2``, ``calibration_change`
 computed and the smaller is the candidate's guaranteed separation. For a nested question (an effect present or not)
 only "present at its size" is computed: the model without it cannot be told from the model with it at size zero by
 any experiment; what an experiment can do is show it if it is there.
+
+The truth's parameter uncertainty: where the campaign leaves a shape parameter of the truth flat (``Rival.plausible``:
+the truth across its profile interval), each figure is the least over the truth at its fit and at every point
+of it (a minimax over the values the data allow, as Atkinson & Fedorov's T-optimality does over unknown parameters), the
+figures at the fit kept beside (``Separation.at_fit``). The rival's own uncertainty is already spent in its favour
+by the refit.
 """
 
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
+from ecds_lab.analysis.diagnosis import Diagnosis
 from ecds_lab.analysis.fitting import FitResult
 from ecds_lab.analysis.noise import NoiseEstimate
 from ecds_lab.data.measurements import Measurements
+from ecds_lab.model.effects import EffectRegistry
 from ecds_lab.planning.calibration_change import absorbed_fit
-from ecds_lab.planning.rivals import Rival, chi2_of, weighted_fit
+from ecds_lab.planning.rivals import Rival, chi2_of, joined_fit, weighted_fit, with_plausible
 
 #: Delta chi-square (noise variances) that decides: the diagnosis's evidence threshold (docs/diagnosis.md).
 DECISIVE_CHI2 = 25.0
@@ -48,6 +56,9 @@ class Separation:
     #: what the planned readings add to the rival's chi-square when the rival may also change the new run's
     #: calibration smoothly (``calibration_change``): a decision must not rest on what a drift could fake
     calibration_chi2: float
+    #: the same at the truth's fitted values alone, when the truth has a plausible range (``Rival.plausible``) and
+    #: the figures above are the least over it
+    at_fit: Separation | None = None
 
     @property
     def guaranteed(self) -> float:
@@ -55,9 +66,13 @@ class Separation:
         return min(self.robust_chi2, self.calibration_chi2)
 
     def to_json(self) -> dict[str, object]:
-        return {"truth": self.truth, "rival": self.rival, "delta_chi2": round(self.delta_chi2, 1),
-                "added_chi2": round(self.added_chi2, 1), "robust_chi2": round(self.robust_chi2, 1),
-                "calibration_chi2": round(self.calibration_chi2, 1)}
+        out: dict[str, object] = {"truth": self.truth, "rival": self.rival, "delta_chi2": round(self.delta_chi2, 1),
+                                  "added_chi2": round(self.added_chi2, 1), "robust_chi2": round(self.robust_chi2, 1),
+                                  "calibration_chi2": round(self.calibration_chi2, 1)}
+        if self.at_fit is not None:
+            point = self.at_fit.to_json()
+            out["at_fit"] = {k: point[k] for k in ("delta_chi2", "added_chi2", "robust_chi2", "calibration_chi2")}
+        return out
 
 
 def predicted_readings(truth: Rival, planned: Measurements) -> Measurements:
@@ -67,7 +82,19 @@ def predicted_readings(truth: Rival, planned: Measurements) -> Measurements:
 
 def separation(truth: Rival, rival: Rival, campaign: Measurements, planned: Measurements,
                noise: NoiseEstimate) -> Separation:
-    """The T-criterion of ``rival`` against ``truth`` for the planned readings (module docstring)."""
+    """The T-criterion of ``rival`` against ``truth`` for the planned readings, each figure the least over the
+    truth's plausible values (module docstring), the figures at its fit kept as ``at_fit``."""
+    point = point_separation(truth, rival, campaign, planned, noise)
+    if not truth.plausible:
+        return point
+    every = [point, *(point_separation(t, rival, campaign, planned, noise) for t in truth.plausible)]
+    return Separation(truth.label, rival.label, min(s.delta_chi2 for s in every), min(s.added_chi2 for s in every),
+                      min(s.robust_chi2 for s in every), min(s.calibration_chi2 for s in every), point)
+
+
+def point_separation(truth: Rival, rival: Rival, campaign: Measurements, planned: Measurements,
+                     noise: NoiseEstimate) -> Separation:
+    """The T-criterion of ``rival`` against ``truth`` at the truth's values (module docstring)."""
     readings = predicted_readings(truth, planned)
     joined = Measurements.concatenate([campaign, readings])
     refit = weighted_fit(rival.model, joined, noise, rival.values, rival.held)
@@ -95,14 +122,35 @@ def decisive(separations: list[Separation]) -> float:
     return min((s.guaranteed for s in separations), default=0.0)
 
 
-def expected(separations: list[Separation], truth: str) -> float | None:
-    """The Delta chi-square predicted if ``truth`` holds (all planned readings), None if not among them."""
-    return next((s.delta_chi2 for s in separations if s.truth == truth), None)
+def expected(separations: list[Separation], truth: str, *, at_fit: bool = False) -> float | None:
+    """The Delta chi-square predicted if ``truth`` holds (all planned readings; the least over its plausible values,
+    or ``at_fit`` at its fitted values alone), None if not among them."""
+    found = next((s for s in separations if s.truth == truth), None)
+    if found is None:
+        return None
+    return (found.at_fit or found).delta_chi2 if at_fit else found.delta_chi2
 
 
 def measured_fits(rivals: list[Rival], campaign: Measurements, noise: NoiseEstimate) -> dict[str, FitResult]:
-    """Each rival refitted (noise-weighted, nothing held) to the joined campaign: label -> its fit."""
+    """Each rival alone refitted (noise-weighted, nothing held) to the joined campaign: label -> its fit. Kept
+    beside ``joined_fits``: where the joined campaign needs an effect neither rival holds, both pay for it and
+    their difference measures that shared misfit more than the question (docs/planning.md, investigate)."""
     return {r.label: weighted_fit(r.model, campaign, noise, r.values) for r in rivals}
+
+
+def joined_fits(rivals: list[Rival], question: Sequence[str], joined: Diagnosis,
+                registry: EffectRegistry) -> dict[str, FitResult]:
+    """Each rival refitted to the joined campaign with what its diagnosis needs beyond the ``question``'s effects
+    (``rivals.joined_fit``): label -> its fit. The measured separation is the difference of their chi-squares."""
+    return {r.label: joined_fit(r, question, joined, registry) for r in rivals}
+
+
+def measured_separation(fits: Mapping[str, FitResult], noise: NoiseEstimate) -> tuple[str, float, dict[str, float]]:
+    """The rival that fits best, its lead over the next (noise variances) and every rival's chi-square."""
+    chi2 = {label: chi2_of(fit, noise) for label, fit in fits.items()}
+    ordered = sorted(chi2.values())
+    winner = min(chi2, key=chi2.__getitem__)
+    return winner, (ordered[1] if len(ordered) > 1 else ordered[0]) - ordered[0], chi2
 
 
 def at_measured_size(truth: Rival, rival: Rival, measured: Mapping[str, float], campaign: Measurements,
@@ -114,9 +162,33 @@ def at_measured_size(truth: Rival, rival: Rival, measured: Mapping[str, float], 
     like the square of that size: a prediction at a supposed size cannot be checked against a truth of another
     size. This is the same T-criterion with the size the run found, the figure a measured separation is compared
     with; the prediction at the hypothetical size stays the one the choice was made on."""
-    if not truth.held:
+    return _at_measured(truth, rival, measured, list(truth.held), campaign, planned, noise)
+
+
+def at_measured_values(truth: Rival, rival: Rival, measured: Mapping[str, float], campaign: Measurements,
+                       planned: Measurements, noise: NoiseEstimate, *, at_fit: bool = False) -> float | None:
+    """``at_measured_size`` for every value the prediction supposed rather than measured: the truth's held size,
+    and the parameters the campaign cannot determine, which the model's rules hold at a default (tau_T at one
+    frequency, where Ls ties it to the coupling's gain exactly; C_p there). Such a default is a supposition like
+    a hypothetical size: the campaign fits as well at any value, and the separation at a new frequency depends on
+    it. The truth's fitted parameters stay the campaign's estimates, a shape parameter the campaign leaves flat
+    taken over its plausible range again with the supposed values held (``at_fit``: at its fit alone). None if it
+    supposed nothing (docs/planning.md, investigate)."""
+    supposed = [*truth.held, *truth.model.unidentifiable(campaign)]
+    return _at_measured(truth, rival, measured, supposed, campaign, planned, noise, at_fit=at_fit)
+
+
+def _at_measured(truth: Rival, rival: Rival, measured: Mapping[str, float], supposed: Sequence[str],
+                 campaign: Measurements, planned: Measurements, noise: NoiseEstimate, *, at_fit: bool = False
+                 ) -> float | None:
+    """The T-criterion with ``truth``'s ``supposed`` parameters held at the ``measured`` values, the rest refitted
+    to the campaign (the least over the plausible values that leaves, or ``at_fit`` at the refit alone); None if
+    nothing was supposed."""
+    held = {name: measured[name] for name in supposed if name in measured}
+    if not held:
         return None
-    held = {name: measured[name] for name in truth.held if name in measured}
     fit = weighted_fit(truth.model, campaign, noise, {**truth.values, **held}, held)
-    sized = dataclasses.replace(truth, values=fit.values, chi2=chi2_of(fit, noise), held=held)
+    sized = dataclasses.replace(truth, values=fit.values, chi2=chi2_of(fit, noise), held=held, plausible=())
+    if not at_fit:
+        sized = with_plausible(sized, campaign, noise)
     return separation(sized, rival, campaign, planned, noise).delta_chi2

@@ -23,9 +23,8 @@ from ecds_lab.config.station import StationConfig
 from ecds_lab.errors import RunFileError
 from ecds_lab.model.effects import EffectRegistry, library
 from ecds_lab.planning.choice import NextPlan, plan_next, write_experiment
-from ecds_lab.planning.discrimination import expected, measured_fits
+from ecds_lab.planning.discrimination import expected, joined_fits, measured_fits, measured_separation
 from ecds_lab.planning.questions import DESIGNABLE
-from ecds_lab.planning.rivals import chi2_of
 from ecds_lab.runner.safe_state import signal_name
 from ecds_lab.runner.session import run_experiment
 from ecds_lab.storage.data_file import open_campaign
@@ -55,23 +54,32 @@ def _diagnose(files: Sequence[Path], registry: EffectRegistry) -> tuple[Diagnosi
     return result, {"sensor": opened.sensor_summary(), **result.to_json()}
 
 
-def _measured(plan: NextPlan, result: Diagnosis) -> dict[str, Any] | None:
-    """The chosen question's rivals refitted to the joined campaign: their chi-squares and the measured Delta
-    chi-square between the best and the next (in the new diagnosis's evidence noise, the units of the prediction)."""
+def _measured(plan: NextPlan, result: Diagnosis, registry: EffectRegistry) -> dict[str, Any] | None:
+    """The chosen question's rivals refitted to the joined campaign, each with what the new diagnosis needs beyond
+    the question (``discrimination.joined_fits``): their chi-squares and the measured Delta chi-square between the
+    best and the next (in the new diagnosis's evidence noise, the units of the prediction); beside them the same for
+    the rivals alone (the figure before, which counts a misfit both rivals share)."""
     index = plan.main_question
     if index is None:
         return None
-    fits = measured_fits(plan.rivals[index], result.data, result.evidence_noise)
-    chi2 = {label: chi2_of(fit, result.evidence_noise) for label, fit in fits.items()}
-    ordered = sorted(chi2.items(), key=lambda item: item[1])
-    winner, best = ordered[0]
-    runner_up = ordered[1][1] if len(ordered) > 1 else best
+    question = plan.questions[index].effects
+    fits = joined_fits(plan.rivals[index], question, result, registry)
+    winner, delta, chi2 = measured_separation(fits, result.evidence_noise)
+    alone_winner, alone_delta, alone_chi2 = measured_separation(
+        measured_fits(plan.rivals[index], result.data, result.evidence_noise), result.evidence_noise)
     separations = plan.chosen.separations[index] if plan.chosen else []
     at_size = plan.predicted_at_measured_size(winner, fits[winner].values)
-    return {"chi2": {k: round(v, 1) for k, v in chi2.items()}, "winner": winner,
-            "delta_chi2": round(runner_up - best, 1),
+    at_values = plan.predicted_at_measured_values(winner, fits[winner].values)
+    return {"chi2": {k: round(v, 1) for k, v in chi2.items()}, "winner": winner, "delta_chi2": round(delta, 1),
+            "joined_needs": [name for name in result.final.effects if name not in question],
             "predicted_if_winner": _rounded(expected(separations, winner)),
-            "predicted_at_measured_size": _rounded(at_size)}
+            "predicted_at_measured_size": _rounded(at_size),
+            "predicted_at_measured_values": _rounded(at_values),
+            "at_fit": {"predicted_if_winner": _rounded(expected(separations, winner, at_fit=True)),
+                       "predicted_at_measured_values": _rounded(
+                           plan.predicted_at_measured_values(winner, fits[winner].values, at_fit=True))},
+            "rivals_alone": {"chi2": {k: round(v, 1) for k, v in alone_chi2.items()}, "winner": alone_winner,
+                             "delta_chi2": round(alone_delta, 1)}}
 
 
 def _rounded(value: float | None) -> float | None:
@@ -126,7 +134,7 @@ def investigate(data: Sequence[Path], station: Path, output: Path, *, budget_hou
                 state.stopped = _run_ended(number, run.status, run.error, run.stopped_by, run_path, plan)
                 break
             result, report = _diagnose(state.files, registry)
-            measured = _measured(plan, result)
+            measured = _measured(plan, result, registry)
             entry.update(measured=measured, measured_delta_chi2=measured["delta_chi2"] if measured else None,
                          diagnosis_after={"verdict": result.verdict, "claimed": result.claimed,
                                           "alternatives": result.alternatives})

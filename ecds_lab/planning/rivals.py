@@ -8,12 +8,20 @@ clear evidence and an undetermined size is present; the question is its size: th
 error either side of its fitted size (``size_rivals``). A held parameter is part of a rival's hypothesis and stays
 held when the rival is refitted to a candidate's predicted readings.
 
+A rival's fit is one point of what the campaign allows. Where a shape parameter (``Effect.nuisance_parameters``: a
+plate's thickness) is left flat by the campaign, the prediction at that point is one arbitrary choice among many
+equally good ones, and a separation at it can be off by orders of magnitude. So each such parameter is profiled on
+the campaign (held at values stepping out from the fit, the rest refitted) to the ends of its Delta chi-square <= 1
+interval within its bounds (``plausible_range``), and the rival is kept also at each profile point inside it
+(``Rival.plausible``): the separation a candidate guarantees is the least over them (``discrimination``).
+
 Every fit here weighs each reading by its own noise (``NoiseEstimate.sigma_ppm``) and counts chi-square in noise
 variances over the readings' design effect, as the diagnosis's evidence does (docs/diagnosis.md).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -33,6 +41,16 @@ from ecds_lab.model.sensor_model import SensorModel
 #: within this many noise variances of the best size (else the offsets are halved, at most SIZE_HALVINGS times).
 TOLD_APART_CHI2 = 25.0
 SIZE_HALVINGS = 8
+#: A shape parameter's plausible range: where its profile on the campaign stays within this many noise variances of
+#: the best fit (a 68 % profile-likelihood interval for one parameter).
+PLAUSIBLE_CHI2 = 1.0
+#: Profile steps: a positive parameter steps by this factor, any other by its prior scale times this less one; the
+#: first step beyond the interval is bisected PROFILE_BISECTIONS times to place the end. sqrt(2): a plate's
+#: thickness against the skin depth changes by it between frequencies a factor 2 apart (delta ~ f^-1/2), finer
+#: than any of the station's frequencies are spaced.
+PROFILE_FACTOR = math.sqrt(2.0)
+PROFILE_BISECTIONS = 3
+PROFILE_STEPS = 16
 
 
 @dataclass
@@ -46,6 +64,20 @@ class Rival:
     chi2: float
     #: parameters held at a plausible size the data cannot determine (an untestable effect supposed present)
     held: dict[str, float] = field(default_factory=dict)
+    #: the same hypothesis across its shape parameters' plausible ranges on the campaign (``plausible_range``, each
+    #: point a refit with the parameter held there): the values the data allow as well as the fit's
+    plausible: tuple[Rival, ...] = ()
+
+    @property
+    def plausible_ranges(self) -> dict[str, tuple[float, float]]:
+        """Each profiled shape parameter's plausible range (low, high end) on the campaign."""
+        out: dict[str, tuple[float, float]] = {}
+        for variant in self.plausible:
+            for name, value in variant.held.items():
+                if name not in self.held:
+                    low, high = out.get(name, (value, value))
+                    out[name] = (min(low, value), max(high, value))
+        return out
 
     def predict(self, data: Measurements) -> np.ndarray:
         """Ls (H) this model predicts for ``data``."""
@@ -53,7 +85,9 @@ class Rival:
 
     def to_json(self) -> dict[str, object]:
         return {"label": self.label, "effects": list(self.effects), "chi2": round(self.chi2, 1),
-                "held": {k: float(f"{v:.4g}") for k, v in self.held.items()}}
+                "held": {k: float(f"{v:.4g}") for k, v in self.held.items()},
+                "plausible": {k: [float(f"{low:.4g}"), float(f"{high:.4g}")]
+                              for k, (low, high) in self.plausible_ranges.items()}}
 
 
 def chi2_of(fit: FitResult, noise: NoiseEstimate) -> float:
@@ -75,7 +109,73 @@ def fitted_rival(label: str, effects: Sequence[str], result: Diagnosis, registry
     names = {p.name for p in model.parameters()}
     start = {k: v for k, v in start.items() if k in names}
     fit = weighted_fit(model, result.data, result.evidence_noise, start, held)
-    return Rival(label, tuple(effects), model, fit.values, chi2_of(fit, result.evidence_noise), dict(held or {}))
+    rival = Rival(label, tuple(effects), model, fit.values, chi2_of(fit, result.evidence_noise), dict(held or {}))
+    return with_plausible(rival, result.data, result.evidence_noise)
+
+
+def shape_parameters(rival: Rival, campaign: Measurements) -> list[str]:
+    """The rival's shape parameters the campaign fits (``Effect.nuisance_parameters``, neither held by its
+    hypothesis nor fixed by the model's rules on these data)."""
+    fixed = rival.model.unidentifiable(campaign)
+    names = dict.fromkeys(n for effect in rival.model.effects for n in effect.nuisance_parameters)
+    return [n for n in names if n in rival.values and n not in rival.held and n not in fixed]
+
+
+def _held_at(rival: Rival, name: str, value: float, campaign: Measurements, noise: NoiseEstimate) -> Rival:
+    """``rival`` refitted to the campaign with ``name`` held at ``value`` (for that fit only)."""
+    held = {**rival.held, name: value}
+    fit = weighted_fit(rival.model, campaign, noise, {**rival.values, name: value}, held)
+    return Rival(rival.label, rival.effects, rival.model, fit.values, chi2_of(fit, noise), held)
+
+
+def plausible_range(rival: Rival, name: str, campaign: Measurements, noise: NoiseEstimate) -> list[Rival]:
+    """The rival held at points across ``name``'s profile interval on the campaign: stepping out from the fit (by
+    ``PROFILE_FACTOR``, within the parameter's bounds) while its chi-square stays within ``PLAUSIBLE_CHI2`` of the
+    rival's, the first step beyond bisected to place the end. Every point inside is kept, not only the ends: a
+    separation need not be monotonic in a shape parameter (a plate's thickness against the skin depth at the new
+    frequency). A profile, not the linearised standard error: on a flat valley (a thin plate's thickness at one
+    frequency) the latter is far too small."""
+    parameter = next(p for p in rival.model.parameters() if p.name == name)
+    points = []
+    for direction in (-1, 1):
+        bound = parameter.lower if direction < 0 else parameter.upper
+
+        def step(x: float, direction: int = direction, bound: float = bound) -> float:
+            if parameter.lower > 0:
+                moved = x * PROFILE_FACTOR**direction
+            else:
+                moved = x + direction * (PROFILE_FACTOR - 1) * parameter.prior_scale
+            return max(moved, bound) if direction < 0 else min(moved, bound)
+
+        inside, outside = rival, None
+        for _ in range(PROFILE_STEPS):
+            x = step(inside.values[name])
+            if x == inside.values[name]:
+                break  # at the bound
+            trial = _held_at(rival, name, x, campaign, noise)
+            if not trial.chi2 - rival.chi2 <= PLAUSIBLE_CHI2:
+                outside = trial
+                break
+            points.append(trial)
+            inside = trial
+        for _ in range(PROFILE_BISECTIONS if outside is not None else 0):
+            a, b = inside.values[name], outside.values[name]  # type: ignore[union-attr]
+            middle = math.sqrt(a * b) if parameter.lower > 0 else (a + b) / 2
+            trial = _held_at(rival, name, middle, campaign, noise)
+            if trial.chi2 - rival.chi2 <= PLAUSIBLE_CHI2:
+                inside = trial
+            else:
+                outside = trial
+        if inside is not rival and not any(inside is p for p in points):
+            points.append(inside)
+    return [p for p in points if math.isfinite(p.chi2)]
+
+
+def with_plausible(rival: Rival, campaign: Measurements, noise: NoiseEstimate) -> Rival:
+    """``rival`` with ``plausible``: itself across each shape parameter's plausible range (``plausible_range``)."""
+    variants = [point for name in shape_parameters(rival, campaign)
+                for point in plausible_range(rival, name, campaign, noise)]
+    return dataclasses.replace(rival, plausible=tuple(variants))
 
 
 def effect_start(result: Diagnosis, effect: str) -> dict[str, float]:
@@ -134,6 +234,22 @@ def size_rivals(result: Diagnosis, effect: str, registry: EffectRegistry) -> lis
             return rivals
         sizes = {name: (value, error / 2) for name, (value, error) in sizes.items()}
     return []
+
+
+def joined_fit(rival: Rival, question: Sequence[str], joined: Diagnosis, registry: EffectRegistry) -> FitResult:
+    """``rival`` refitted (noise-weighted, nothing held) to a joined campaign together with what that campaign's
+    diagnosis needs beyond the question: the effects of its final model the question is not about, and the
+    baseline parameters it found determined. So the rivals differ only by their hypotheses, and neither pays for
+    a misfit both share (docs/planning.md, investigate). The better of two starts: the rival's values over the
+    joined model's, and the reverse."""
+    needs = [name for name in joined.final.effects if name not in question and name not in rival.effects]
+    released = frozenset(getattr(rival.model, "released", frozenset())) | frozenset(joined.released)
+    model = ReleasedModel(joined.final.fit.model.sensor, [*rival.effects, *needs], registry, released)
+    names = {p.name for p in model.parameters()}
+    found = joined.final.fit.values
+    fits = [weighted_fit(model, joined.data, joined.evidence_noise, {k: v for k, v in start.items() if k in names})
+            for start in ({**rival.values, **found}, {**found, **rival.values})]
+    return min(fits, key=lambda fit: chi2_of(fit, joined.evidence_noise))
 
 
 def nested_rivals(result: Diagnosis, effect: str, registry: EffectRegistry, *, hypothetical: bool) -> list[Rival]:
