@@ -11,7 +11,7 @@ import json
 import numpy as np
 import pytest
 
-from ecds_lab.analysis.diagnosis import run_diagnosis
+from ecds_lab.analysis.diagnosis import run_diagnosis, search
 from ecds_lab.analysis.diagnosis.advice import Design
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.simulators import campaign
@@ -138,7 +138,6 @@ def test_candidates_set_aside_as_partial_do_not_keep_the_search_going(monkeypatc
     of the residual. Set aside, it stays in the ranking with its checks passed; when no other candidate passes the
     search must end, not re-judge the same partial group round after round (it went on for more than 15
     CPU-minutes). No moisture is claimed: its drying course is left open (docs/diagnosis.md, `identifiable`)."""
-    from ecds_lab.analysis.diagnosis import search
     from ecds_lab.study.campaigns import measure
     from ecds_lab.study.cases import draw_case
 
@@ -155,3 +154,14 @@ def test_candidates_set_aside_as_partial_do_not_keep_the_search_going(monkeypatc
     result = run_diagnosis(measure(draw_case(0, 1)))
     assert result.partial and "thermal_lag" in result.partial[0], result.explanation
     assert not {"thermal_lag", "former_expansion", "parasitic_capacitance"} & set(result.claimed), result.explanation
+
+
+def test_a_course_a_small_screen_leaves_open_is_judged_again_on_a_larger_one(campaign_with, monkeypatch):
+    # 80 of the campaign's 904 readings leave the drying's course open; 640 determine it, as all of them do
+    data = campaign_with("parasitic_capacitance")
+    assert run_diagnosis(data).claimed[:1] == ["parasitic_capacitance"]
+    screened = run_diagnosis(data, screen_rows=80)
+    assert screened.claimed[:1] == ["parasitic_capacitance"], screened.explanation
+    monkeypatch.setattr(search, "SCREEN_GROWTH", 1)
+    kept_small = run_diagnosis(data, screen_rows=80)
+    assert "parasitic_capacitance" in kept_small.undetermined and not kept_small.claimed, kept_small.explanation

@@ -80,6 +80,11 @@ LEADING = 3
 #: At most this many effects are added (the library has eight); reaching it is reported, never silent.
 MAX_STEPS = 8
 MAX_OUTLIER_ROUNDS = 3
+#: A round on a subsample that leaves a candidate with clear evidence but an open size is judged again on a screen
+#: this many times larger, up to LARGEST_SCREEN readings (the fit's global search sample): a course that lasts an hour
+#: of a week's log has a handful of a 2,500-reading subsample's readings, and thousands of the campaign's.
+SCREEN_GROWTH = 8
+LARGEST_SCREEN = 20_000
 #: An effect leaving at least this share of its own chi-square gain as structure where it acts, with the residual
 #: outside the library, explained only part of something else (``_mark_partial``).
 PARTIAL_SHARE = 0.5
@@ -174,10 +179,16 @@ def _run_diagnosis(data: Measurements, effects: Sequence[str], sensor: SensorCon
         passing = [c for c in ranked if c.passes]
         if not any(c.effect in names for c in passing):  # only candidates set aside pass: judged already, nothing new
             passing = []
+        grown = min(len(screen) * SCREEN_GROWTH, LARGEST_SCREEN, len(clean))
+        if not passing and grown > len(screen) and _undetermined(ranked):
+            # A subsample's few readings of a short course (a drying over an hour of a week's log) cannot determine
+            # it; the campaign's readings may. The round is judged again on a screen SCREEN_GROWTH times larger.
+            screen = screened(clean, grown)
+            folds = folds_of(screen) if cross_validate else None
+            claimed_cv, fresh = None, True
+            continue
         if not passing:
-            undetermined += [c.effect for c in ranked if c.checks.get("evidence") and c.checks.get("plausible")
-                             and c.checks.get("held_out", True) and not c.checks.get("identifiable")
-                             and c.effect not in undetermined]
+            undetermined += [name for name in _undetermined(ranked) if name not in undetermined]
             break
         best = passing[0]
         group = [best] + [c for c in ranked if c is not best and _rival(best, c, current, noise)]
@@ -304,6 +315,12 @@ def _mark_drift(steps: list[Step], data: Measurements, noise: NoiseEstimate, act
         kept = gain_beside_drift(data, r_before, r_after, acts) if gain > 0 else None
         if kept is not None and kept < PARTIAL_SHARE * gain:
             step.part_of_drift = kept / gain
+
+
+def _undetermined(ranked: list[Candidate]) -> list[str]:
+    """The candidates with clear evidence and a plausible size, no worse held out, whose size the data left open."""
+    return [c.effect for c in ranked if c.checks.get("evidence") and c.checks.get("plausible")
+            and c.checks.get("held_out", True) and not c.checks.get("identifiable")]
 
 
 def _rival(best: Candidate, other: Candidate, current: Step, noise: NoiseEstimate) -> bool:
