@@ -187,28 +187,32 @@ class NoiseEstimate:
 
     def reading_sigma_ppm(self, data: Measurements) -> np.ndarray:
         """The bridge's reading noise of each reading of ``data`` (ppm): its phase class's figure."""
-        fallback = self.pooled_ppm if math.isfinite(self.pooled_ppm) else self.reading_ppm
+        return self._class_figures()[self._class_index(data)]
+
+    def _class_index(self, data: Measurements) -> np.ndarray:
+        """Each reading's index into ``classes``; -1 (the pooled figure) for a class not among them."""
         if not self.classes:
-            return np.full(len(data), fallback)
-        return _by_class(self.classes, phase_classes(data, self.room_c), fallback)
+            return np.full(len(data), -1)
+        return _class_index(self.classes, phase_classes(data, self.room_c))
+
+    def _class_figures(self) -> np.ndarray:
+        """The classes' reading noise (ppm), then the figure a reading of no class gets (index -1)."""
+        fallback = self.pooled_ppm if math.isfinite(self.pooled_ppm) else self.reading_ppm
+        return np.array([*(c.sigma_ppm for c in self.classes), fallback])
 
     def variance_shares(self, data: Measurements) -> tuple[np.ndarray, np.ndarray]:
         """How each reading's noise variance splits over the estimates it comes from, and how well each is known:
         a (readings x estimates) array of shares (each row sums to 1; the estimates are the phase classes, the
         pooled figure, the positioning) and the effective degrees of freedom of each estimate (inf: known, as a
         declared positioning figure taken as stated)."""
-        reading = self.reading_sigma_ppm(data) ** 2
+        index = self._class_index(data)
+        reading = self._class_figures()[index] ** 2
         position = self.positioning_sigma_ppm(data) ** 2
         total = reading + position
         reading_share = np.divide(reading, total, out=np.ones(len(data)), where=total > 0)
         shares = np.zeros((len(data), len(self.classes) + 2))
-        claimed = np.zeros(len(data), bool)
-        freq, air, regime = phase_classes(data, self.room_c) if self.classes else (None, None, None)
-        for k, c in enumerate(self.classes):
-            rows = (freq == c.freq_hz) & (air == c.in_air) & (regime == c.regime)
-            shares[rows, k] = reading_share[rows]
-            claimed |= rows
-        shares[~claimed, -2] = reading_share[~claimed]
+        # a reading of no class (index -1) takes its noise from the pooled figure, the column before the last
+        shares[np.arange(len(data)), np.where(index >= 0, index, len(self.classes))] = reading_share
         shares[:, -1] = 1.0 - reading_share
         dof = np.array([*(c.dof for c in self.classes), self.pooled_dof, self.positioning.variance_dof])
         return shares, dof
@@ -265,14 +269,13 @@ def phase_classes(data: Measurements, room_c: float) -> tuple[np.ndarray, np.nda
     return data.freq_hz, data.in_air, regime
 
 
-def _by_class(classes: tuple[PhaseNoise, ...], keys: tuple[np.ndarray, np.ndarray, np.ndarray],
-              fallback: float) -> np.ndarray:
-    """Each row's class figure (``fallback`` for a class not among ``classes``)."""
+def _class_index(classes: tuple[PhaseNoise, ...], keys: tuple[np.ndarray, np.ndarray, np.ndarray]) -> np.ndarray:
+    """Each row's index into ``classes`` (-1 for a class not among them)."""
     freq, air, regime = keys
-    out = np.full(len(freq), fallback)
-    for c in classes:
-        out[(freq == c.freq_hz) & (air == c.in_air) & (regime == c.regime)] = c.sigma_ppm
-    return out
+    index = np.full(len(freq), -1)
+    for k, c in enumerate(classes):
+        index[(freq == c.freq_hz) & (air == c.in_air) & (regime == c.regime)] = k
+    return index
 
 
 def room_temperature_c(data: Measurements) -> float:
