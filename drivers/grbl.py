@@ -158,6 +158,21 @@ def parse_status(line: str) -> Status:
     return Status(text, state, mpos, feed, fields)
 
 
+def approach_waypoints(current_mm: float, target_mm: float, last_direction: int, approach: str,
+                       overshoot_mm: float, travel_mm: tuple[float, float]) -> list[float]:
+    """Distances (mm) a move from ``current_mm`` visits so its last move arrives from the side ``approach`` wants
+    (positive, negative; direct: straight), clamped to the travel: at its end the slide cannot arrive from beyond.
+    ``last_direction`` is the direction a move that needs no motion keeps. The planner predicts directions by it."""
+    want = {"positive": 1, "negative": -1}.get(approach, 0)
+    moving = abs(target_mm - current_mm) > _RESOLUTION_MM
+    arriving = (1 if target_mm > current_mm else -1) if moving else last_direction
+    if want == 0 or arriving == want:
+        return [target_mm] if moving else []
+    before = min(max(target_mm - want * overshoot_mm, travel_mm[0]), travel_mm[1])
+    if abs(before - target_mm) <= _RESOLUTION_MM:  # at the end of travel: cannot arrive from that side
+        return [target_mm] if moving else []
+    return [before, target_mm]
+
 class Grbl(Instrument):
     """A GRBL 1.1 controller moving one axis of the slide; positions in m at the interface, mm inside."""
 
@@ -399,15 +414,8 @@ class Grbl(Instrument):
 
     def _waypoints(self, current: float, target: float) -> list[float]:
         """Distances to visit so the last move arrives from the wanted side (clamped to the travel)."""
-        want = {"positive": 1, "negative": -1}.get(self.approach, 0)
-        moving = abs(target - current) > _RESOLUTION_MM
-        arriving = (1 if target > current else -1) if moving else self._direction
-        if want == 0 or arriving == want:
-            return [target] if moving else []
-        before = min(max(target - want * self.overshoot_mm, self.min_mm), self.max_mm)
-        if abs(before - target) <= _RESOLUTION_MM:  # at the end of travel: cannot arrive from that side
-            return [target] if moving else []
-        return [before, target]
+        return approach_waypoints(current, target, self._direction, self.approach, self.overshoot_mm,
+                                  (self.min_mm, self.max_mm))
 
     def _move(self, start: float, end: float, feed: float) -> None:
         """One ``G90 G1`` move, then wait: sleep the expected time, poll ``?`` until Idle."""

@@ -192,8 +192,7 @@ def plan_next(result: Diagnosis, registry: EffectRegistry, station: StationConfi
     room = room_temperature_c(result.data)
     scored = []
     for candidate in candidates:
-        planned = planned_readings(candidate.plan, station, room, result.data,
-                                   coil_in_air=bool(getattr(candidate.experiment, "coil_in_air", False)))
+        planned = planned_readings(candidate.plan, station, room, result.data)
         if not len(planned):
             refused[candidate.name] = "takes no readings"
             continue

@@ -1,6 +1,8 @@
 """The readings a planned experiment will take: distance, frequency, direction, temperatures and time of each.
 
-The plan (``runner.plan.build_plan``) says what is measured in which order; its lab-time estimate
+They are the rows its run will write and its measurements keep, by the runner's own rules (``planned_rows``): the
+predicted Delta chi-square is counted on them. The plan (``runner.plan.build_plan``) says what is measured in
+which order; its lab-time estimate
 (``runner.progress.estimate_plan``, from the station's ``thermal:`` block through ``runner/thermal_time.py``) says
 how long each step takes. Temperatures follow the same first-order picture the estimate uses: a heated part
 approaches its setpoint with the station's settling time constant and cools towards ambient with its cooling one;
@@ -11,14 +13,20 @@ campaign measured (its coldest readings), not a declared figure.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 from ecds_lab.config.station import StationConfig
+from ecds_lab.data.columns import LOGGED_POINT, PLANNED_POINT
 from ecds_lab.data.measurements import Measurements
+from ecds_lab.planning.planned_slide import PlannedSlide
 from ecds_lab.runner.plan import Plan
 from ecds_lab.runner.progress import estimate_plan
+from ecds_lab.runner.rows import commanded_mm
+from ecds_lab.runner.slide_position import SlidePosition
 from ecds_lab.runner.steps import CoolDown, Home, MeasurePoint, Park, WaitSteady
+from ecds_lab.storage.reader import located
 
 
 def room_temperature_c(data: Measurements) -> float:
@@ -27,35 +35,49 @@ def room_temperature_c(data: Measurements) -> float:
     return float(np.median(coil[: max(1, len(coil) // 10)])) if len(coil) else 22.0
 
 
-def planned_readings(plan: Plan, station: StationConfig, room_c: float, campaign: Measurements, *,
-                     coil_in_air: bool = False) -> Measurements:
-    """One row per reading the plan will take, with the conditions it is taken at; ``ls_h`` NaN (to be predicted),
-    ``rs_ohm`` the campaign's median at that frequency (only a start for a fit's de-embedding). ``coil_in_air``:
-    the target is removed for the whole plan (a coil-heating run), every reading at x = inf."""
+@dataclass(frozen=True)
+class PlannedRow:
+    """One row the run of a plan will write: the step that takes it, planned point or logged while a heater waits
+    (``data.columns`` kinds), when, where (commanded distance, mm; NaN unknown, +inf coil in air), at which
+    frequency, temperatures and direction of approach."""
+
+    step: int
+    kind: int
+    time_s: float
+    x_commanded_mm: float
+    freq_hz: float
+    t_coil_c: float
+    t_target_c: float
+    direction: int
+
+
+def planned_rows(plan: Plan, station: StationConfig, room_c: float) -> list[PlannedRow]:
+    """Every row the run of ``plan`` will write, in order, as its runner writes them.
+
+    The rows are the runner's own: each planned point, and the readings a heater wait or cool-down logs (as many
+    as the plan's estimate counts: the lab's response decides how many the run takes), at the commanded distance
+    and direction of approach the runner's position bookkeeping (``runner.slide_position``) records over the
+    station's slide (``PlannedSlide``), at x = inf when the coil is in air (``Plan.coil_in_air``,
+    ``runner.rows.commanded_mm``). Temperatures and times follow the plan's estimate (module docstring)."""
     thermal = station.thermal
-    estimates = estimate_plan(plan)
     temperature = {"coil": room_c, "target": room_c}
-    x_mm = math.inf
+    position = SlidePosition(PlannedSlide(station))
     clock = 0.0
-    rows: list[tuple[float, float, float, float, float, int]] = []
-    side = slide_approach(station)
-    direction = side
-    for step, estimate in zip(plan.steps, estimates, strict=True):
+    rows: list[PlannedRow] = []
+
+    def record(index: int, kind: int, at_s: float, freq_hz: float, in_air: bool, temps: dict[str, float]) -> None:
+        rows.append(PlannedRow(index, kind, at_s, commanded_mm(position.x_mm, in_air), freq_hz, temps["coil"],
+                               temps["target"], position.direction))
+
+    for index, (step, estimate) in enumerate(zip(plan.steps, estimate_plan(plan), strict=True)):
         if isinstance(step, Home):
-            x_mm = float(station.slide.options.get("origin_mm", math.inf))
-            clock += estimate.seconds
+            position.home()
         elif isinstance(step, Park):
-            direction = _approached(side, direction, x_mm, step.x_mm)
-            x_mm = step.x_mm
-            clock += estimate.seconds
+            position.move_to(step.x_mm)
         elif isinstance(step, MeasurePoint):
-            if step.in_air:
-                x_mm = math.inf
-            elif step.x_mm is not None:
-                direction = _approached(side, direction, x_mm, step.x_mm)
-                x_mm = step.x_mm
-            clock += estimate.seconds
-            rows.append((clock, x_mm, step.freq_hz, temperature["coil"], temperature["target"], direction))
+            if step.x_mm is not None:
+                position.move_to(step.x_mm)
+            record(index, PLANNED_POINT, clock + estimate.seconds, step.freq_hz, step.in_air, temperature)
         elif isinstance(step, WaitSteady | CoolDown):
             part = getattr(thermal, step.heater)
             start_c = temperature[step.heater]
@@ -63,43 +85,41 @@ def planned_readings(plan: Plan, station: StationConfig, room_c: float, campaign
                 goal_c, tau = step.setpoint_c, part.settling_time_constant_s
             else:
                 goal_c, tau = room_c, part.cooling_time_constant_s
-            logged = int(estimate.rows)
             frequencies = step.log.frequencies_hz if step.log is not None else ()
-            for i in range(logged // max(len(frequencies), 1)):
-                t = estimate.seconds * i / max(logged // max(len(frequencies), 1), 1)
-                reading_c = goal_c + (start_c - goal_c) * math.exp(-t / tau)
-                temps = {**temperature, step.heater: reading_c}
+            logs = int(estimate.rows) // max(len(frequencies), 1)
+            for i in range(logs):
+                t = estimate.seconds * i / max(logs, 1)
+                temps = {**temperature, step.heater: goal_c + (start_c - goal_c) * math.exp(-t / tau)}
                 for f in frequencies:
-                    rows.append((clock + t, x_mm, f, temps["coil"], temps["target"], direction))
-            clock += estimate.seconds
+                    record(index, LOGGED_POINT, clock + t, f, plan.coil_in_air, temps)
             end_c = goal_c + (start_c - goal_c) * math.exp(-estimate.seconds / tau)
             temperature[step.heater] = end_c if isinstance(step, CoolDown) else step.setpoint_c
-        else:
-            clock += estimate.seconds
-    table = np.array(rows, float).reshape(-1, 6)
-    x_m = np.full(len(table), np.inf) if coil_in_air else table[:, 1] * 1e-3
+        clock += estimate.seconds
+    return rows
+
+
+def planned_readings(plan: Plan, station: StationConfig, room_c: float, campaign: Measurements) -> Measurements:
+    """The readings the run of ``plan`` will record and its measurements will hold (``planned_rows`` with a known
+    distance: readings logged after homing, before the slide's first move, have none and are left out, as
+    ``storage.reader.located`` leaves them out of a run file's measurements); ``ls_h`` NaN (to be predicted),
+    ``rs_ohm`` the campaign's median at that frequency (only a start for a fit's de-embedding)."""
+    rows = planned_rows(plan, station, room_c)
+    table = np.array([(r.time_s, r.x_commanded_mm, r.freq_hz, r.t_coil_c, r.t_target_c, r.direction)
+                      for r in rows], float).reshape(-1, 6)
+    table = table[located(table[:, 1])]
+    x_m = table[:, 1] * 1e-3
     rs = np.array([_median_rs(campaign, f) for f in table[:, 2]])
     return Measurements(time_s=table[:, 0], x_m=x_m, freq_hz=table[:, 2], t_coil_c=table[:, 3],
                         t_target_c=table[:, 4], ls_h=np.full(len(table), np.nan), rs_ohm=rs,
-                        segment=np.zeros(len(table), int), x_commanded_m=x_m,
-                        direction=np.where(np.isfinite(x_m), table[:, 5], 0).astype(int),
+                        segment=np.zeros(len(table), int), x_commanded_m=x_m, direction=table[:, 5].astype(int),
                         slide_repeatability_m=np.full(len(table), (station.slide.repeatability_um or 0.0) * 1e-6),
                         source="planned")
 
 
 def slide_approach(station: StationConfig) -> int:
-    """+1 / -1 when the slide finishes every move from one side (the GRBL driver's ``approach`` option, positive by
-    default), 0 when it approaches from the side it comes from (``direct``)."""
-    return {"positive": 1, "negative": -1}.get(str(station.slide.options.get("approach", "positive")), 0)
-
-
-def _approached(side: int, last: int, from_mm: float, to_mm: float) -> int:
-    """The direction a move ends in: the slide's fixed side, else the sign of the move (the last one if none)."""
-    if side:
-        return side
-    if not (math.isfinite(from_mm) and math.isfinite(to_mm)) or to_mm == from_mm:
-        return last
-    return 1 if to_mm > from_mm else -1
+    """+1 / -1 when the slide finishes every move from one side (the GRBL driver's ``approach`` option, its default
+    positive), 0 when it approaches from the side it comes from (``direct``)."""
+    return {"positive": 1, "negative": -1}.get(PlannedSlide(station).approach, 0)
 
 
 def _median_rs(campaign: Measurements, freq_hz: float) -> float:

@@ -51,6 +51,11 @@ class Plan:
     def points(self) -> tuple[MeasurePoint, ...]:
         return tuple(s for s in self.steps if isinstance(s, MeasurePoint))
 
+    @property
+    def coil_in_air(self) -> bool:
+        """Every planned reading is taken with the coil in air: the run records its logged readings at x = inf too."""
+        return bool(self.points) and all(p.in_air for p in self.points)
+
     def describe(self) -> str:
         lines = [f"plan '{self.name}' ({self.kind}): {len(self.steps)} steps, {len(self.points)} planned readings"]
         lines += [f"{i:5d}  {step.describe()}" for i, step in enumerate(self.steps)]

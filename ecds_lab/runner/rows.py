@@ -20,7 +20,7 @@ def reading_row(*, time_s: float, wall_time_s: float, step_index: int, kind: int
     A coil in air has no target distance: its commanded position is +inf.
     """
     planned = point is not None and kind == PLANNED_POINT
-    commanded = math.inf if in_air else (position.x_mm if position.x_mm is not None else math.nan)
+    commanded = commanded_mm(position.x_mm, in_air)
     return (
         time_s,  # time_s
         wall_time_s,  # wall_time_s
@@ -42,3 +42,9 @@ def reading_row(*, time_s: float, wall_time_s: float, step_index: int, kind: int
         reading.main,  # ls_h
         reading.secondary,  # rs_ohm
     )
+
+
+def commanded_mm(x_mm: float | None, in_air: bool) -> float:
+    """The commanded distance a reading is recorded at: +inf with the coil in air, NaN while the slide's position
+    is unknown (after homing, before its first move; ``storage.reader.located`` leaves such rows out)."""
+    return math.inf if in_air else (x_mm if x_mm is not None else math.nan)

@@ -49,7 +49,7 @@ class Runner:
         progress = Progress(plan, self.station.clock, lambda: self.writer.rows, enabled=self.progress)
         context = RunContext(self.station, self.writer, progress, t0=self.t0,
                              heats=any(isinstance(s, SetHeater) for s in plan.steps),
-                             coil_in_air=bool(plan.points) and all(p.in_air for p in plan.points))
+                             coil_in_air=plan.coil_in_air)
         self.context = context
         status, error = "completed", ""
         try:

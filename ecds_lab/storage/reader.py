@@ -176,12 +176,18 @@ def _read_role_groups(transcripts: h5py.Group, file_size: int) -> dict[str, list
     return out
 
 
+def located(x_commanded_mm: np.ndarray) -> np.ndarray:
+    """Rows recorded where the slide's position was known (a distance, or +inf with the coil in air): the
+    readings a run's measurements hold. After homing, until the slide's first move, a reading has no distance."""
+    return ~np.isnan(np.asarray(x_commanded_mm, float))
+
+
 def read_measurements(run: RunFile | str | Path) -> Measurements:
     """The bridge readings of a run file (or one already read) as Measurements (rows with a reading)."""
     if not isinstance(run, RunFile):
         run = read_run(run, transcripts=False)
     path = run.path
-    ok = np.isfinite(run.column("ls_h")) & ~np.isnan(run.column("x_commanded_mm"))
+    ok = np.isfinite(run.column("ls_h")) & located(run.column("x_commanded_mm"))
     if not ok.any():
         raise RunFileError(f"{path}: holds no bridge readings")
     rows = run.points[ok]

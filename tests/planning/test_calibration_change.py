@@ -58,7 +58,7 @@ def test_the_calibration_change_of_a_sweep_is_an_offset_a_drift_and_a_curve_in_d
     config = validate(str(station), parse_yaml(read_text(station), str(station)), StationConfig)
     candidates = {c.name: c for c in station_candidates(opened.data, config)[0]}
     sweep = planned_readings(candidates["repeat"].plan, config, 22.0, opened.data)
-    in_air = planned_readings(candidates["coil_ramps"].plan, config, 22.0, opened.data, coil_in_air=True)
+    in_air = planned_readings(candidates["coil_ramps"].plan, config, 22.0, opened.data)
     assert calibration_change_columns(sweep).shape == (len(sweep), 4 * len(np.unique(sweep.freq_hz)))
     assert calibration_change_columns(in_air).shape == (len(in_air), 2 * len(np.unique(in_air.freq_hz)))
     assert np.all(np.isfinite(calibration_change_columns(in_air)))

@@ -95,11 +95,14 @@ PHYSICIST = {
         "plan-next names the coil's ramps logged every minute (1.0 h), not a 1 h hold (1.3 h): both decide moisture "
         "against lag (guaranteed Delta chi-square 6525 and 9758 after the calibration change) and the worth counts "
         "questions decided per hour. Ranking the hold first needs a separation beyond 25 to count, and every such "
-        "rule growing with the separations names the target hot at 2000 Hz in (a), which at the same 0.70 h "
-        "guarantees more on every question (650.8 against 80.6 on the tie; 87.9 with the plate at its fit); "
-        "tried: (a) measured 20.4 against 936 "
+        "rule growing with the separations names the target hot at 2000 Hz in (a), which at the same 0.70 h and "
+        "the same worth (2.1 per hour: 500 Hz is first only in the candidates' order) guarantees more on every "
+        "question (646.4 against 80.8 on the tie); tried: (a) measured 20.4 against 936 "
         "predicted (the factor 3 fails), (b) claims the bending, (d) names the 2 h hold (docs/planning.md, Scoring, "
-        "tried and not adopted (3))")))])
+        "tried and not adopted (3)). Nor does the truth's parameter uncertainty make the ramps fail to decide: "
+        "with every parameter of the tie's effects profiled on the campaign as the plate thickness is (moist_dC, "
+        "the drying rate and order; lag_tau), the ramps guarantee 6390 and the hold 9751 (tried and not adopted "
+        "(4))")))])
 def test_plan_next_names_the_experiment_a_physicist_would_choose(case, started):
     station, run = started(case)
     plan = planned(station, [run])
