@@ -93,7 +93,8 @@ def format_duration(seconds: float) -> str:
     return f"{seconds:.0f} s"
 
 
-def _reading_s(bridge: BridgeConfig) -> float:
+def reading_s(bridge: BridgeConfig) -> float:
+    """Lab seconds one bridge reading takes with ``bridge``'s speed and averaging, its overhead included."""
     return READING_S[bridge.speed] * bridge.averages + OVERHEAD_S
 
 
@@ -171,7 +172,7 @@ class SweepConfig(_Strict):
         path_mm = sum(abs(b - a) for a, b in itertools.pairwise(forward))
         per_pass = PlanSize(len(forward) * len(self.frequencies_hz) * self.readings_per_point,
                             len(forward) * self.settle_s + path_mm / MOVE_MM_PER_S, 0.0)
-        per_pass = PlanSize(per_pass.readings, per_pass.duration_s + per_pass.readings * _reading_s(bridge), 0.0)
+        per_pass = PlanSize(per_pass.readings, per_pass.duration_s + per_pass.readings * reading_s(bridge), 0.0)
         total = per_pass.times(passes * self.repeats)
         return PlanSize(total.readings, total.duration_s, total.duration_s)
 
@@ -287,7 +288,7 @@ class CoilHeating(_Experiment):
     def size(self) -> PlanSize:
         in_place = len(self.frequencies_hz) * self.readings
         at_steady = (self.sweep.size(self.bridge) if self.sweep is not None else
-                     PlanSize(in_place, in_place * _reading_s(self.bridge), in_place * _reading_s(self.bridge)))
+                     PlanSize(in_place, in_place * reading_s(self.bridge), in_place * reading_s(self.bridge)))
         return at_steady.times(len(self.heating.setpoints_c)) + self.heating.waits()
 
 
@@ -313,7 +314,7 @@ class Spectroscopy(_Experiment):
     def size(self) -> PlanSize:
         steps = 1 + len(self.coil_temperatures_c or [])
         readings = len(self.frequencies_hz)
-        spectrum = PlanSize(readings, readings * _reading_s(self.bridge), readings * _reading_s(self.bridge))
+        spectrum = PlanSize(readings, readings * reading_s(self.bridge), readings * reading_s(self.bridge))
         return spectrum.times(steps) + self.heating.wait().times(steps - 1)
 
 

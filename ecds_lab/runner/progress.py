@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, TextIO
 
 from tqdm import tqdm
 
-from ecds_lab.config.experiment import MOVE_MM_PER_S, OVERHEAD_S, READING_S, format_duration
+from ecds_lab.config.experiment import MOVE_MM_PER_S, OVERHEAD_S, READING_S, format_duration, reading_s
 from ecds_lab.runner.steps import (
     ConfigureBridge,
     CoolDown,
@@ -53,20 +53,20 @@ class StepEstimate:
 
 def estimate_plan(plan: Plan) -> list[StepEstimate]:
     """Nominal duration and rows of every step, in order (positions and temperatures tracked along)."""
-    reading_s = READING_S["slow"] + OVERHEAD_S
+    reading = READING_S["slow"] + OVERHEAD_S
     x_mm: float | None = None
     thermal = plan.thermal
     temperature = {"coil": thermal.ambient_c, "target": thermal.ambient_c}
     out = []
     for step in plan.steps:
         if isinstance(step, ConfigureBridge):
-            reading_s = READING_S[step.bridge.speed] * step.bridge.averages + OVERHEAD_S
+            reading = reading_s(step.bridge)
             out.append(StepEstimate(0.5, 0, "other"))
         elif isinstance(step, MeasurePoint):
             move = abs(step.x_mm - x_mm) if step.x_mm is not None and x_mm is not None else 0.0
             moved = step.x_mm is not None and step.x_mm != x_mm
             x_mm = step.x_mm if step.x_mm is not None else x_mm
-            out.append(StepEstimate(move / MOVE_MM_PER_S + (step.settle_s if moved else 0.0) + reading_s, 1, "point",
+            out.append(StepEstimate(move / MOVE_MM_PER_S + (step.settle_s if moved else 0.0) + reading, 1, "point",
                                     move))
         elif isinstance(step, Park):
             move = abs(step.x_mm - x_mm) if x_mm is not None else 0.0
@@ -79,7 +79,7 @@ def estimate_plan(plan: Plan) -> list[StepEstimate]:
             part = getattr(thermal, step.heater)
             seconds = heating_wait_s(step.steady, step.setpoint_c - temperature[step.heater], part)
             temperature[step.heater] = step.setpoint_c
-            out.append(StepEstimate(seconds, _logged_rows(step, seconds, reading_s), "heat"))
+            out.append(StepEstimate(seconds, logged_rows(step, seconds, reading), "heat"))
         elif isinstance(step, IdentifyPlant):  # baseline, the pulse to +rise_k, the record until it turns
             part = getattr(thermal, step.heater)
             seconds = 4 * step.check_interval_s + part.settling_time_constant_s
@@ -89,13 +89,13 @@ def estimate_plan(plan: Plan) -> list[StepEstimate]:
             seconds = cooling_s(temperature[step.heater], step.below_c, thermal.ambient_c,
                                 getattr(thermal, step.heater), step.timeout_s)
             temperature[step.heater] = min(temperature[step.heater], step.below_c)
-            out.append(StepEstimate(seconds, _logged_rows(step, seconds, reading_s), "cool"))
+            out.append(StepEstimate(seconds, logged_rows(step, seconds, reading), "cool"))
         else:
             out.append(StepEstimate(0.1, 0, "other"))
     return out
 
 
-def _logged_rows(step: WaitSteady | CoolDown, seconds: float, reading_s: float) -> float:
+def logged_rows(step: WaitSteady | CoolDown, seconds: float, reading_s: float) -> float:
     """Bridge readings logged while waiting: one per frequency every log interval, the first at once."""
     if step.log is None or not step.log.frequencies_hz:
         return 0
