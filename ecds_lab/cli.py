@@ -277,7 +277,7 @@ def _cmd_plan_next(args: argparse.Namespace) -> int:
     opened = open_campaign(args.data, args.sensor)
     _require_readings(opened.data, args.data, 2, "a plan starts from a diagnosis")
     result = run_diagnosis(opened.data, (), opened.sensor, registry=registry)
-    plan = plan_next(result, registry, station, args.max_hours)  # type: ignore[arg-type]
+    plan = plan_next(result, registry, station, args.max_hours, runs=args.data)  # type: ignore[arg-type]
     if args.json:
         print(json.dumps(plan.to_json(), indent=2))
     else:

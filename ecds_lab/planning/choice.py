@@ -37,7 +37,9 @@ from ecds_lab.planning.discrimination import (
     question_separations,
 )
 from ecds_lab.planning.questions import DESIGNABLE, OpenQuestion, not_asked, open_questions
+from ecds_lab.planning.recorded_waits import recorded_waits
 from ecds_lab.planning.rivals import Rival, nested_rivals, size_rivals, tie_rivals
+from ecds_lab.planning.thermal_response import ThermalResponse
 
 #: Lab time a run costs beyond its plan (hours): setting up, confirming, checking its file. It keeps a run of a
 #: minute from outscoring one of ten that answers more.
@@ -83,6 +85,9 @@ class NextPlan:
     noise: NoiseEstimate | None = None
     #: ties (indices) the campaign decides already, with why (``decided_by_campaign``): nothing is designed for them
     decided: dict[int, str] = field(default_factory=dict)
+    #: how the planned heater waits were predicted from the campaign's recorded ones, one line per heated part it
+    #: informs (``ThermalResponse.describe``; none: the station's declared figures throughout)
+    heater_waits: list[str] = field(default_factory=list)
 
     @property
     def main_question(self) -> int | None:
@@ -137,7 +142,7 @@ class NextPlan:
                 "refused": dict(self.refused), "not_asked": dict(self.not_asked),
                 "unanswerable": [self.questions[i].text for i in self.unanswerable],
                 "decided": {self.questions[i].text: why for i, why in self.decided.items()},
-                "chosen": chosen, "why": self.why,
+                "chosen": chosen, "why": self.why, "heater_waits": list(self.heater_waits),
                 "predicted_delta_chi2": None if self.predicted_delta_chi2 is None
                 else round(self.predicted_delta_chi2, 1)}
 
@@ -170,8 +175,11 @@ def decided_by_campaign(question: OpenQuestion, rivals: Sequence[Rival], result:
 
 
 def plan_next(result: Diagnosis, registry: EffectRegistry, station: StationConfig,
-              max_hours: float | None = None, done: Sequence[dict[str, Any]] = ()) -> NextPlan:
-    """Score every candidate on every designable open question and choose (module docstring)."""
+              max_hours: float | None = None, done: Sequence[dict[str, Any]] = (),
+              runs: Sequence[str | Path] = ()) -> NextPlan:
+    """Score every candidate on every designable open question and choose (module docstring). ``runs``: the
+    campaign's run files, whose recorded heater waits predict the planned ones (``planning.thermal_response``);
+    without them the station's declared thermal figures do."""
     questions = open_questions(result, registry)
     asked = not_asked(result, registry)
     designable = [i for i, q in enumerate(questions) if q.kind in DESIGNABLE]
@@ -190,9 +198,10 @@ def plan_next(result: Diagnosis, registry: EffectRegistry, station: StationConfi
                         + "; ".join(reasons), asked, [], result.data, result.evidence_noise, decided)
     candidates, refused = station_candidates(result.data, station, None, done)
     room = room_temperature_c(result.data)
+    response = ThermalResponse.of(recorded_waits(runs), station.thermal)
     scored = []
     for candidate in candidates:
-        planned = planned_readings(candidate.plan, station, room, result.data)
+        planned = planned_readings(candidate.plan, station, room, result.data, response)
         if not len(planned):
             refused[candidate.name] = "takes no readings"
             continue
@@ -227,7 +236,7 @@ def plan_next(result: Diagnosis, registry: EffectRegistry, station: StationConfi
     else:
         chosen, why = None, "the station can do no candidate experiment within the time allowed"
     return NextPlan(questions, rivals, scored, refused, chosen, why, asked, unanswerable, result.data,
-                    result.evidence_noise, decided)
+                    result.evidence_noise, decided, response.describe())
 
 
 def _nothing_to_design(questions: list[OpenQuestion]) -> str:
@@ -247,6 +256,7 @@ def header(plan: NextPlan) -> str:
     assert chosen is not None
     lines = [f"Planned by ecds-lab plan-next: {chosen.candidate.what}.",
              f"Lab time (the plan's estimate from the station's thermal block): {chosen.candidate.hours:.2f} h."]
+    lines += [f"Heater waits predicted from the campaign's recorded ones: {line}." for line in plan.heater_waits]
     for index, separations in chosen.separations.items():
         question = plan.questions[index]
         models = " | ".join(r.label for r in plan.rivals[index])

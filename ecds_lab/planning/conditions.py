@@ -2,12 +2,13 @@
 
 They are the rows its run will write and its measurements keep, by the runner's own rules (``planned_rows``): the
 predicted Delta chi-square is counted on them. The plan (``runner.plan.build_plan``) says what is measured in
-which order; its lab-time estimate
-(``runner.progress.estimate_plan``, from the station's ``thermal:`` block through ``runner/thermal_time.py``) says
-how long each step takes. Temperatures follow the same first-order picture the estimate uses: a heated part
-approaches its setpoint with the station's settling time constant and cools towards ambient with its cooling one;
-readings logged while a heater waits are spaced as the estimate spaces them. The room temperature is the one the
-campaign measured (its coldest readings), not a declared figure.
+which order; its lab-time estimate (``runner.progress.estimate_plan``) says how long each step takes. A heater wait
+is predicted from the campaign's recorded waits where it has one of that part (``planning.thermal_response``: how
+long the run waits, the part's temperature along it, a log every log period from its start); otherwise from the
+station's declared figures, as the estimate takes it (``runner/thermal_time.py``): a heated part approaches its
+setpoint with the station's settling time constant and cools towards the room with its cooling one, and the
+readings logged while it waits are spread over the estimated wait. The room temperature is the one the campaign
+measured (its coldest readings), not a declared figure.
 """
 
 from __future__ import annotations
@@ -17,15 +18,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ecds_lab.config.experiment import OVERHEAD_S, READING_S, reading_s
 from ecds_lab.config.station import StationConfig
 from ecds_lab.data.columns import LOGGED_POINT, PLANNED_POINT
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.planning.planned_slide import PlannedSlide
+from ecds_lab.planning.thermal_response import PlannedWait, ThermalResponse
 from ecds_lab.runner.plan import Plan
-from ecds_lab.runner.progress import estimate_plan
+from ecds_lab.runner.progress import estimate_plan, logged_rows
 from ecds_lab.runner.rows import commanded_mm
 from ecds_lab.runner.slide_position import SlidePosition
-from ecds_lab.runner.steps import CoolDown, Home, MeasurePoint, Park, WaitSteady
+from ecds_lab.runner.steps import ConfigureBridge, CoolDown, Home, MeasurePoint, Park, WaitSteady
 from ecds_lab.storage.reader import located
 
 
@@ -51,18 +54,21 @@ class PlannedRow:
     direction: int
 
 
-def planned_rows(plan: Plan, station: StationConfig, room_c: float) -> list[PlannedRow]:
+def planned_rows(plan: Plan, station: StationConfig, room_c: float,
+                 response: ThermalResponse | None = None) -> list[PlannedRow]:
     """Every row the run of ``plan`` will write, in order, as its runner writes them.
 
     The rows are the runner's own: each planned point, and the readings a heater wait or cool-down logs (as many
     as the plan's estimate counts: the lab's response decides how many the run takes), at the commanded distance
     and direction of approach the runner's position bookkeeping (``runner.slide_position``) records over the
     station's slide (``PlannedSlide``), at x = inf when the coil is in air (``Plan.coil_in_air``,
-    ``runner.rows.commanded_mm``). Temperatures and times follow the plan's estimate (module docstring)."""
+    ``runner.rows.commanded_mm``). Temperatures and times follow the plan's estimate, or for a heater wait the
+    campaign's recorded ``response`` where it has one of that part (module docstring)."""
     thermal = station.thermal
     temperature = {"coil": room_c, "target": room_c}
     position = SlidePosition(PlannedSlide(station))
     clock = 0.0
+    reading = READING_S["slow"] + OVERHEAD_S  # as the estimate, until the plan configures the bridge
     rows: list[PlannedRow] = []
 
     def record(index: int, kind: int, at_s: float, freq_hz: float, in_air: bool, temps: dict[str, float]) -> None:
@@ -70,7 +76,10 @@ def planned_rows(plan: Plan, station: StationConfig, room_c: float) -> list[Plan
                                temps["target"], position.direction))
 
     for index, (step, estimate) in enumerate(zip(plan.steps, estimate_plan(plan), strict=True)):
-        if isinstance(step, Home):
+        seconds = estimate.seconds
+        if isinstance(step, ConfigureBridge):
+            reading = reading_s(step.bridge)
+        elif isinstance(step, Home):
             position.home()
         elif isinstance(step, Park):
             position.move_to(step.x_mm)
@@ -79,31 +88,40 @@ def planned_rows(plan: Plan, station: StationConfig, room_c: float) -> list[Plan
                 position.move_to(step.x_mm)
             record(index, PLANNED_POINT, clock + estimate.seconds, step.freq_hz, step.in_air, temperature)
         elif isinstance(step, WaitSteady | CoolDown):
-            part = getattr(thermal, step.heater)
-            start_c = temperature[step.heater]
-            if isinstance(step, WaitSteady):
-                goal_c, tau = step.setpoint_c, part.settling_time_constant_s
-            else:
-                goal_c, tau = room_c, part.cooling_time_constant_s
             frequencies = step.log.frequencies_hz if step.log is not None else ()
-            logs = int(estimate.rows) // max(len(frequencies), 1)
-            for i in range(logs):
-                t = estimate.seconds * i / max(logs, 1)
-                temps = {**temperature, step.heater: goal_c + (start_c - goal_c) * math.exp(-t / tau)}
+            start_c = temperature[step.heater]
+            wait = _recorded_like(step, start_c, response)
+            if wait is not None:  # the campaign's response: the runner's log period, from the wait's start
+                seconds = wait.seconds
+                logs = int(logged_rows(step, seconds, reading)) // max(len(frequencies), 1)
+                period = step.log.interval_s + len(frequencies) * reading if step.log is not None else 0.0
+                along = [(i * period, wait.temperature_c(i * period)) for i in range(logs)]
+                end_c = wait.temperature_c(seconds)
+            else:  # the station's declared first-order picture, the logs spread over the estimated wait
+                part = getattr(thermal, step.heater)
+                if isinstance(step, WaitSteady):
+                    goal_c, tau = step.setpoint_c, part.settling_time_constant_s
+                else:
+                    goal_c, tau = room_c, part.cooling_time_constant_s
+                logs = int(estimate.rows) // max(len(frequencies), 1)
+                times = [seconds * i / max(logs, 1) for i in range(logs)]
+                along = [(t, goal_c + (start_c - goal_c) * math.exp(-t / tau)) for t in times]
+                end_c = goal_c + (start_c - goal_c) * math.exp(-seconds / tau)
+            for t, heated_c in along:
                 for f in frequencies:
-                    record(index, LOGGED_POINT, clock + t, f, plan.coil_in_air, temps)
-            end_c = goal_c + (start_c - goal_c) * math.exp(-estimate.seconds / tau)
+                    record(index, LOGGED_POINT, clock + t, f, plan.coil_in_air, {**temperature, step.heater: heated_c})
             temperature[step.heater] = end_c if isinstance(step, CoolDown) else step.setpoint_c
-        clock += estimate.seconds
+        clock += seconds
     return rows
 
 
-def planned_readings(plan: Plan, station: StationConfig, room_c: float, campaign: Measurements) -> Measurements:
+def planned_readings(plan: Plan, station: StationConfig, room_c: float, campaign: Measurements,
+                     response: ThermalResponse | None = None) -> Measurements:
     """The readings the run of ``plan`` will record and its measurements will hold (``planned_rows`` with a known
     distance: readings logged after homing, before the slide's first move, have none and are left out, as
     ``storage.reader.located`` leaves them out of a run file's measurements); ``ls_h`` NaN (to be predicted),
     ``rs_ohm`` the campaign's median at that frequency (only a start for a fit's de-embedding)."""
-    rows = planned_rows(plan, station, room_c)
+    rows = planned_rows(plan, station, room_c, response)
     table = np.array([(r.time_s, r.x_commanded_mm, r.freq_hz, r.t_coil_c, r.t_target_c, r.direction)
                       for r in rows], float).reshape(-1, 6)
     table = table[located(table[:, 1])]
@@ -120,6 +138,16 @@ def slide_approach(station: StationConfig) -> int:
     """+1 / -1 when the slide finishes every move from one side (the GRBL driver's ``approach`` option, its default
     positive), 0 when it approaches from the side it comes from (``direct``)."""
     return {"positive": 1, "negative": -1}.get(PlannedSlide(station).approach, 0)
+
+
+def _recorded_like(step: WaitSteady | CoolDown, start_c: float, response: ThermalResponse | None
+                   ) -> PlannedWait | None:
+    """The wait as the campaign's response predicts it, or None where it recorded no such wait of the part."""
+    if response is None:
+        return None
+    if isinstance(step, WaitSteady):
+        return response.heating(step.heater, start_c, step.setpoint_c, step.steady)
+    return response.cooling(step.heater, start_c, step.below_c, step.timeout_s)
 
 
 def _median_rs(campaign: Measurements, freq_hz: float) -> float:

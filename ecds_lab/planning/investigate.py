@@ -104,7 +104,7 @@ def investigate(data: Sequence[Path], station: Path, output: Path, *, budget_hou
         result, report = _diagnose(state.files, registry)
         for number in range(1, max_rounds + 1):
             remaining = None if budget_hours is None else budget_hours - state.hours_spent
-            plan = plan_next(result, registry, config, remaining, done)
+            plan = plan_next(result, registry, config, remaining, done, runs=state.files)
             planned = plan.to_json()
             entry: dict[str, Any] = {"round": number, **{key: planned[key] for key in ROUND_PLAN_KEYS},
                                      "measured_delta_chi2": None, "run_file": None, "diagnosis": report}

@@ -31,7 +31,7 @@ def planned(station: Path, runs: list[Path]) -> NextPlan:
     if key not in _PLANS:
         config = validate(str(station), parse_yaml(read_text(station), str(station)), StationConfig)
         opened = open_campaign(runs)
-        _PLANS[key] = plan_next(run_diagnosis(opened.data, (), opened.sensor), library(), config)
+        _PLANS[key] = plan_next(run_diagnosis(opened.data, (), opened.sensor), library(), config, runs=runs)
     return _PLANS[key]
 
 
@@ -48,6 +48,9 @@ def test_plan_next_on_a_one_frequency_tie_names_the_other_frequency_and_writes_a
                for line in header)
     assert any("predicted Delta chi-square" in line for line in header)
     assert any(line.startswith("# Lab time") and " h." in line for line in header)
+    # the target's waits are predicted from the start's recorded ones (docs/planning.md, Predicted readings)
+    assert any(line.startswith("# Heater waits predicted from the campaign's recorded ones: target:")
+               for line in header)
     experiment = yaml.safe_load(text)
     assert experiment["kind"] == "target_heating"
     assert 15000.0 not in experiment["sweep"]["frequencies_hz"]  # the other frequency, with the target hot
@@ -59,6 +62,7 @@ def test_plan_next_on_a_one_frequency_tie_names_the_other_frequency_and_writes_a
     assert {"open_questions", "rivals", "candidates", "refused", "not_asked", "unanswerable", "decided", "chosen",
             "why", "predicted_delta_chi2"} <= set(printed)
     assert printed["chosen"]["name"] == yaml_name(text) and printed["predicted_delta_chi2"] >= 25.0
+    assert [line.split(":")[0] for line in printed["heater_waits"]] == ["target"]
     assert main(["run", str(output), "--station", str(station), "-o", str(tmp_path / "next.h5"), "-q"]) == 0
 
 
@@ -93,11 +97,14 @@ PHYSICIST = {
     "c",
     pytest.param("d", marks=pytest.mark.xfail(strict=True, reason=(
         "plan-next names the coil's ramps logged every minute (1.0 h), not a 1 h hold (1.3 h): both decide moisture "
-        "against lag (guaranteed Delta chi-square 6525 and 9758 after the calibration change) and the worth counts "
-        "questions decided per hour. Ranking the hold first needs a separation beyond 25 to count, and every such "
+        "against lag (guaranteed Delta chi-square 13286 and 1708 after the calibration change, their waits "
+        "predicted from the start's recorded one; 6525 and 9758 with the station's declared thermal figures, which "
+        "had the hold log 6 readings more than it does) and the worth counts questions decided per hour. Ranking "
+        "the hold first needs a separation beyond 25 to count, and every such "
         "rule growing with the separations names the target hot at 2000 Hz in (a), which at the same 0.70 h and "
         "the same worth (2.1 per hour: 500 Hz is first only in the candidates' order) guarantees more on every "
-        "question (646.4 against 80.8 on the tie); tried: (a) measured 20.4 against 936 "
+        "question (629.7 against 81.0 on the tie; 646.4 against 80.8 with the declared figures); tried: (a) "
+        "measured 20.4 against 936 "
         "predicted (the factor 3 fails), (b) claims the bending, (d) names the 2 h hold (docs/planning.md, Scoring, "
         "tried and not adopted (3)). Nor does the truth's parameter uncertainty make the ramps fail to decide: "
         "with every parameter of the tie's effects profiled on the campaign as the plate thickness is (moist_dC, "
