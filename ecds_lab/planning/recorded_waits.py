@@ -4,9 +4,9 @@ thermocouple against time, and (a wait for a steady setpoint) how long the run w
 A run file keeps its experiment and station (``experiment_yaml``, ``station_yaml``), so the run's plan is rebuilt
 (``runner.plan.build_plan``) and each logged row is tied to its step (the ``step`` column): a ``WaitSteady`` or
 ``CoolDown`` that logs bridge readings has its heated part's thermocouple at every log, the first at the wait's
-start. A steady wait ends where the run starts judging the hold at its setpoint (``temperature_holds``'s
-``start_s``), so its duration is measured, not the time of its last log. A CSV, or a run file without its
-configuration, records no waits.
+start (a wait on a heater driven at a fixed power is not its regulation's answer, and is left out). A steady wait
+ends where the run starts judging the hold at its setpoint (``temperature_holds``'s ``start_s``), so its duration
+is measured, not the time of its last log. A CSV, or a run file without its configuration, records no waits.
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ from ecds_lab.data.files import file_kind
 from ecds_lab.errors import EcdsLabError
 from ecds_lab.runner.plan import build_plan
 from ecds_lab.runner.steady_state import SteadyState
-from ecds_lab.runner.steps import CoolDown, WaitSteady
+from ecds_lab.runner.steps import CoolDown, SetHeater, WaitSteady
 from ecds_lab.storage.reader import RunFile, read_run
 
 #: A log this close after the hold's start (s) still belongs to the wait (the clock's rounding).
@@ -74,8 +74,13 @@ def _waits_of(run: RunFile) -> list[RecordedWait]:
     logged = run.column("kind") == LOGGED_POINT
     steps, times = run.column("step"), run.column("time_s")
     out = []
+    powered: dict[str, bool] = {}  # per heater: driven at a fixed power (no regulation answering a setpoint)
     for index, step in enumerate(plan.steps):
+        if isinstance(step, SetHeater):
+            powered[step.heater] = step.power_w is not None
         if not isinstance(step, WaitSteady | CoolDown) or step.log is None or not step.log.frequencies_hz:
+            continue
+        if isinstance(step, WaitSteady) and powered.get(step.heater, False):
             continue
         rows = logged & (steps == index) & (run.column("freq_hz") == step.log.frequencies_hz[0])
         if np.count_nonzero(rows) < 2:

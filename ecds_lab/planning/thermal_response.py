@@ -127,6 +127,8 @@ class ThermalResponse:
         else:
             seconds = lag + tau * math.log((start_c - room_c) / (below_c - room_c))
             seconds = min(seconds, timeout_s) if timeout_s is not None else seconds
+        if not math.isfinite(seconds):
+            return None  # it never gets there and nothing ends it: the plan's estimate says what it counts then
         return PlannedWait(seconds, start_c, room_c, cooling=(tau, lag))
 
     def describe(self) -> list[str]:
