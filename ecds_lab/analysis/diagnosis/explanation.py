@@ -72,6 +72,15 @@ def explain(result: Diagnosis, registry: EffectRegistry | None = None) -> str:
                          f"every reading it keeps only {100 * max(step.part_of_drift, 0.0):.0f} % of that gain: it "
                          "may be a part of the drift, so it is not claimed.")
             continue
+        if step.beside:
+            beside = "; ".join(parameter_text(candidate.fit, p.name) for p in effect.parameters()
+                               if not candidate.fit.parameter(p.name).fixed)
+            lines.append(f"Beside a smooth in {', '.join(step.beside)} (per frequency) that takes the residual the "
+                         f"library does not describe, {added} ({effect.explains}) passes every check (BIC gain on its "
+                         f"signature {candidate.delta_bic_signature:+.0f}{cv}, residual beside the smooth "
+                         f"{candidate.rmse_ppm:.1f} ppm); fitted there {beside}. It is claimed; the model without the "
+                         f"smooth leaves {step.rmse_ppm:.1f} ppm.")
+            continue
         lines.append(f"Adding {added} ({effect.explains}) brings it from {before.rmse_ppm:.1f} to "
                      f"{step.rmse_ppm:.1f} ppm{error} (BIC gain on its signature "
                      f"{candidate.delta_bic_signature:+.0f}{cv}); fitted {values}.")

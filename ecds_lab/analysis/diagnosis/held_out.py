@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 
+from ecds_lab.analysis.diagnosis.nuisance import held_in_folds
 from ecds_lab.analysis.diagnosis.result import Candidate
 from ecds_lab.analysis.fitting import FitResult, fit_model
 from ecds_lab.analysis.noise import NoiseEstimate
@@ -100,11 +101,14 @@ def _split_visits(data: Measurements, groups: np.ndarray) -> np.ndarray:
 
 
 def cv_rmse(data: Measurements, full: FitResult, folds: np.ndarray) -> float:
-    """Held-out RMS (ppm): fit without one fold, predict it; the model still sees the whole history."""
+    """Held-out RMS (ppm): fit without one fold, predict it; the model still sees the whole history. A nuisance
+    smooth's coefficients (``nuisance.held_in_folds``) are held where the fit on every reading left them."""
     squares, count = 0.0, 0
+    fixed = held_in_folds(full.model, full.values)
     for k in np.unique(folds[folds != NEVER_HELD_OUT]):
         held = folds == k
-        trained = fit_model(full.model, data, start=full.values, multistart=False, rows=~held, screening=True)
+        trained = fit_model(full.model, data, start=full.values, fixed=fixed or None, multistart=False, rows=~held,
+                            screening=True)
         r = (data.ls_h[held] / trained.predict(data)[held] - 1) * 1e6
         squares += float(r @ r)
         count += int(held.sum())

@@ -87,6 +87,9 @@ class Step:
     #: When the final residual drifts in time and the effect keeps less than half its gain once a slow drift is
     #: allowed (``drift.gain_beside_drift``): the share of its gain it keeps. Not claimed.
     part_of_drift: float | None = None
+    #: When the effect added was judged beside a flexible nuisance taking a residual outside the library
+    #: (``search._beside_smooth``): the variables that nuisance was smooth in. Claimed.
+    beside: list[str] = field(default_factory=list)
 
     @property
     def rmse_ppm(self) -> float:
@@ -114,7 +117,7 @@ class Step:
         return {"effects": list(self.effects), "rmse_ppm": round(self.rmse_ppm, 3), "bic": round(self.fit.bic, 2),
                 **position_error_json(figure),
                 "stands_for": list(self.stands_for), "leaves_structure": rounded(self.leaves_structure, 1),
-                "part_of_drift": rounded(self.part_of_drift, 2),
+                "part_of_drift": rounded(self.part_of_drift, 2), "beside": list(self.beside),
                 "params": fit_params_json(self.fit)}
 
 
