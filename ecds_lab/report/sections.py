@@ -367,7 +367,9 @@ def _chain_table(steps: Sequence[Any], noise_ppm: float) -> Html:
 
 def _tie_note(step: Any) -> str:
     """For a step whose effect is not claimed: the tied group it stands for, the structure it leaves where it
-    acts (a part of a residual outside the library), or what it keeps beside a drift in time."""
+    acts (a part of a residual outside the library), or what it keeps beside a drift in time; for one claimed
+    beside a smooth that took a residual outside the library, the variables of that smooth (its fall of the RMS is
+    small beside that residual)."""
     group = getattr(step, "stands_for", None)
     if group:
         return f" (stands for {' / '.join(group)}: not claimed)"
@@ -375,8 +377,12 @@ def _tie_note(step: Any) -> str:
     if left is not None:
         return f" (only part of a residual outside the library: {left:.0f} sd left where it acts; not claimed)"
     kept = getattr(step, "part_of_drift", None)
-    return f" (may be part of a drift in time: keeps {100 * max(kept, 0.0):.0f} % of its gain beside one; " \
-        "not claimed)" if kept is not None else ""
+    if kept is not None:
+        return f" (may be part of a drift in time: keeps {100 * max(kept, 0.0):.0f} % of its gain beside one; " \
+            "not claimed)"
+    beside = getattr(step, "beside", None)
+    return f" (claimed beside a smooth in {', '.join(beside)} that takes the residual outside the library)" \
+        if beside else ""
 
 
 def _step_plot(diagnosis: Any, before: Any, after: Any) -> Html | Plot:
