@@ -64,7 +64,7 @@ from ecds_lab.analysis.diagnosis.identifiability import (
 from ecds_lab.analysis.diagnosis.nuisance import NAME as NUISANCE
 from ecds_lab.analysis.diagnosis.nuisance import SMOOTHABLE, smooth_effect
 from ecds_lab.analysis.diagnosis.result import Candidate, Diagnosis, Step
-from ecds_lab.analysis.diagnosis.structure import residual_structure
+from ecds_lab.analysis.diagnosis.structure import ResidualStructure, residual_structure
 from ecds_lab.analysis.diagnosis.verdict import ADEQUATE_RATIO, STRUCTURE_SIGNIFICANCE, outside_library, verdict_of
 from ecds_lab.analysis.fitting import FitResult, fit_model
 from ecds_lab.analysis.noise import NoiseEstimate, refreshed
@@ -228,23 +228,13 @@ def _run_diagnosis(data: Measurements, effects: Sequence[str], sensor: SensorCon
         # Screened on every reading, the claimed fit is the new current model: its held-out error is known.
         claimed_cv = best.cv_rmse_ppm if refit is best.fit else None
         fresh = True
+    searched = noise
     final = steps[-1]
-    # The search judged every candidate against the noise found on the start model; the final model's residual is
-    # judged, and its noise reported, with the figures found about a smooth taken from the final model itself.
-    searched, noise = noise, refreshed(noise, final.fit.noise, clean)
-    # Where the residual lives, each reading weighed by its noise, correlated readings counted as fewer.
-    associations = residual_associations(clean, whitened(final.fit.residuals_ppm, clean, noise),
-                                         noise.ppm * math.sqrt(max(noise.design_effect, 1.0)),
-                                         noise.variance_shares(clean))
-    structure = residual_structure(clean, final.fit.residuals_ppm, noise)
+    noise, associations, structure = _final_judgement(final, clean, searched)
     if not limits and outside_library(final, noise, structure, associations) and _beside_smooth(
             screen, clean, steps, names, space, searched, folds, associations, max_steps):
         final = steps[-1]  # a library effect found beside the residual outside the library: judged again
-        noise = refreshed(searched, final.fit.noise, clean)
-        associations = residual_associations(clean, whitened(final.fit.residuals_ppm, clean, noise),
-                                             noise.ppm * math.sqrt(max(noise.design_effect, 1.0)),
-                                             noise.variance_shares(clean))
-        structure = residual_structure(clean, final.fit.residuals_ppm, noise)
+        noise, associations, structure = _final_judgement(final, clean, searched)
     if not limits and outside_library(final, noise, structure, associations):
         # what each claim left is weighed against its gain, both in the noise the search measured the gain in
         acting = _where_each_acts(steps, clean, searched)
@@ -275,6 +265,19 @@ def diagnose(data: Measurements, effects: Sequence[str] = (), sensor: SensorConf
         defaults = default_candidates(registry if registry is not None else library())
         candidates = [*defaults, *(n for n in also_try if n not in defaults)]
     return run_diagnosis(data, effects, sensor, registry=registry, candidates=candidates).to_json()
+
+
+def _final_judgement(final: Step, clean: Measurements, searched: NoiseEstimate
+                     ) -> tuple[NoiseEstimate, list[Association], ResidualStructure]:
+    """The final model's noise, the associations of its residual and the residual's structure. The search judged
+    every candidate against the noise found on the start model (``searched``); the final model's residual is
+    judged, and its noise reported, with the figures found about a smooth taken from the final model itself.
+    Where the residual lives: each reading weighed by its noise, correlated readings counted as fewer."""
+    noise = refreshed(searched, final.fit.noise, clean)
+    associations = residual_associations(clean, whitened(final.fit.residuals_ppm, clean, noise),
+                                         noise.ppm * math.sqrt(max(noise.design_effect, 1.0)),
+                                         noise.variance_shares(clean))
+    return noise, associations, residual_structure(clean, final.fit.residuals_ppm, noise)
 
 
 def _beside_smooth(screen: Measurements, clean: Measurements, steps: list[Step], names: list[str], space: _Space,
