@@ -25,7 +25,7 @@ from ecds_lab.data.measurements import Measurements
 from ecds_lab.planning.planned_slide import PlannedSlide
 from ecds_lab.planning.thermal_response import PlannedWait, ThermalResponse
 from ecds_lab.runner.plan import Plan
-from ecds_lab.runner.progress import estimate_plan, logged_rows
+from ecds_lab.runner.progress import estimate_plan, log_period_s, logged_rows
 from ecds_lab.runner.rows import commanded_mm
 from ecds_lab.runner.slide_position import SlidePosition
 from ecds_lab.runner.steps import ConfigureBridge, CoolDown, Home, MeasurePoint, Park, WaitSteady
@@ -94,7 +94,7 @@ def planned_rows(plan: Plan, station: StationConfig, room_c: float,
             if wait is not None:  # the campaign's response: the runner's log period, from the wait's start
                 seconds = wait.seconds
                 logs = int(logged_rows(step, seconds, reading)) // max(len(frequencies), 1)
-                period = step.log.interval_s + len(frequencies) * reading if step.log is not None else 0.0
+                period = log_period_s(step, reading)
                 along = [(i * period, wait.temperature_c(i * period)) for i in range(logs)]
                 end_c = wait.temperature_c(seconds)
             else:  # the station's declared first-order picture, the logs spread over the estimated wait

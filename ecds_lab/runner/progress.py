@@ -96,11 +96,18 @@ def estimate_plan(plan: Plan) -> list[StepEstimate]:
 
 
 def logged_rows(step: WaitSteady | CoolDown, seconds: float, reading_s: float) -> float:
-    """Bridge readings logged while waiting: one per frequency every log interval, the first at once."""
+    """Bridge readings logged while waiting: one per frequency every log period, the first at once."""
     if step.log is None or not step.log.frequencies_hz:
         return 0
-    frequencies = len(step.log.frequencies_hz)
-    return (seconds // (step.log.interval_s + frequencies * reading_s) + 1) * frequencies
+    return (seconds // log_period_s(step, reading_s) + 1) * len(step.log.frequencies_hz)
+
+
+def log_period_s(step: WaitSteady | CoolDown, reading_s: float) -> float:
+    """Lab seconds from one log of a wait to the next: its log interval and one reading per frequency (0 without
+    a log)."""
+    if step.log is None:
+        return 0.0
+    return step.log.interval_s + len(step.log.frequencies_hz) * reading_s
 
 
 class PlanEstimate:
