@@ -94,6 +94,8 @@ class _Smooth(Effect):
     frequencies: ClassVar[tuple[float, ...]] = ()
     columns: ClassVar[int] = 0
     capacitance_columns: ClassVar[int] = 0
+    #: the data the splines were last made on (held, so its identity stays its own) and those splines
+    _splined: tuple[Measurements, np.ndarray] | None = None
 
     def parameters(self) -> list[Parameter]:
         return [*(Parameter(f"smooth_{k}", 0.0, -0.1, 0.1, "1", "nuisance spline coefficient (relative L)", 1e-4)
@@ -102,13 +104,19 @@ class _Smooth(Effect):
                             1e-12) for k in range(self.capacitance_columns))]
 
     def splined(self, data: Measurements) -> np.ndarray:
-        """The splines in every variable on ``data`` (values outside a spline's range held at its ends)."""
+        """The splines in every variable on ``data`` (values outside a spline's range held at its ends). Made once
+        per data set: a fit evaluates the model, and asks for its L and its capacitance, on the same readings
+        hundreds of times."""
+        made = self._splined
+        if made is not None and made[0] is data:
+            return made[1]
         blocks = []
         for name, knots in self.splines:
             values = np.nan_to_num(VARIABLES[name].values(data), nan=knots[0])
             values = np.clip(values, knots[0], knots[-1])
             blocks.append(BSpline.design_matrix(values, knots, DEGREE).toarray())
-        return np.hstack(blocks)
+        self._splined = (data, np.hstack(blocks))
+        return self._splined[1]
 
     def basis(self, data: Measurements) -> np.ndarray:
         """The n x columns design matrix of the relative change of L on ``data``: the splines per frequency."""
