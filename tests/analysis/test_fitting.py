@@ -117,3 +117,31 @@ def test_a_large_campaign_tries_its_restarts_on_a_subsample_and_still_finds_them
     assert abs(result.rms_ppm / NOISE_PPM - 1) < 0.2
     for name in result.free_names:
         assert abs(result.values[name] - truth[name]) <= 4 * result.stderr[name], name
+
+
+def test_a_polish_from_a_nearby_start_with_parameters_on_their_bounds_ends_at_the_same_fit_in_fewer_evaluations(
+        campaign):
+    """A drying that is absent in truth (conductance 0, every water molecule bound: both on their bounds) and a
+    start near the answer: the polish does not first grow a trust region 1e-9 from those bounds."""
+    model = SensorModel(None, ["parasitic_capacitance"])
+    truth = values_of(model.parameters()) | {"moist_dC": 2e-13, "moist_dG": 0.0, "bound_share": 1.0}
+    rng = np.random.default_rng(3)
+    data = replace(campaign, ls_h=model.predict(campaign, truth) * (1 + 20e-6 * rng.standard_normal(len(campaign))))
+    start = truth | {"L0": truth["L0"] * (1 + 3e-5), "alpha": truth["alpha"] + 2e-6, "p1": truth["p1"] + 2e-5}
+    plain = fit_model(model, data, start=start, multistart=False, screening=True)
+    polished = fit_model(model, data, start=start, multistart=False, screening=True, polish=True)
+    assert polished.nfev < 0.75 * plain.nfev, (polished.nfev, plain.nfev)
+    assert polished.rms_ppm == pytest.approx(plain.rms_ppm, rel=1e-6)
+    for name in ("L0", "alpha", "p1", "moist_dC"):
+        assert abs(polished.values[name] - plain.values[name]) < 0.1 * plain.stderr[name], name
+
+
+def test_a_solution_evaluated_on_other_readings_carries_their_residuals_and_noise(baseline_fit, campaign):
+    half = campaign.select(np.arange(len(campaign)) % 2 == 0)
+    other = fitting.evaluated(baseline_fit, half)
+    assert other.values == baseline_fit.values and other.n == len(half) and other.nfev == 0
+    np.testing.assert_allclose(other.residuals_ppm, (half.ls_h / baseline_fit.predict(half) - 1) * 1e6)
+    assert other.noise.ppm == pytest.approx(estimate_noise(half, other.residuals_ppm,
+                                                           baseline_fit.model.relative_sensitivity(
+                                                               half, baseline_fit.values)).ppm)
+    assert fitting.evaluated(baseline_fit, half, baseline_fit.noise).noise is baseline_fit.noise

@@ -66,7 +66,7 @@ from ecds_lab.analysis.diagnosis.nuisance import SMOOTHABLE, smooth_effect
 from ecds_lab.analysis.diagnosis.result import Candidate, Diagnosis, Step
 from ecds_lab.analysis.diagnosis.structure import ResidualStructure, residual_structure
 from ecds_lab.analysis.diagnosis.verdict import ADEQUATE_RATIO, STRUCTURE_SIGNIFICANCE, outside_library, verdict_of
-from ecds_lab.analysis.fitting import FitResult, fit_model
+from ecds_lab.analysis.fitting import FitResult, evaluated, fit_model
 from ecds_lab.analysis.noise import NoiseEstimate, refreshed
 from ecds_lab.analysis.outliers import Outlier, describe, find_glitches
 from ecds_lab.analysis.subsample import screened
@@ -523,7 +523,7 @@ def _round(screen: Measurements, clean: Measurements, current: Step, names: list
     """Fit and check every candidate against the current model; ranked best first (passing ones
     first, then by evidence). Also: candidates these data cannot test (name -> why), and the
     current model's held-out error."""
-    base = current.fit if screen is clean else _evaluate(current.fit, screen)
+    base = current.fit if screen is clean else evaluated(current.fit, screen, current.fit.noise_estimate)
     ranked, untestable = [], {}
     shift_m, shift_weights = _distance_error(base, screen, noise)
     space = calibration_space(base.model, screen, base.values, base.free_names, noise)
@@ -586,13 +586,6 @@ def _walled(candidate: Candidate) -> bool:
     effect = candidate.effect_object
     return bool(effect.alternative_starts) and any(at_bound(candidate.fit, name) for name in effect.nuisance_parameters
                                                    if name in candidate.fit.values)
-
-
-def _evaluate(result: FitResult, data: Measurements) -> FitResult:
-    """A fit's solution on other rows (no refit): the screening subsample's reference."""
-    residuals = (data.ls_h / result.predict(data) - 1) * 1e6
-    return FitResult(result.model, result.parameters, result.stderr, result.fixed, residuals, result.covariance,
-                     result.free_names, result.success, result.message, 0, 0, 0.0, result.noise_estimate)
 
 
 def _candidate(data: Measurements, model: SensorModel, name: str, base: FitResult, noise: NoiseEstimate,
@@ -670,7 +663,7 @@ def _repolished(fitted: FitResult, data: Measurements, earlier: int, screen: Mea
     best = _best_start(on_screen, screen, earlier, fitted)
     if best is on_screen:
         return fitted
-    trial = fit_model(fitted.model, data, start=best.values, multistart=False, screening=True)
+    trial = fit_model(fitted.model, data, start=best.values, multistart=False, screening=True, polish=True)
     return trial if trial.rms_ppm < fitted.rms_ppm * (1 - 1e-3) else fitted
 
 
@@ -692,7 +685,8 @@ def _full_fit(clean: Measurements, candidate: Candidate) -> FitResult:
         return candidate.fit
     # From the screening solution a polish to a relative cost change of 1e-8 is all the claim needs;
     # the last digits of a slow direction are not worth thousands of evaluations on every reading.
-    return fit_model(candidate.fit.model, clean, start=candidate.fit.values, multistart=False, screening=True)
+    return fit_model(candidate.fit.model, clean, start=candidate.fit.values, multistart=False, screening=True,
+                     polish=True)
 
 
 def _distance_error(result: FitResult, data: Measurements, noise: NoiseEstimate) -> tuple[np.ndarray, np.ndarray]:
