@@ -69,9 +69,8 @@ def _sweep_l(data: Measurements, freq: float, t_target_c: float | None = None, b
         rows &= np.abs(data.t_target_c - t_target_c) <= band_k
     if direction is not None:
         rows &= data.direction == direction
-    x = np.round(data.x_m[rows], 6)
-    positions = np.unique(x)
-    return positions, np.array([data.ls_h[rows][x == p].mean() for p in positions])
+    positions, at = np.unique(np.round(data.x_m[rows], 6), return_inverse=True)
+    return positions, np.bincount(at, weights=data.ls_h[rows]) / np.bincount(at)
 
 
 def _sensitivity(x: np.ndarray, ls: np.ndarray) -> np.ndarray:
