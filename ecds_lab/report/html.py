@@ -70,7 +70,8 @@ def write_report(data_paths: Sequence[Path], output: Path, *, diagnosis: Any = N
 
     ``diagnosis``: a ``Diagnosis`` (``ecds_lab.analysis.diagnosis.run_diagnosis``) of the main
     target group's readings, to show instead of running one. ``workers``: processes drawing the
-    figures (default: one per CPU, less one while the diagnosis runs; 1 draws in this process).
+    figures (default: one per CPU, less one while the diagnosis runs, so one on two CPUs; 1 given draws in this
+    process).
     ``effects``: the ``EffectRegistry`` the diagnosis searches (default: the library and installed packages').
     ``investigation``: an ``investigate.json`` for the chapter "How the question was decided" (default: one found
     in the folder of a data file, if any).
@@ -84,8 +85,9 @@ def write_report(data_paths: Sequence[Path], output: Path, *, diagnosis: Any = N
     sections = build_sections(findings, [a for a in anchors() if a != DIAGNOSIS])
     plots = [plot for section in sections for plot in section.plots()]
     running_diagnosis = diagnosis is None and findings.main is not None
-    with render.start(plots, render.default_workers(busy=1 if running_diagnosis else 0)
-                      if workers is None else workers) as rendering:
+    # While the diagnosis runs here, the other figures are drawn by the other CPUs (on two, by one forked worker)
+    with render.start(plots, render.default_workers(busy=1 if running_diagnosis else 0) if workers is None else workers,
+                      alongside=running_diagnosis and workers is None and render.cpus() > 1) as rendering:
         diagnose(findings, diagnosis, effects)
         diagnosed = time.perf_counter()
         (diagnosis_section,) = build_sections(findings, [DIAGNOSIS])

@@ -38,27 +38,33 @@ def _render_pending(index: int) -> Png:
     return _PENDING[index].render()
 
 
+def cpus() -> int:
+    """The CPUs this process may use."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
 def default_workers(busy: int = 0) -> int:
     """Processes to draw with: the CPUs this process may use, less ``busy`` kept for other work, at least 1."""
-    try:
-        cpus = len(os.sched_getaffinity(0))
-    except AttributeError:  # not on Linux
-        cpus = os.cpu_count() or 1
-    return max(1, cpus - busy)
+    return max(1, cpus() - busy)
 
 
 class Rendering:
     """Figures being drawn; ``results`` waits for them and returns the PNGs in order.
 
-    Use it as a context manager, so the workers are stopped whatever happens meanwhile.
+    Use it as a context manager, so the workers are stopped whatever happens meanwhile. One worker is forked only
+    ``alongside`` other work of this process (the diagnosis): otherwise this process draws, as fast.
     """
 
-    def __init__(self, plots: list[Plot], workers: int) -> None:
+    def __init__(self, plots: list[Plot], workers: int, alongside: bool = False) -> None:
         global _PENDING
         self.plots = plots
         self._pool = None
         self._async = None
-        if workers > 1 and len(plots) > 1 and "fork" in multiprocessing.get_all_start_methods():
+        forked = workers > 1 or (alongside and workers == 1)
+        if forked and len(plots) > (0 if alongside else 1) and "fork" in multiprocessing.get_all_start_methods():
             styled(warm_up)()
             _PENDING = plots  # the forked workers inherit this list
             try:
@@ -93,6 +99,7 @@ class Rendering:
         self.close()
 
 
-def start(plots: list[Plot], workers: int | None = None) -> Rendering:
-    """Begin drawing ``plots`` with ``workers`` processes (default: every CPU)."""
-    return Rendering(plots, default_workers() if workers is None else workers)
+def start(plots: list[Plot], workers: int | None = None, alongside: bool = False) -> Rendering:
+    """Begin drawing ``plots`` with ``workers`` processes (default: every CPU); ``alongside``: this process works
+    on something else meanwhile, so even one worker draws in a process of its own."""
+    return Rendering(plots, default_workers() if workers is None else workers, alongside)

@@ -3,6 +3,8 @@ cluster-robust standard errors on data whose correlation is known."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -12,6 +14,7 @@ from ecds_lab.analysis.grouping import (
     design_effect,
     intraclass_correlation,
     ramping,
+    temperature_rates_k_per_s,
     thermal_state_labels,
     visit_labels,
 )
@@ -63,6 +66,17 @@ def test_ramping_and_thermal_states_follow_the_temperatures():
     assert len(np.unique(states[:50])) == 1 and len(np.unique(states[150:])) == 1
     assert states[0] != states[-1]
     assert len(np.unique(states[70:130])) == 60  # every ramping reading its own state
+
+
+def test_the_rates_of_the_same_readings_are_found_once_and_new_temperatures_get_their_own():
+    t = np.arange(100) * 60.0
+    data = readings(np.full(100, 30.0), t_coil=22 + 0.3 * np.arange(100), time_s=t)
+    rates = temperature_rates_k_per_s(data)
+    assert temperature_rates_k_per_s(data) is rates and not rates.flags.writeable
+    assert np.allclose(rates[10:90], 0.3 / 60.0)
+    steady = replace(data, t_coil_c=np.full(100, 22.0))  # the same time column, a new coil column
+    assert np.allclose(temperature_rates_k_per_s(steady), 0.0)
+    assert temperature_rates_k_per_s(data) is rates
 
 
 def test_cluster_robust_errors_match_the_naive_ones_for_independent_readings_and_grow_with_shared_errors():

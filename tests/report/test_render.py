@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+
 import pytest
 
 from ecds_lab.report.canvas import Png, styled, subplots, to_png
@@ -20,9 +22,9 @@ def broken(n: int) -> Png:
     raise ValueError(f"figure {n} cannot be drawn")
 
 
-@pytest.mark.parametrize("workers", [1, 3])
-def test_figures_come_back_in_order_with_their_size(workers):
-    with start([Plot(line, (n,), "") for n in range(4)], workers) as rendering:
+@pytest.mark.parametrize(("workers", "alongside"), [(1, False), (3, False), (1, True)])
+def test_figures_come_back_in_order_with_their_size(workers, alongside):
+    with start([Plot(line, (n,), "") for n in range(4)], workers, alongside) as rendering:
         pngs = rendering.results()
     assert [p.alt for p in pngs] == ["line 0", "line 1", "line 2", "line 3"]
     assert [p.width for p in pngs] == [96, 192, 288, 384] and all(p.height == 96 for p in pngs)
@@ -32,3 +34,20 @@ def test_a_failing_figure_raises_its_error():
     with pytest.raises(ValueError, match="figure 1 cannot be drawn"):
         with start([Plot(line, (0,), ""), Plot(broken, (1,), "")], 2) as rendering:
             rendering.results()
+
+
+@pytest.mark.parametrize("alongside", [False, True])
+def test_one_worker_draws_in_a_process_of_its_own_only_beside_other_work(alongside):
+    """On two CPUs the report draws with one worker while the diagnosis runs in this process: that worker must be a
+    process of its own (drawing in this process would wait for the diagnosis)."""
+    drawn_in = []
+
+    def where(n: int) -> Png:
+        drawn_in.append(os.getpid())
+        return line(n)
+
+    with start([Plot(where, (n,), "") for n in range(2)], 1, alongside) as rendering:
+        pngs = rendering.results()
+    assert [p.alt for p in pngs] == ["line 0", "line 1"]
+    # a forked worker appends to its own copy of the list: only figures drawn here are seen here
+    assert drawn_in == ([] if alongside else [os.getpid()] * 2)
