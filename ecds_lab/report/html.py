@@ -91,7 +91,9 @@ def write_report(data_paths: Sequence[Path], output: Path, *, diagnosis: Any = N
         diagnose(findings, diagnosis, effects)
         diagnosed = time.perf_counter()
         (diagnosis_section,) = build_sections(findings, [DIAGNOSIS])
-        drawn = {id(plot): plot.render() for plot in diagnosis_section.plots()}  # while the workers draw the rest
+        late = diagnosis_section.plots()  # drawn now by every CPU: the other figures were drawn beside the diagnosis
+        with render.start(late, workers) as late_rendering:
+            drawn = dict(zip(map(id, late), late_rendering.results(), strict=True))
         drawn.update(zip(map(id, plots), rendering.results(), strict=True))
     sections.insert(anchors().index(DIAGNOSIS), diagnosis_section)
     record = investigation if investigation is not None else find_investigation(paths)
