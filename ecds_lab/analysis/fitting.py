@@ -231,16 +231,12 @@ def fit_model(model: SensorModel, data: Measurements, *, start: Mapping[str, flo
     return _result(model, data, best, reasons, estimate, starts, time.perf_counter() - began, terms)
 
 
-def evaluated(result: FitResult, data: Measurements,
-              noise: NoiseEstimate | Callable[[], NoiseEstimate] | None = None) -> FitResult:
-    """``result``'s solution on other readings, not refitted: its residuals there, and ``noise`` or else the noise
-    those residuals show (made when first asked for)."""
-    values = result.values
-    residuals = (data.ls_h / result.model.predict(data, values) - 1) * 1e6
-    estimate = noise if noise is not None else functools.partial(_noise, result.model, data, values, residuals,
-                                                                 _ErrorTerms())
-    return dataclasses.replace(result, residuals_ppm=residuals, nfev=0, starts=0, time_s=0.0,
-                               noise_estimate=estimate, weights=None, loss_scale_ppm=None, jacobian=None)
+def evaluated(result: FitResult, data: Measurements) -> FitResult:
+    """``result``'s solution on other readings (a screening subsample), not refitted: its residuals there; its
+    noise stays the fit's own."""
+    residuals = (data.ls_h / result.predict(data) - 1) * 1e6
+    return dataclasses.replace(result, residuals_ppm=residuals, nfev=0, starts=0, time_s=0.0, weights=None,
+                               loss_scale_ppm=None, jacobian=None)
 
 
 def initial_values(model: SensorModel, data: Measurements, params: Sequence[Parameter]) -> dict[str, float]:

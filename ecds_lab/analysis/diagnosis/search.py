@@ -523,7 +523,7 @@ def _round(screen: Measurements, clean: Measurements, current: Step, names: list
     """Fit and check every candidate against the current model; ranked best first (passing ones
     first, then by evidence). Also: candidates these data cannot test (name -> why), and the
     current model's held-out error."""
-    base = current.fit if screen is clean else evaluated(current.fit, screen, current.fit.noise_estimate)
+    base = current.fit if screen is clean else evaluated(current.fit, screen)
     ranked, untestable = [], {}
     shift_m, shift_weights = _distance_error(base, screen, noise)
     space = calibration_space(base.model, screen, base.values, base.free_names, noise)
