@@ -13,7 +13,7 @@ from collections.abc import Callable, Sequence, Sized
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from ecds_lab import __version__
+from ecds_lab import __version__, forked
 from ecds_lab.errors import EcdsLabError, InvalidSettingError
 
 if TYPE_CHECKING:
@@ -196,14 +196,15 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
         if args.also_try:
             raise InvalidSettingError("--try applies to one campaign's diagnose, not yet to --each")
         return _diagnose_each(args)
-    if args.scheduler or args.workers:
-        raise InvalidSettingError("--scheduler and --workers apply to diagnose --each only")
+    if args.scheduler:
+        raise InvalidSettingError("--scheduler applies to diagnose --each only")
     registry = _load_user_effects(args.effects_from)
     opened = open_campaign(args.data, args.sensor)
     _require_readings(opened.data, args.data, 2, "a diagnosis compares readings")
-    result = {"sensor": opened.sensor_summary(),
-              **diagnose(opened.data, _effects(args.effects), opened.sensor, registry=registry,
-                         also_try=_effects(args.also_try))}
+    with forked.allowed(_worker_count(args.workers)):
+        result = {"sensor": opened.sensor_summary(),
+                  **diagnose(opened.data, _effects(args.effects), opened.sensor, registry=registry,
+                             also_try=_effects(args.also_try))}
     _print(result, opened.sensor_note, args.json, format_diagnosis)
     return 0
 
@@ -218,6 +219,13 @@ def _diagnose_each(args: argparse.Namespace) -> int:
                          scheduler=args.scheduler, workers=args.workers)
     print(json.dumps(rows, indent=2) if args.json else format_table(rows))
     return 1 if any(row.get("error") for row in rows) else 0
+
+
+def _worker_count(workers: int | None) -> int | None:
+    """``--workers`` for one campaign's analysis: processes for its independent fits (``forked``); None: every CPU."""
+    if workers is not None and workers < 1:
+        raise InvalidSettingError(f"--workers must be at least 1, got {workers}")
+    return workers
 
 
 def _require_readings(data: Sized, paths: Sequence[Path], minimum: int, why: str) -> None:
@@ -247,7 +255,9 @@ def _cmd_report(args: argparse.Namespace) -> int:
     registry = _load_user_effects(args.effects_from)
     inputs = [Path(p) for p in args.data]
     check_output(args.output, inputs, overwrite=args.overwrite)  # before minutes of analysis
-    with one_blas_thread():  # as the fit and the diagnosis: tall, thin matrices, slowed by BLAS threads on busy cores
+    # as the fit and the diagnosis: tall, thin matrices, slowed by BLAS threads on busy cores; the diagnosis's
+    # independent fits on every CPU
+    with one_blas_thread(), forked.allowed():
         write_output(args.output, inputs, args.overwrite,
                      lambda path: write_report(inputs, path, effects=registry, investigation=args.investigation))
     print(f"report -> {args.output}")
@@ -276,7 +286,8 @@ def _cmd_plan_next(args: argparse.Namespace) -> int:
         check_output(args.output, list(args.data), overwrite=args.overwrite)
     opened = open_campaign(args.data, args.sensor)
     _require_readings(opened.data, args.data, 2, "a plan starts from a diagnosis")
-    result = run_diagnosis(opened.data, (), opened.sensor, registry=registry)
+    with forked.allowed():
+        result = run_diagnosis(opened.data, (), opened.sensor, registry=registry)
     plan = plan_next(result, registry, station, args.max_hours, runs=args.data)  # type: ignore[arg-type]
     if args.json:
         print(json.dumps(plan.to_json(), indent=2))
@@ -430,7 +441,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="with --each: a Dask scheduler (tcp://host:8786) instead of a local cluster")
     p.add_argument("--workers", type=int, metavar="N",
-                   help="with --each: local worker processes (default: one per core)")
+                   help="with --each: local Dask worker processes; otherwise: processes for the diagnosis's "
+                   "independent fits (default: one per CPU)")
     p.add_argument("--effects", help="effects already added to the baseline (diagnose what is still missing)")
     p.add_argument("--try", dest="also_try", metavar="EFFECTS",
                    help="comma-separated effects not tried by default to try as well (e.g. plate_recession, on a "

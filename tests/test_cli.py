@@ -38,3 +38,18 @@ def test_a_bad_sensor_file_names_the_field(tmp_path, shipped_run, capsys):
     assert main(["fit", str(run), "--sensor", str(bad)]) == 2
     err = capsys.readouterr().err
     assert "sensor.yaml" in err and "target" in err and "copper" in err
+
+
+def test_one_campaign_diagnosed_on_two_processes_says_what_it_says_on_one(shipped_run, capsys):
+    run = shipped_run("displacement_sweep.yaml").path
+    said = []
+    for workers in ("1", "2"):
+        assert main(["diagnose", str(run), "--workers", workers, "--json"]) == 0
+        said.append(json.loads(capsys.readouterr().out))
+    assert said[0] == said[1]
+
+
+def test_workers_below_one_are_refused(shipped_run, capsys):
+    run = shipped_run("displacement_sweep.yaml").path
+    assert main(["diagnose", str(run), "--workers", "0"]) == 2
+    assert "--workers must be at least 1, got 0" in capsys.readouterr().err

@@ -239,6 +239,13 @@ def evaluated(result: FitResult, data: Measurements) -> FitResult:
                                loss_scale_ppm=None, jacobian=None)
 
 
+def referenced(data: Measurements, model: SensorModel) -> tuple[object, ...]:
+    """What a fit of ``model`` to ``data`` refers to that a forked worker should send back as the caller's own
+    (``forked.each``): the data, and the classes of the model's effects (a nuisance smooth's class is made at run
+    time, so it cannot be pickled by name)."""
+    return (data, *(type(effect) for effect in model.effects))
+
+
 def initial_values(model: SensorModel, data: Measurements, params: Sequence[Parameter]) -> dict[str, float]:
     """Analytic start for L0, alpha, beta: linear least squares on de-embedded air-coil inductances.
 

@@ -11,11 +11,11 @@ asked for, the figures are drawn in this process when their results are collecte
 from __future__ import annotations
 
 import multiprocessing
-import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
+from ecds_lab.forked import can_fork, cpus
 from ecds_lab.report.canvas import Png, styled, warm_up
 
 _PENDING: list[Plot] = []
@@ -38,14 +38,6 @@ def _render_pending(index: int) -> Png:
     return _PENDING[index].render()
 
 
-def cpus() -> int:
-    """The CPUs this process may use."""
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # not on Linux
-        return os.cpu_count() or 1
-
-
 def default_workers(busy: int = 0) -> int:
     """Processes to draw with: the CPUs this process may use, less ``busy`` kept for other work, at least 1."""
     return max(1, cpus() - busy)
@@ -64,7 +56,7 @@ class Rendering:
         self._pool = None
         self._async = None
         forked = workers > 1 or (alongside and workers == 1)
-        if forked and len(plots) > (0 if alongside else 1) and "fork" in multiprocessing.get_all_start_methods():
+        if forked and len(plots) > (0 if alongside else 1) and can_fork():
             styled(warm_up)()
             _PENDING = plots  # the forked workers inherit this list
             try:

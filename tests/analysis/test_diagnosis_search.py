@@ -7,10 +7,13 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import traceback
+import types
 
 import numpy as np
 import pytest
 
+from ecds_lab import forked
 from ecds_lab.analysis.diagnosis import run_diagnosis, search
 from ecds_lab.analysis.diagnosis.advice import Design
 from ecds_lab.data.measurements import Measurements
@@ -165,3 +168,65 @@ def test_a_course_a_small_screen_leaves_open_is_judged_again_on_a_larger_one(cam
     monkeypatch.setattr(search, "SCREEN_GROWTH", 1)
     kept_small = run_diagnosis(data, screen_rows=80)
     assert "parasitic_capacitance" in kept_small.undetermined and not kept_small.claimed, kept_small.explanation
+
+
+# -- the search's independent fits on two processes (forked.each) -----------------------------------------------
+@pytest.mark.skipif(not forked.can_fork(), reason="this platform does not fork")
+def test_a_diagnosis_with_its_fits_on_two_processes_is_the_one_made_in_one(campaign_with, monkeypatch):
+    data = campaign_with("target_bending", "slide_backlash")
+    alone = run_diagnosis(data, screen_rows=150)
+    forked_at: set[str] = set()
+    real_each = forked.each
+
+    def each(work, items, shared=()):
+        items = list(items)
+        if len(items) > 1:
+            forked_at.add(traceback.extract_stack()[-2].name)
+        return real_each(work, items, shared)
+
+    monkeypatch.setattr(forked, "each", each)
+    with forked.allowed(2):
+        together = run_diagnosis(data, screen_rows=150)
+    assert {"_round", "_refined", "cv_rmse"} <= forked_at
+    assert json.dumps(together.to_json(), sort_keys=True) == json.dumps(alone.to_json(), sort_keys=True)
+
+
+@dataclasses.dataclass
+class _Tried:
+    """What a fake fit returns: its values and an RMS that falls with ``a`` and ``b``."""
+
+    values: dict[str, float]
+
+    @property
+    def rms_ppm(self) -> float:
+        return 100.0 - 10.0 * self.values["a"] - self.values["b"]
+
+
+class _StartsInA:
+    alternative_starts = ({"a": 1.0}, {"a": 3.0})
+
+
+class _StartsInB:
+    alternative_starts = ({"b": 5.0}, {"b": 1.0})
+
+
+class _Claimed:
+    alternative_starts = ()
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_a_repolish_tries_the_starts_behind_a_winner_again_from_it(workers, monkeypatch):
+    # one after another: a=1 wins (90 ppm), a=3 from it wins (70), b=5 from that wins (65), b=1 does not (69)
+    tried: list[dict[str, float]] = []
+
+    def fake_fit(model, data, *, start, **_):
+        tried.append(dict(start))
+        return _Tried(dict(start))
+
+    monkeypatch.setattr(search, "fit_model", fake_fit)
+    claimed = types.SimpleNamespace(model=types.SimpleNamespace(effects=[_StartsInA(), _StartsInB(), _Claimed()]))
+    with forked.allowed(workers):
+        best = search._best_start(_Tried({"a": 0.0, "b": 0.0}), "data", 2, claimed)
+    assert best.values == {"a": 3.0, "b": 5.0}
+    if workers == 1:  # tried here, so seen here: each start once, from the best so far
+        assert tried == [{"a": 1.0, "b": 0.0}, {"a": 3.0, "b": 0.0}, {"a": 3.0, "b": 5.0}, {"a": 3.0, "b": 1.0}]

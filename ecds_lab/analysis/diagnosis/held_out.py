@@ -6,9 +6,10 @@ import math
 
 import numpy as np
 
+from ecds_lab import forked
 from ecds_lab.analysis.diagnosis.nuisance import held_in_folds
 from ecds_lab.analysis.diagnosis.result import Candidate
-from ecds_lab.analysis.fitting import FitResult, fit_model
+from ecds_lab.analysis.fitting import FitResult, fit_model, referenced
 from ecds_lab.analysis.noise import NoiseEstimate
 from ecds_lab.analysis.phases import phase_labels
 from ecds_lab.data.measurements import Measurements
@@ -103,13 +104,15 @@ def _split_visits(data: Measurements, groups: np.ndarray) -> np.ndarray:
 def cv_rmse(data: Measurements, full: FitResult, folds: np.ndarray) -> float:
     """Held-out RMS (ppm): fit without one fold, predict it; the model still sees the whole history. A nuisance
     smooth's coefficients (``nuisance.held_in_folds``) are held where the fit on every reading left them."""
-    squares, count = 0.0, 0
     fixed = held_in_folds(full.model, full.values)
-    for k in np.unique(folds[folds != NEVER_HELD_OUT]):
+
+    def held_out_squares(k: int) -> float:
         held = folds == k
         trained = fit_model(full.model, data, start=full.values, fixed=fixed or None, multistart=False, rows=~held,
                             screening=True)
         r = (data.ls_h[held] / trained.predict(data)[held] - 1) * 1e6
-        squares += float(r @ r)
-        count += int(held.sum())
-    return math.sqrt(squares / max(count, 1))
+        return float(r @ r)
+
+    scored = folds != NEVER_HELD_OUT
+    squares = forked.each(held_out_squares, np.unique(folds[scored]).tolist(), shared=referenced(data, full.model))
+    return math.sqrt(sum(squares) / max(int(scored.sum()), 1))

@@ -31,6 +31,7 @@ does not is dropped from the candidates, and the search goes on).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -39,6 +40,7 @@ from typing import Any
 
 import numpy as np
 
+from ecds_lab import forked
 from ecds_lab.analysis.associations import Association, residual_associations
 from ecds_lab.analysis.blas_threads import one_blas_thread
 from ecds_lab.analysis.diagnosis.advice import suggestions
@@ -66,7 +68,7 @@ from ecds_lab.analysis.diagnosis.nuisance import SMOOTHABLE, smooth_effect
 from ecds_lab.analysis.diagnosis.result import Candidate, Diagnosis, Step
 from ecds_lab.analysis.diagnosis.structure import ResidualStructure, residual_structure
 from ecds_lab.analysis.diagnosis.verdict import ADEQUATE_RATIO, STRUCTURE_SIGNIFICANCE, outside_library, verdict_of
-from ecds_lab.analysis.fitting import FitResult, evaluated, fit_model
+from ecds_lab.analysis.fitting import FitResult, evaluated, fit_model, referenced
 from ecds_lab.analysis.noise import NoiseEstimate, refreshed
 from ecds_lab.analysis.outliers import Outlier, describe, find_glitches
 from ecds_lab.analysis.subsample import screened
@@ -119,6 +121,10 @@ class _Space:
 
     def model(self, effects: Sequence[str]) -> SensorModel:
         return ReleasedModel(self.sensor, list(effects), self.registry, self.released)
+
+    def shared(self, data: Measurements) -> tuple[object, ...]:
+        """What fits of these models to ``data`` refer to (``fitting.referenced``), for every effect there is."""
+        return (data, *(self.registry[name] for name in self.registry))
 
 
 def run_diagnosis(data: Measurements, effects: Sequence[str] = (), sensor: SensorConfig | None = None, *,
@@ -527,23 +533,29 @@ def _round(screen: Measurements, clean: Measurements, current: Step, names: list
     ranked, untestable = [], {}
     shift_m, shift_weights = _distance_error(base, screen, noise)
     space = calibration_space(base.model, screen, base.values, base.free_names, noise)
-    for name in names:
+
+    def tried(name: str) -> Candidate | str:
+        """The candidate fitted, or why these data cannot test it."""
         model = models.model([*current.effects, name])
         effect = model.effects[-1]
         fixed = model.unidentifiable(screen)
         keys = effect.key_parameters or tuple(p.name for p in effect.parameters())
         if all(k in fixed for k in keys):
-            untestable[name] = "; ".join(sorted({fixed[k] for k in keys}))
-            continue
+            return "; ".join(sorted({fixed[k] for k in keys}))
         from_residual = effect.starts_from_residual(screen, shift_m, shift_weights)
         start = from_residual[0] if from_residual else None
         why = _absorbed_at_every_shape(model, screen, base.values, start, space, noise)
         if why is not None:
-            untestable[name] = why
-            continue
+            return why
         candidate = _candidate(screen, model, name, base, noise, len(clean), start)
         candidate.from_residual = [dict(s) for s in from_residual[1:]]
-        ranked.append(candidate)
+        return candidate
+
+    for name, outcome in zip(names, forked.each(tried, names, shared=(clean, *models.shared(screen))), strict=True):
+        if isinstance(outcome, str):
+            untestable[name] = outcome
+        else:
+            ranked.append(outcome)
     ranked.sort(key=evidence_rank)
     # Alternative starts where another valley could change the outcome: not once the model is at the
     # noise, and not for candidates far behind the leader; once the leader is at the noise, only for
@@ -636,12 +648,13 @@ def _refined(data: Measurements, candidate: Candidate, base: FitResult, noise: N
     starts = [dict(alternative) for alternative in (*model.effects[-1].alternative_starts, *from_residual)]
     if len(starts) > SCOUTS_REFITTED:
         held = {k: v for k, v in base.values.items() if k not in own}
-        scouts = sorted((fit_model(model, data, start=start, fixed=held, multistart=False, screening=True)
-                         for start in starts), key=lambda f: f.rms_ppm)
+        scouts = sorted(forked.each(lambda start: fit_model(model, data, start=start, fixed=held, multistart=False,
+                                                            screening=True), starts, shared=referenced(data, model)),
+                        key=lambda f: f.rms_ppm)
         starts = [{name: scout.values[name] for name in own} for scout in scouts[:SCOUTS_REFITTED]]
     best = candidate
-    for start in starts:
-        trial = _candidate(data, model, candidate.effect, base, noise, n_full, start)
+    for trial in forked.each(lambda start: _candidate(data, model, candidate.effect, base, noise, n_full, start),
+                             starts, shared=referenced(data, model)):
         if trial.fit.rms_ppm < best.fit.rms_ppm:
             best = trial
     return best
@@ -669,13 +682,24 @@ def _repolished(fitted: FitResult, data: Measurements, earlier: int, screen: Mea
 
 def _best_start(best: FitResult, data: Measurements, earlier: int, claimed: FitResult) -> FitResult:
     """``best`` or the best fit of its model on ``data`` from the alternative starts of the ``earlier`` effects
-    before the last of ``claimed``'s model, each from the best so far (better by 0.1 % of the RMS to count)."""
-    for effect in claimed.model.effects[-1 - earlier:-1]:
-        for alternative in effect.alternative_starts:
-            start = {**best.values, **alternative}
-            trial = fit_model(claimed.model, data, start=start, multistart=False, screening=True)
-            if trial.rms_ppm < best.rms_ppm * (1 - 1e-3):
-                best = trial
+    before the last of ``claimed``'s model, each from the best so far (better by 0.1 % of the RMS to count).
+
+    With processes to share them (``forked``), the starts are tried at once from the best so far, and after one that
+    wins those behind it are tried again from it (a win is rare); in one process, one after another."""
+    pending = [dict(alternative) for effect in claimed.model.effects[-1 - earlier:-1]
+               for alternative in effect.alternative_starts]
+
+    def tried(base: FitResult, alternative: dict[str, float]) -> FitResult:
+        return fit_model(claimed.model, data, start={**base.values, **alternative}, multistart=False, screening=True)
+
+    while pending:
+        at_once = len(pending) if forked.workers() > 1 else 1
+        batch, pending = pending[:at_once], pending[at_once:]
+        trials = forked.each(functools.partial(tried, best), batch, shared=referenced(data, claimed.model))
+        won = next((i for i, trial in enumerate(trials) if trial.rms_ppm < best.rms_ppm * (1 - 1e-3)), None)
+        if won is not None:
+            best = trials[won]
+            pending = batch[won + 1:] + pending
     return best
 
 

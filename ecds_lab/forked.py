@@ -1,0 +1,138 @@
+"""Independent pieces of one computation on every CPU, by worker processes forked for them.
+
+A diagnosis fits many models that do not depend on each other: the candidates of a round, the folds of a held-out
+error, the alternative starts of a refinement or a repolish. ``each(work, items)`` runs ``work`` over ``items`` in
+processes forked for the call, which inherit ``work`` and everything it closes over (nothing is sent to them but an
+index); only the results come back, and the objects the caller names ``shared`` come back as the caller's own
+objects, not as copies (a result that refers to the data it was fitted on refers to the caller's data). A result
+that cannot be pickled (it refers to a class made at run time that is not shared) is worked again by the caller.
+
+Nothing is forked unless the caller allows it (``allowed``: the command line allows the CPUs this process may use;
+a library call, a test or a Dask worker stays in its own process), where ``fork`` is not available, inside a worker,
+or for fewer than two items: ``each`` is then a plain loop. The results are the same either way: each piece is
+computed by the same code from the same inputs, and they come back in the items' order.
+"""
+
+from __future__ import annotations
+
+import io
+import multiprocessing
+import os
+import pickle
+import signal
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass
+from typing import Any, TypeVar
+
+T = TypeVar("T")
+R = TypeVar("R")
+
+#: processes ``each`` may use (1: a plain loop in this process)
+_allowed = 1
+
+
+@dataclass
+class _Job:
+    """What the forked workers inherit: the work, its items, and the objects that go back as references."""
+
+    work: Callable[[Any], Any]
+    items: Sequence[Any]
+    shared: dict[int, object]
+
+
+_job: _Job | None = None
+
+
+def cpus() -> int:
+    """The CPUs this process may use."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
+def can_fork() -> bool:
+    """Whether this platform starts processes by forking (Linux, and macOS when asked)."""
+    return "fork" in multiprocessing.get_all_start_methods()
+
+
+def workers() -> int:
+    """The processes ``each`` may use here and now."""
+    return _allowed
+
+
+@contextmanager
+def allowed(workers: int | None = None) -> Iterator[None]:
+    """Let ``each`` use up to ``workers`` processes (default: every CPU) within the body."""
+    global _allowed
+    before = _allowed
+    _allowed = max(1, cpus() if workers is None else workers)
+    try:
+        yield
+    finally:
+        _allowed = before
+
+
+def each(work: Callable[[T], R], items: Iterable[T], shared: Iterable[object] = ()) -> list[R]:
+    """``[work(item) for item in items]``, on up to the allowed number of forked processes; a result's references
+    to an object in ``shared`` are to that very object."""
+    global _job
+    items = list(items)
+    workers = min(_allowed, len(items))
+    if workers < 2 or not can_fork():
+        return [work(item) for item in items]
+    kept = {id(obj): obj for obj in shared}
+    _job = _Job(work, items, kept)
+    try:
+        with multiprocessing.get_context("fork").Pool(workers, initializer=_become_worker) as pool:
+            payloads = pool.map(_run, range(len(items)), chunksize=1)
+    except OSError:  # no processes to be had: work here instead
+        return [work(item) for item in items]
+    finally:
+        _job = None
+    return [work(item) if payload is None else _Loader(io.BytesIO(payload), kept).load()
+            for item, payload in zip(items, payloads, strict=True)]
+
+
+def _become_worker() -> None:
+    """A worker works alone (no forks of its own) and leaves Ctrl-C to its parent, which stops it."""
+    global _allowed
+    _allowed = 1
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _run(index: int) -> bytes | None:
+    """The item's result, pickled; None when it cannot be (an instance of a class made at run time and not shared):
+    the parent then works the item itself."""
+    assert _job is not None, "a worker inherits its job from the fork"
+    result = _job.work(_job.items[index])
+    out = io.BytesIO()
+    try:
+        _Dumper(out, _job.shared).dump(result)
+    except (pickle.PicklingError, AttributeError, TypeError):
+        return None
+    return out.getvalue()
+
+
+class _Dumper(pickle.Pickler):
+    """Pickles a result, writing an object shared with the parent as its identity there (the same before the fork)."""
+
+    def __init__(self, file: io.BytesIO, shared: dict[int, object]) -> None:
+        super().__init__(file, pickle.HIGHEST_PROTOCOL)
+        self.shared = shared
+
+    def persistent_id(self, obj: object) -> int | None:
+        key = id(obj)
+        return key if key in self.shared and self.shared[key] is obj else None
+
+
+class _Loader(pickle.Unpickler):
+    """Unpickles a result, an identity written by ``_Dumper`` becoming the parent's own object."""
+
+    def __init__(self, file: io.BytesIO, shared: dict[int, object]) -> None:
+        super().__init__(file)
+        self.shared = shared
+
+    def persistent_load(self, pid: Any) -> object:
+        return self.shared[pid]

@@ -1,0 +1,66 @@
+"""``forked.each``: the same results as a loop, in order, from other processes only when allowed."""
+
+from __future__ import annotations
+
+import os
+
+import pytest
+
+from ecds_lab import forked
+
+pytestmark = pytest.mark.skipif(not forked.can_fork(), reason="this platform does not fork")
+
+
+class Shared:
+    """An object the caller owns (data, say), to which results refer."""
+
+
+def test_without_leave_the_work_stays_in_this_process():
+    assert forked.each(lambda item: (item, os.getpid()), [1, 2, 3]) == [(1, os.getpid()), (2, os.getpid()),
+                                                                         (3, os.getpid())]
+
+
+def test_allowed_the_items_are_worked_elsewhere_and_come_back_in_order():
+    with forked.allowed(2):
+        results = forked.each(lambda item: (item * item, os.getpid()), range(7))
+    assert [square for square, _ in results] == [i * i for i in range(7)]
+    assert os.getpid() not in {pid for _, pid in results}
+
+
+def test_one_item_is_worked_here_even_when_allowed():
+    with forked.allowed(2):
+        assert forked.each(lambda item: os.getpid(), ["only"]) == [os.getpid()]
+
+
+def test_allowed_restores_what_was_allowed_before():
+    with forked.allowed(2):
+        with forked.allowed(1):
+            assert forked.each(lambda item: os.getpid(), [1, 2]) == [os.getpid()] * 2
+        assert os.getpid() not in forked.each(lambda item: os.getpid(), [1, 2])
+    assert forked.each(lambda item: os.getpid(), [1, 2]) == [os.getpid()] * 2
+
+
+def test_a_shared_object_comes_back_as_itself_others_as_copies():
+    data, other = Shared(), Shared()
+    with forked.allowed(2):
+        results = forked.each(lambda item: {"data": data, "other": other, "new": Shared(), "none": None},
+                              [1, 2], shared=(data,))
+    assert all(result["data"] is data for result in results)
+    assert all(result["other"] is not other and isinstance(result["other"], Shared) for result in results)
+    assert all(result["none"] is None for result in results)
+
+
+def test_a_worker_works_alone():
+    with forked.allowed(2):
+        results = forked.each(lambda item: (os.getpid(), forked.each(lambda inner: os.getpid(), [1, 2])), [1, 2])
+    assert all(inner == [worker, worker] for worker, inner in results)
+
+
+def test_a_failure_in_a_worker_is_raised_here():
+    def work(item: int) -> int:
+        if item == 2:
+            raise ValueError(f"item {item} is bad")
+        return item
+
+    with forked.allowed(2), pytest.raises(ValueError, match="item 2 is bad"):
+        forked.each(work, [1, 2, 3])
