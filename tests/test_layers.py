@@ -1,6 +1,6 @@
 """The package's layers import only downward, so no import cycle can form between them.
 
-errors, clock, shipped < data < transports, instruments < drivers, simulators < config < station < runner,
+errors, clock, shipped, forked < data < transports, instruments < drivers, simulators < config < station < runner,
 storage < model < analysis < report, planning < the commands (cli, demo, replay, live, testing). Every import in
 the source counts, including the ones inside functions.
 """
@@ -20,7 +20,7 @@ SOURCES = {ROOT / "ecds_lab": "ecds_lab", ROOT / "drivers": "ecds_lab.drivers",
 
 #: Layer of each part of ecds_lab; a module may import its own part and parts of a lower layer.
 LAYERS: dict[str, int] = {
-    "errors": -1, "clock": -1, "shipped": -1,
+    "errors": -1, "clock": -1, "shipped": -1, "forked": -1,
     "data": 0,
     "transports": 1, "instruments": 1,
     "drivers": 2, "simulators": 2,

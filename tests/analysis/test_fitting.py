@@ -136,6 +136,22 @@ def test_a_polish_from_a_nearby_start_with_parameters_on_their_bounds_ends_at_th
         assert abs(polished.values[name] - plain.values[name]) < 0.1 * plain.stderr[name], name
 
 
+def test_a_screening_polish_stops_at_its_budget_of_evaluations(campaign, monkeypatch):
+    """A polish starts near the answer: after ``_POLISH_BUDGET`` evaluations per parameter (and one) it stops, where a
+    plain screening fit from the same start goes on (lowered to 1 here, so this start runs into it)."""
+    monkeypatch.setattr(fitting, "_POLISH_BUDGET", 1)
+    model = SensorModel(None, ["parasitic_capacitance"])
+    truth = values_of(model.parameters()) | {"moist_dC": 2e-13, "moist_dG": 0.0, "bound_share": 1.0}
+    rng = np.random.default_rng(3)
+    data = replace(campaign, ls_h=model.predict(campaign, truth) * (1 + 20e-6 * rng.standard_normal(len(campaign))))
+    start = truth | {"L0": truth["L0"] * (1 + 3e-4), "alpha": truth["alpha"] + 2e-5, "p1": truth["p1"] + 2e-4}
+    plain = fit_model(model, data, start=start, multistart=False, screening=True)
+    polished = fit_model(model, data, start=start, multistart=False, screening=True, polish=True)
+    budget = len(polished.free_names) + 1
+    assert polished.nfev <= budget < plain.nfev, (polished.nfev, budget, plain.nfev)
+    assert polished.rms_ppm == pytest.approx(plain.rms_ppm, rel=1e-3)
+
+
 def test_a_solution_evaluated_on_other_readings_carries_their_residuals_and_its_own_noise(baseline_fit, campaign):
     half = campaign.select(np.arange(len(campaign)) % 2 == 0)
     noise = baseline_fit.noise
