@@ -4,8 +4,14 @@ scipy's ``least_squares(method="trf")`` takes, every iteration, ``U, s, V = svd(
 (augmented) n x k Jacobian and uses U only as ``U.T.dot(f)``. LAPACK's gesdd forms the n x k U explicitly; for
 n >> k that is most of its cost (128 ms of an SVD of 100,000 x 29 on one thread). Here J = Q R by Householder QR
 (Q kept as its reflectors), R = U_r S V^T by the SVD of the small k x k R, so J = (Q U_r) S V^T: the same s and V,
-and U^T f = U_r^T (Q^T f)[:k] with Q^T applied by its reflectors (62 ms in all). The factorisation is the one
-gesdd itself starts a tall matrix with, so the solution agrees to rounding.
+and U^T f = U_r^T (Q^T f)[:k] with Q^T applied by its reflectors.
+
+The QR is taken by blocks of ``BLOCK_ROWS`` rows (the tall-skinny QR of Demmel et al., "Communication-optimal
+parallel and sequential QR and LU factorizations", SIAM J. Sci. Comput. 34 (2012)): each block's R, stacked, is
+factored once more, and Q is the blocks' reflectors followed by the stack's. A block fits in the processor's cache,
+where LAPACK's one factorisation of the whole matrix passes over all of it once per column: 0.24 s instead of
+0.76 s for 823,094 x 25 on one thread, a third of a 10^6-reading diagnosis's least-squares time. It is as stable as
+Householder QR, and the solution agrees to rounding.
 
 ``tall_svd()`` puts this SVD in place of scipy's inside the trust-region solver for the body of the ``with`` (nested
 and concurrent use are fine: the solver's own SVD is back once the last user leaves); matrices shorter than
@@ -38,12 +44,31 @@ _lock = threading.Lock()
 _users = 0
 
 
-class _ImplicitU:
-    """U = Q U_r of a tall matrix's thin SVD, Q held as its Householder reflectors: only ``U.T.dot(v)`` is offered
-    (all the solver asks of U)."""
+#: Rows per block of the tall-skinny QR (a block of 25 columns is 0.8 MB).
+BLOCK_ROWS = 4096
 
-    def __init__(self, reflectors: np.ndarray, tau: np.ndarray, u_r: np.ndarray) -> None:
-        self.reflectors, self.tau, self.u_r = reflectors, tau, u_r
+
+class _Reflectors:
+    """Q of a Householder QR, kept as LAPACK's reflectors (geqrf's ``raw`` output)."""
+
+    def __init__(self, reflectors: np.ndarray, tau: np.ndarray) -> None:
+        self.reflectors, self.tau = reflectors, tau
+
+    def transpose_times(self, v: np.ndarray) -> np.ndarray:
+        """Q^T v (v a column)."""
+        qtv, _, info = lapack.dormqr("L", "T", self.reflectors, self.tau, v, lwork=max(64, v.shape[1]))
+        if info != 0:
+            raise np.linalg.LinAlgError(f"dormqr failed (info {info})")
+        return qtv
+
+
+class _ImplicitU:
+    """U = Q U_r of a tall matrix's thin SVD, Q held as the reflectors of its blocks (``blocks``: first row and
+    reflectors of each) and of their stacked R's (``top``): only ``U.T.dot(v)`` is offered (all the solver asks of
+    U)."""
+
+    def __init__(self, blocks: list[tuple[int, _Reflectors]], top: _Reflectors, u_r: np.ndarray) -> None:
+        self.blocks, self.top, self.u_r = blocks, top, u_r
 
     @property
     def T(self) -> _ImplicitUTransposed:
@@ -57,14 +82,30 @@ class _ImplicitUTransposed:
         self.u = u
 
     def dot(self, v: np.ndarray) -> np.ndarray:
-        """U^T v = U_r^T (Q^T v)[:k]."""
+        """U^T v = U_r^T (Q^T v)[:k]: each block's Q^T on its rows, their first k stacked, the stack's Q^T."""
         u = self.u
         k = u.u_r.shape[0]
-        column = np.asfortranarray(np.asarray(v, float).reshape(-1, 1))
-        qtv, _, info = lapack.dormqr("L", "T", u.reflectors, u.tau, column, lwork=max(64, k))
-        if info != 0:
-            raise np.linalg.LinAlgError(f"dormqr failed (info {info})")
-        return u.u_r.T @ qtv[:k, 0]
+        v = np.asarray(v, float).ravel()
+        ends = [start for start, _ in u.blocks[1:]] + [len(v)]
+        stacked = [q.transpose_times(np.asfortranarray(v[start:end, None]))[:k]
+                   for (start, q), end in zip(u.blocks, ends, strict=True)]
+        return u.u_r.T @ u.top.transpose_times(np.asfortranarray(np.vstack(stacked)))[:k, 0]
+
+
+def _blocked_qr(a: np.ndarray) -> tuple[list[tuple[int, _Reflectors]], _Reflectors, np.ndarray]:
+    """The tall-skinny QR of ``a`` (module docstring): each block's reflectors, the stack's, and R (k x k)."""
+    n, k = a.shape
+    starts = list(range(0, n, BLOCK_ROWS))
+    if len(starts) > 1 and n - starts[-1] < k:  # a last block shorter than k joins the one before
+        starts.pop()
+    ends = starts[1:] + [n]
+    blocks, rs = [], []
+    for start, end in zip(starts, ends, strict=True):
+        (reflectors, tau), r = scipy.linalg.qr(a[start:end], mode="raw")  # a NaN or inf is refused, as by scipy
+        blocks.append((start, _Reflectors(reflectors, tau)))
+        rs.append(r[:k])
+    (reflectors, tau), r = scipy.linalg.qr(np.vstack(rs), mode="raw", check_finite=False)
+    return blocks, _Reflectors(reflectors, tau), r[:k]
 
 
 def thin_svd(a: np.ndarray, full_matrices: bool = True, **options: Any) -> tuple[Any, np.ndarray, np.ndarray]:
@@ -73,9 +114,9 @@ def thin_svd(a: np.ndarray, full_matrices: bool = True, **options: Any) -> tuple
     a = np.asarray(a)
     if full_matrices or a.ndim != 2 or a.shape[0] < max(TALL_ROWS, 4 * a.shape[1]) or a.shape[1] == 0:
         return _scipy_svd(a, full_matrices=full_matrices, **options)
-    (reflectors, tau), r = scipy.linalg.qr(a, mode="raw")  # a NaN or inf is refused, as by scipy's SVD
+    blocks, top, r = _blocked_qr(a)
     u_r, s, vt = _scipy_svd(r, full_matrices=False, check_finite=False)
-    return _ImplicitU(reflectors, tau, u_r), s, vt
+    return _ImplicitU(blocks, top, u_r), s, vt
 
 
 @contextmanager

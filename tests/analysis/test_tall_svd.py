@@ -9,10 +9,14 @@ from scipy.optimize import least_squares
 from ecds_lab.analysis import tall_svd
 
 
-def test_thin_svd_agrees_with_scipy_on_a_tall_matrix():
+@pytest.mark.parametrize("rows", [
+    6000,  # two blocks
+    3 * tall_svd.BLOCK_ROWS + 5,  # a last block shorter than the matrix is wide joins the one before
+])
+def test_thin_svd_agrees_with_scipy_on_a_tall_matrix(rows):
     rng = np.random.default_rng(3)
-    a = rng.normal(size=(6000, 7)) * np.logspace(0, 6, 7)  # columns of very different scales, as a Jacobian's
-    f = rng.normal(size=6000)
+    a = rng.normal(size=(rows, 7)) * np.logspace(0, 6, 7)  # columns of very different scales, as a Jacobian's
+    f = rng.normal(size=rows)
     u, s, vt = scipy.linalg.svd(a, full_matrices=False)
     implicit_u, s2, vt2 = tall_svd.thin_svd(a, full_matrices=False)
     np.testing.assert_allclose(s2, s, rtol=1e-12)
