@@ -86,7 +86,7 @@ class _ImplicitUTransposed:
         u = self.u
         k = u.u_r.shape[0]
         v = np.asarray(v, float).ravel()
-        ends = [start for start, _ in u.blocks[1:]] + [len(v)]
+        ends = [*(start for start, _ in u.blocks[1:]), len(v)]
         stacked = [q.transpose_times(np.asfortranarray(v[start:end, None]))[:k]
                    for (start, q), end in zip(u.blocks, ends, strict=True)]
         return u.u_r.T @ u.top.transpose_times(np.asfortranarray(np.vstack(stacked)))[:k, 0]
@@ -98,7 +98,7 @@ def _blocked_qr(a: np.ndarray) -> tuple[list[tuple[int, _Reflectors]], _Reflecto
     starts = list(range(0, n, BLOCK_ROWS))
     if len(starts) > 1 and n - starts[-1] < k:  # a last block shorter than k joins the one before
         starts.pop()
-    ends = starts[1:] + [n]
+    ends = [*starts[1:], n]
     blocks, rs = [], []
     for start, end in zip(starts, ends, strict=True):
         (reflectors, tau), r = scipy.linalg.qr(a[start:end], mode="raw")  # a NaN or inf is refused, as by scipy

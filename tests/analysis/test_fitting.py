@@ -119,17 +119,23 @@ def test_a_large_campaign_tries_its_restarts_on_a_subsample_and_still_finds_them
         assert abs(result.values[name] - truth[name]) <= 4 * result.stderr[name], name
 
 
-def test_a_polish_from_a_nearby_start_with_parameters_on_their_bounds_ends_at_the_same_fit_in_fewer_evaluations(
-        campaign):
-    """A drying that is absent in truth (conductance 0, every water molecule bound: both on their bounds) and a
-    start near the answer: the polish does not first grow a trust region 1e-9 from those bounds."""
+def polished_and_plain(campaign, offset: float):
+    """A drying that is absent in truth (conductance 0, every water molecule bound: both on their bounds), fitted by
+    a screening fit and a screening polish from a start ``offset`` away in L0, alpha and p1 (1: near the answer)."""
     model = SensorModel(None, ["parasitic_capacitance"])
     truth = values_of(model.parameters()) | {"moist_dC": 2e-13, "moist_dG": 0.0, "bound_share": 1.0}
     rng = np.random.default_rng(3)
     data = replace(campaign, ls_h=model.predict(campaign, truth) * (1 + 20e-6 * rng.standard_normal(len(campaign))))
-    start = truth | {"L0": truth["L0"] * (1 + 3e-5), "alpha": truth["alpha"] + 2e-6, "p1": truth["p1"] + 2e-5}
-    plain = fit_model(model, data, start=start, multistart=False, screening=True)
-    polished = fit_model(model, data, start=start, multistart=False, screening=True, polish=True)
+    start = truth | {"L0": truth["L0"] * (1 + offset * 3e-5), "alpha": truth["alpha"] + offset * 2e-6,
+                     "p1": truth["p1"] + offset * 2e-5}
+    return (fit_model(model, data, start=start, multistart=False, screening=True, polish=True),
+            fit_model(model, data, start=start, multistart=False, screening=True))
+
+
+def test_a_polish_from_a_nearby_start_with_parameters_on_their_bounds_ends_at_the_same_fit_in_fewer_evaluations(
+        campaign):
+    """The polish does not first grow a trust region 1e-9 from the drying's bounds."""
+    polished, plain = polished_and_plain(campaign, 1.0)
     assert polished.nfev < 0.75 * plain.nfev, (polished.nfev, plain.nfev)
     assert polished.rms_ppm == pytest.approx(plain.rms_ppm, rel=1e-6)
     for name in ("L0", "alpha", "p1", "moist_dC"):
@@ -140,13 +146,7 @@ def test_a_screening_polish_stops_at_its_budget_of_evaluations(campaign, monkeyp
     """A polish starts near the answer: after ``_POLISH_BUDGET`` evaluations per parameter (and one) it stops, where a
     plain screening fit from the same start goes on (lowered to 1 here, so this start runs into it)."""
     monkeypatch.setattr(fitting, "_POLISH_BUDGET", 1)
-    model = SensorModel(None, ["parasitic_capacitance"])
-    truth = values_of(model.parameters()) | {"moist_dC": 2e-13, "moist_dG": 0.0, "bound_share": 1.0}
-    rng = np.random.default_rng(3)
-    data = replace(campaign, ls_h=model.predict(campaign, truth) * (1 + 20e-6 * rng.standard_normal(len(campaign))))
-    start = truth | {"L0": truth["L0"] * (1 + 3e-4), "alpha": truth["alpha"] + 2e-5, "p1": truth["p1"] + 2e-4}
-    plain = fit_model(model, data, start=start, multistart=False, screening=True)
-    polished = fit_model(model, data, start=start, multistart=False, screening=True, polish=True)
+    polished, plain = polished_and_plain(campaign, 10.0)
     budget = len(polished.free_names) + 1
     assert polished.nfev <= budget < plain.nfev, (polished.nfev, budget, plain.nfev)
     assert polished.rms_ppm == pytest.approx(plain.rms_ppm, rel=1e-3)
