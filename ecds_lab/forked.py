@@ -10,7 +10,8 @@ that cannot be pickled (it refers to a class made at run time that is not shared
 Nothing is forked unless the caller allows it (``allowed``: the command line allows the CPUs this process may use;
 a library call, a test or a Dask worker stays in its own process), where ``fork`` is not available, inside a worker,
 or for fewer than two items: ``each`` is then a plain loop. The results are the same either way: each piece is
-computed by the same code from the same inputs, and they come back in the items' order.
+computed by the same code from the same inputs, and they come back in the items' order. What is allowed also sets
+how many threads factor a tall Jacobian's blocks (``analysis.tall_svd``).
 """
 
 from __future__ import annotations

@@ -11,7 +11,8 @@ parallel and sequential QR and LU factorizations", SIAM J. Sci. Comput. 34 (2012
 factored once more, and Q is the blocks' reflectors followed by the stack's. A block fits in the processor's cache,
 where LAPACK's one factorisation of the whole matrix passes over all of it once per column: 0.24 s instead of
 0.76 s for 823,094 x 25 on one thread, a third of a 10^6-reading diagnosis's least-squares time. It is as stable as
-Householder QR, and the solution agrees to rounding.
+Householder QR, and the solution agrees to rounding. Where the caller allows more CPUs (``forked.allowed``: the
+command line), the blocks are factored on as many threads (0.14 s on two), each exactly as on one.
 
 ``tall_svd()`` puts this SVD in place of scipy's inside the trust-region solver for the body of the ``with`` (nested
 and concurrent use are fine: the solver's own SVD is back once the last user leaves); matrices shorter than
@@ -22,12 +23,15 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
 from typing import Any
 
 import numpy as np
 import scipy.linalg
 from scipy.linalg import lapack
+
+from ecds_lab import forked
 
 try:  # scipy's solver module: where its trust-region steps look their ``svd`` up
     from scipy.optimize._lsq import trf as _trf
@@ -99,12 +103,19 @@ def _blocked_qr(a: np.ndarray) -> tuple[list[tuple[int, _Reflectors]], _Reflecto
     if len(starts) > 1 and n - starts[-1] < k:  # a last block shorter than k joins the one before
         starts.pop()
     ends = [*starts[1:], n]
-    blocks, rs = [], []
-    for start, end in zip(starts, ends, strict=True):
-        (reflectors, tau), r = scipy.linalg.qr(a[start:end], mode="raw")  # a NaN or inf is refused, as by scipy
-        blocks.append((start, _Reflectors(reflectors, tau)))
-        rs.append(r[:k])
-    (reflectors, tau), r = scipy.linalg.qr(np.vstack(rs), mode="raw", check_finite=False)
+
+    def factored(start: int, end: int) -> tuple[tuple[np.ndarray, np.ndarray], np.ndarray]:
+        return scipy.linalg.qr(a[start:end], mode="raw")  # a NaN or inf is refused, as by scipy's SVD
+
+    threads = min(forked.workers(), len(starts))
+    if threads > 1:  # LAPACK lets go of the GIL: the blocks are factored side by side, each as alone
+        with ThreadPoolExecutor(threads) as pool:
+            factors = list(pool.map(factored, starts, ends))
+    else:
+        factors = [factored(start, end) for start, end in zip(starts, ends, strict=True)]
+    blocks = [(start, _Reflectors(reflectors, tau)) for start, ((reflectors, tau), _) in zip(starts, factors,
+                                                                                               strict=True)]
+    (reflectors, tau), r = scipy.linalg.qr(np.vstack([r[:k] for _, r in factors]), mode="raw", check_finite=False)
     return blocks, _Reflectors(reflectors, tau), r[:k]
 
 
