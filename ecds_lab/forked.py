@@ -5,7 +5,8 @@ error, the alternative starts of a refinement or a repolish. ``each(work, items)
 processes forked for the call, which inherit ``work`` and everything it closes over (nothing is sent to them but an
 index); only the results come back, and the objects the caller names ``shared`` come back as the caller's own
 objects, not as copies (a result that refers to the data it was fitted on refers to the caller's data). A result
-that cannot be pickled (it refers to a class made at run time that is not shared) is worked again by the caller.
+that cannot be pickled (it refers to a class made at run time that is not shared) is worked again by the caller,
+and so is every item when a worker dies (killed, out of memory) rather than failing.
 
 Nothing is forked unless the caller allows it (``allowed``: the command line allows the CPUs this process may use;
 a library call, a test or a Dask worker stays in its own process), where ``fork`` is not available, inside a worker,
@@ -22,6 +23,8 @@ import os
 import pickle
 import signal
 from collections.abc import Callable, Iterable, Iterator, Sequence
+from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any, TypeVar
@@ -85,15 +88,29 @@ def each(work: Callable[[T], R], items: Iterable[T], shared: Iterable[object] = 
         return [work(item) for item in items]
     kept = {id(obj): obj for obj in shared}
     _job = _Job(work, items, kept)
+    payloads: list[bytes | None] = [None] * len(items)
+    pool = None
     try:
-        with multiprocessing.get_context("fork").Pool(workers, initializer=_become_worker) as pool:
-            payloads = pool.map(_run, range(len(items)), chunksize=1)
-    except OSError:  # no processes to be had: work here instead
-        return [work(item) for item in items]
+        pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"),
+                                   initializer=_become_worker)
+        payloads = list(pool.map(_run, range(len(items))))
+    except (OSError, BrokenProcessPool):  # no processes to be had, or one died (killed, out of memory): work here
+        pass
     finally:
         _job = None
+        if pool is not None:
+            _stop(pool)
     return [work(item) if payload is None else _Loader(io.BytesIO(payload), kept).load()
             for item, payload in zip(items, payloads, strict=True)]
+
+
+def _stop(pool: ProcessPoolExecutor) -> None:
+    """Shut the pool down without waiting for work nobody will collect (after Ctrl-C, say): its workers are ended."""
+    workers = list(getattr(pool, "_processes", {}).values())  # the executor's own record of its processes
+    pool.shutdown(wait=False, cancel_futures=True)
+    for process in workers:
+        if process.is_alive():
+            process.terminate()
 
 
 def _become_worker() -> None:

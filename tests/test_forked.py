@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import signal
 
 import pytest
 
@@ -64,3 +65,15 @@ def test_a_failure_in_a_worker_is_raised_here():
 
     with forked.allowed(2), pytest.raises(ValueError, match="item 2 is bad"):
         forked.each(work, [1, 2, 3])
+
+
+def test_when_a_worker_dies_the_items_are_worked_here():
+    here = os.getpid()
+
+    def work(item: int) -> tuple[int, bool]:
+        if item == 1 and os.getpid() != here:
+            os.kill(os.getpid(), signal.SIGKILL)  # as the out-of-memory killer would
+        return item, os.getpid() == here
+
+    with forked.allowed(2):
+        assert forked.each(work, [0, 1, 2]) == [(0, True), (1, True), (2, True)]
