@@ -8,11 +8,15 @@ and U^T f = U_r^T (Q^T f)[:k] with Q^T applied by its reflectors.
 
 The QR is taken by blocks of ``BLOCK_ROWS`` rows (the tall-skinny QR of Demmel et al., "Communication-optimal
 parallel and sequential QR and LU factorizations", SIAM J. Sci. Comput. 34 (2012)): each block's R, stacked, is
-factored once more, and Q is the blocks' reflectors followed by the stack's. A block fits in the processor's cache,
-where LAPACK's one factorisation of the whole matrix passes over all of it once per column: 0.24 s instead of
-0.76 s for 823,094 x 25 on one thread, a third of a 10^6-reading diagnosis's least-squares time. It is as stable as
-Householder QR, and the solution agrees to rounding. Where the caller allows more CPUs (``forked.allowed``: the
-command line), the blocks are factored on as many threads (0.14 s on two), each exactly as on one.
+factored once more, and Q is the blocks' reflectors followed by the stack's (a matrix of one block is factored once).
+A block fits in the processor's cache, where one factorisation of the whole matrix passes over all of it once per
+column. Each is LAPACK's geqrf called with its minimal workspace, so that it takes the unblocked Householder
+reflections (geqr2): for a matrix this thin, LAPACK's blocked variant (what ``scipy.linalg.qr`` asks for, with the
+optimal workspace) spends more on forming its block reflectors than it saves. For 100,000 x 26 on one thread:
+15 ms, against 35 ms through ``scipy.linalg.qr`` by blocks of 4,096 and 76 ms by one factorisation; for 2,500 x 26,
+a subsample's Jacobian, 0.35 ms against 1.5 ms for scipy's SVD. It is as stable as Householder QR, and the solution
+agrees to rounding. Where the caller allows more CPUs (``forked.allowed``: the command line), the blocks are
+factored on as many threads, each exactly as on one.
 
 ``tall_svd()`` puts this SVD in place of scipy's inside the trust-region solver for the body of the ``with`` (nested
 and concurrent use are fine: the solver's own SVD is back once the last user leaves); matrices shorter than
@@ -41,19 +45,19 @@ except ImportError:  # pragma: no cover - a scipy laid out otherwise keeps its o
 _solver_svd = getattr(_trf, "svd", None)
 
 #: Matrices with fewer rows keep scipy's SVD (little to gain).
-TALL_ROWS = 4000
+TALL_ROWS = 200
 
 _scipy_svd = scipy.linalg.svd
 _lock = threading.Lock()
 _users = 0
 
 
-#: Rows per block of the tall-skinny QR (a block of 25 columns is 0.8 MB).
-BLOCK_ROWS = 4096
+#: Rows per block of the tall-skinny QR (a block of 25 columns is 0.4 MB).
+BLOCK_ROWS = 2048
 
 
 class _Reflectors:
-    """Q of a Householder QR, kept as LAPACK's reflectors (geqrf's ``raw`` output)."""
+    """Q of a Householder QR, kept as LAPACK's reflectors (geqrf's output)."""
 
     def __init__(self, reflectors: np.ndarray, tau: np.ndarray) -> None:
         self.reflectors, self.tau = reflectors, tau
@@ -66,12 +70,21 @@ class _Reflectors:
         return qtv
 
 
+def _householder_qr(a: np.ndarray) -> tuple[_Reflectors, np.ndarray]:
+    """Q (reflectors) and R (k x k) of ``a`` (m >= k), by geqrf with its minimal workspace (module docstring)."""
+    reflectors, tau, _, info = lapack.dgeqrf(a)
+    if info != 0:
+        raise np.linalg.LinAlgError(f"dgeqrf failed (info {info})")
+    k = a.shape[1]
+    return _Reflectors(reflectors, tau), np.triu(reflectors[:k])
+
+
 class _ImplicitU:
     """U = Q U_r of a tall matrix's thin SVD, Q held as the reflectors of its blocks (``blocks``: first row and
-    reflectors of each) and of their stacked R's (``top``): only ``U.T.dot(v)`` is offered (all the solver asks of
-    U)."""
+    reflectors of each) and of their stacked R's (``top``; None for a matrix of one block): only ``U.T.dot(v)`` is
+    offered (all the solver asks of U)."""
 
-    def __init__(self, blocks: list[tuple[int, _Reflectors]], top: _Reflectors, u_r: np.ndarray) -> None:
+    def __init__(self, blocks: list[tuple[int, _Reflectors]], top: _Reflectors | None, u_r: np.ndarray) -> None:
         self.blocks, self.top, self.u_r = blocks, top, u_r
 
     @property
@@ -91,21 +104,26 @@ class _ImplicitUTransposed:
         k = u.u_r.shape[0]
         v = np.asarray(v, float).ravel()
         ends = [*(start for start, _ in u.blocks[1:]), len(v)]
-        stacked = [q.transpose_times(np.asfortranarray(v[start:end, None]))[:k]
-                   for (start, q), end in zip(u.blocks, ends, strict=True)]
-        return u.u_r.T @ u.top.transpose_times(np.asfortranarray(np.vstack(stacked)))[:k, 0]
+        stacked = np.vstack([q.transpose_times(np.asfortranarray(v[start:end, None]))[:k]
+                             for (start, q), end in zip(u.blocks, ends, strict=True)])
+        if u.top is not None:
+            stacked = u.top.transpose_times(np.asfortranarray(stacked))[:k]
+        return u.u_r.T @ stacked[:, 0]
 
 
-def _blocked_qr(a: np.ndarray) -> tuple[list[tuple[int, _Reflectors]], _Reflectors, np.ndarray]:
-    """The tall-skinny QR of ``a`` (module docstring): each block's reflectors, the stack's, and R (k x k)."""
+def _blocked_qr(a: np.ndarray) -> tuple[list[tuple[int, _Reflectors]], _Reflectors | None, np.ndarray]:
+    """The tall-skinny QR of ``a`` (module docstring): each block's reflectors, the stack's (None for one block),
+    and R (k x k)."""
     n, k = a.shape
+    if not np.isfinite(a).all():
+        raise ValueError("array must not contain infs or NaNs")  # refused, as by scipy's SVD
     starts = list(range(0, n, BLOCK_ROWS))
     if len(starts) > 1 and n - starts[-1] < k:  # a last block shorter than k joins the one before
         starts.pop()
     ends = [*starts[1:], n]
 
-    def factored(start: int, end: int) -> tuple[tuple[np.ndarray, np.ndarray], np.ndarray]:
-        return scipy.linalg.qr(a[start:end], mode="raw")  # a NaN or inf is refused, as by scipy's SVD
+    def factored(start: int, end: int) -> tuple[_Reflectors, np.ndarray]:
+        return _householder_qr(a[start:end])
 
     threads = min(forked.workers(), len(starts))
     if threads > 1:  # LAPACK lets go of the GIL: the blocks are factored side by side, each as alone
@@ -113,10 +131,11 @@ def _blocked_qr(a: np.ndarray) -> tuple[list[tuple[int, _Reflectors]], _Reflecto
             factors = list(pool.map(factored, starts, ends))
     else:
         factors = [factored(start, end) for start, end in zip(starts, ends, strict=True)]
-    blocks = [(start, _Reflectors(reflectors, tau)) for start, ((reflectors, tau), _) in zip(starts, factors,
-                                                                                               strict=True)]
-    (reflectors, tau), r = scipy.linalg.qr(np.vstack([r[:k] for _, r in factors]), mode="raw", check_finite=False)
-    return blocks, _Reflectors(reflectors, tau), r[:k]
+    blocks = [(start, q) for start, (q, _) in zip(starts, factors, strict=True)]
+    if len(factors) == 1:
+        return blocks, None, factors[0][1]
+    top, r = _householder_qr(np.vstack([r for _, r in factors]))
+    return blocks, top, r
 
 
 def thin_svd(a: np.ndarray, full_matrices: bool = True, **options: Any) -> tuple[Any, np.ndarray, np.ndarray]:

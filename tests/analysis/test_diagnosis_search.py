@@ -187,7 +187,7 @@ def test_a_diagnosis_with_its_fits_on_two_processes_is_the_one_made_in_one(campa
     monkeypatch.setattr(forked, "each", each)
     with forked.allowed(2):
         together = run_diagnosis(data, screen_rows=150)
-    assert {"_round", "_refined", "cv_rmse"} <= forked_at
+    assert {"_round", "_refined", "cv_rmses"} <= forked_at
     assert json.dumps(together.to_json(), sort_keys=True) == json.dumps(alone.to_json(), sort_keys=True)
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -35,12 +36,13 @@ def held_out_gain(base_cv: float, cv: float, n: int, noise: NoiseEstimate) -> fl
 
 
 def check_held_out(candidate: Candidate, base_cv: float | None, folds: np.ndarray, data: Measurements,
-                   noise: NoiseEstimate) -> None:
+                   noise: NoiseEstimate, cv: float | None = None) -> None:
     """The grouped held-out error must fall below the current model's by a margin in noise units:
     its sum of squares by at least HELD_OUT_CHI2 noise variances (115.0 against 115.2 ppm over a few
-    hundred readings at 20 ppm noise is a fall of about 2: no evidence)."""
+    hundred readings at 20 ppm noise is a fall of about 2: no evidence). ``cv``: the candidate's held-out error
+    (``cv_rmse``) when the caller has it already."""
     candidate.base_cv_rmse_ppm = base_cv
-    candidate.cv_rmse_ppm = cv_rmse(data, candidate.fit, folds)
+    candidate.cv_rmse_ppm = cv if cv is not None else cv_rmse(data, candidate.fit, folds)
     scored = int(np.sum(folds != NEVER_HELD_OUT))
     gain = held_out_gain(base_cv, candidate.cv_rmse_ppm, scored, noise) if base_cv is not None else 0.0
     candidate.held_out_gain = gain
@@ -104,15 +106,25 @@ def _split_visits(data: Measurements, groups: np.ndarray) -> np.ndarray:
 def cv_rmse(data: Measurements, full: FitResult, folds: np.ndarray) -> float:
     """Held-out RMS (ppm): fit without one fold, predict it; the model still sees the whole history. A nuisance
     smooth's coefficients (``nuisance.held_in_folds``) are held where the fit on every reading left them."""
-    fixed = held_in_folds(full.model, full.values)
+    return cv_rmses(data, [full], folds)[0]
 
-    def held_out_squares(k: int) -> float:
-        held = folds == k
-        trained = fit_model(full.model, data, start=full.values, fixed=fixed or None, multistart=False, rows=~held,
-                            screening=True)
+
+def cv_rmses(data: Measurements, fits: Sequence[FitResult], folds: np.ndarray) -> list[float]:
+    """``cv_rmse`` of each of ``fits``, the folds of all of them fitted side by side (``forked.each``)."""
+    held_in = [held_in_folds(full.model, full.values) for full in fits]
+    scored = folds != NEVER_HELD_OUT
+    keys = np.unique(folds[scored]).tolist()
+
+    def held_out_squares(task: tuple[int, int]) -> float:
+        which, k = task
+        full, held = fits[which], folds == k
+        trained = fit_model(full.model, data, start=full.values, fixed=held_in[which] or None, multistart=False,
+                            rows=~held, screening=True)
         r = (data.ls_h[held] / trained.predict(data)[held] - 1) * 1e6
         return float(r @ r)
 
-    scored = folds != NEVER_HELD_OUT
-    squares = forked.each(held_out_squares, np.unique(folds[scored]).tolist(), shared=referenced(data, full.model))
-    return math.sqrt(sum(squares) / max(int(scored.sum()), 1))
+    shared = {id(obj): obj for full in fits for obj in referenced(data, full.model)}
+    squares = forked.each(held_out_squares, [(which, k) for which in range(len(fits)) for k in keys],
+                          shared=shared.values())
+    count = max(int(scored.sum()), 1)
+    return [math.sqrt(sum(squares[which * len(keys):(which + 1) * len(keys)]) / count) for which in range(len(fits))]

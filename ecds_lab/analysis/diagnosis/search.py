@@ -55,7 +55,7 @@ from ecds_lab.analysis.diagnosis.checks import (
 )
 from ecds_lab.analysis.diagnosis.drift import gain_beside_drift
 from ecds_lab.analysis.diagnosis.explanation import explain
-from ecds_lab.analysis.diagnosis.held_out import SCREEN_ROWS, check_held_out, cv_rmse, folds_of
+from ecds_lab.analysis.diagnosis.held_out import SCREEN_ROWS, check_held_out, cv_rmses, folds_of
 from ecds_lab.analysis.diagnosis.identifiability import (
     ReleasedModel,
     absorbed,
@@ -71,6 +71,7 @@ from ecds_lab.analysis.diagnosis.verdict import ADEQUATE_RATIO, STRUCTURE_SIGNIF
 from ecds_lab.analysis.fitting import FitResult, evaluated, fit_model, referenced
 from ecds_lab.analysis.noise import NoiseEstimate, refreshed
 from ecds_lab.analysis.outliers import Outlier, describe, find_glitches
+from ecds_lab.analysis.per_readings import per_readings
 from ecds_lab.analysis.subsample import screened
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.data.sensor import SensorConfig
@@ -361,14 +362,20 @@ def beyond_idle_states(data: Measurements, residual: np.ndarray, acts: np.ndarra
     direction, commanded distance) outside ``acts`` taken out, where there are such readings: what is left is what
     the readings where an effect acts show beyond the same states where it does not (validation study case 99: a
     metal object's bump in x, in the cold sweep as in the hot ones, made the bending for a tilt look partial)."""
-    x = np.where(np.isfinite(data.x_commanded_m), np.round(data.x_commanded_m, 6), -1.0)
-    _, state = np.unique(np.column_stack([data.freq_hz, data.direction, x]), axis=0, return_inverse=True)
-    state = state.ravel()
+    state = _measuring_states(data)
     idle = ~acts
     counts = np.bincount(state[idle], minlength=state.max() + 1)
     sums = np.bincount(state[idle], weights=np.asarray(residual, float)[idle], minlength=state.max() + 1).astype(float)
     shared = np.divide(sums, counts, out=np.zeros_like(sums), where=counts > 0)
     return np.where(acts, residual - shared[state], residual)
+
+
+@per_readings
+def _measuring_states(data: Measurements) -> np.ndarray:
+    """The state (frequency, direction, commanded distance or the coil in air) of every reading, numbered; computed
+    once per campaign (``per_readings``)."""
+    x = np.where(np.isfinite(data.x_commanded_m), np.round(data.x_commanded_m, 6), -1.0)
+    return np.unique(np.column_stack([data.freq_hz, data.direction, x]), axis=0, return_inverse=True)[1].ravel()
 
 
 def _mark_drift(steps: list[Step], data: Measurements, noise: NoiseEstimate, acting: list[np.ndarray]) -> None:
@@ -564,24 +571,27 @@ def _round(screen: Measurements, clean: Measurements, current: Step, names: list
     leader_gain = max((c.chi2_gain for c in ranked), default=0.0)
     solved = any(c.rmse_ppm <= ADEQUATE_RATIO * noise.ppm and not c.not_better for c in ranked[:1])
     if current.rmse_ppm > ADEQUATE_RATIO * noise.ppm:
-        for i, candidate in enumerate(ranked[:LEADING]):
-            behind = candidate.rmse_ppm > ADEQUATE_RATIO * noise.ppm
-            if (candidate.not_better and not solved) or (behind and (
-                    candidate.chi2_gain >= (TIE_REACH if solved else 0.1) * leader_gain or _walled(candidate))):
-                ranked[i] = _refined(screen, candidate, base, noise, len(clean), candidate.from_residual)
+        leading = [i for i, candidate in enumerate(ranked[:LEADING])
+                   if (candidate.not_better and not solved) or (candidate.rmse_ppm > ADEQUATE_RATIO * noise.ppm and (
+                       candidate.chi2_gain >= (TIE_REACH if solved else 0.1) * leader_gain or _walled(candidate)))]
+        refined = _refined(screen, [ranked[i] for i in leading], base, noise, len(clean))
+        for i, candidate in zip(leading, refined, strict=True):
+            ranked[i] = candidate
     for candidate in ranked:
         check_candidate(candidate)
     ranked.sort(key=lambda c: (not c.passes, evidence_rank(c)))
-    base_cv = None
-    if folds is not None and ranked and ranked[0].passes:  # the previous round's claim already has it
-        base_cv = current_cv if current_cv is not None else cv_rmse(screen, base, folds)
+    base_cv = first_cv = None
+    if folds is not None and ranked and ranked[0].passes:  # the previous round's claim already has its own
+        # the current model's held-out error and the first candidate's (checked first below), side by side
+        scores = cv_rmses(screen, [ranked[0].fit] if current_cv is not None else [base, ranked[0].fit], folds)
+        base_cv, first_cv = current_cv if current_cv is not None else scores[0], scores[-1]
     leader = None
     for candidate in ranked:  # held-out error, lazily: for the leader and whatever might tie with it
         if not candidate.passes or folds is None:
             continue
         if leader is not None and not tied(leader, candidate):
             continue
-        check_held_out(candidate, base_cv, folds, screen, noise)
+        check_held_out(candidate, base_cv, folds, screen, noise, first_cv if candidate is ranked[0] else None)
         if candidate.passes and leader is None:
             leader = candidate
     ranked.sort(key=lambda c: (not c.passes, evidence_rank(c)))
@@ -634,29 +644,48 @@ def _unreleased(fitted: FitResult, base: FitResult, data: Measurements) -> FitRe
     return fit_model(fitted.model, data, start=fitted.values, fixed=loose, multistart=False, screening=True)
 
 
-def _refined(data: Measurements, candidate: Candidate, base: FitResult, noise: NoiseEstimate, n_full: int,
-             from_residual: Sequence[dict[str, float]] = ()) -> Candidate:
-    """A leading candidate not yet at the noise level, refitted from its effect's alternative starts.
+def _refined(data: Measurements, candidates: Sequence[Candidate], base: FitResult, noise: NoiseEstimate,
+             n_full: int) -> list[Candidate]:
+    """Leading candidates not yet at the noise level, each refitted from its effect's alternative starts and those
+    it read off the residual (``Candidate.from_residual``): the best fit of each.
 
     With more starts than SCOUTS_REFITTED, each is first scouted with only the effect's own parameters
     free (the current model held where it is: a few columns instead of all), and the whole model is
     refitted from the best scouts
     (a valley whose depth shows only with the model free, a plate's thickness against tau_T, say,
-    need not lead the scouts)."""
-    model = candidate.fit.model
-    own = [p.name for p in model.effects[-1].parameters()]
-    starts = [dict(alternative) for alternative in (*model.effects[-1].alternative_starts, *from_residual)]
-    if len(starts) > SCOUTS_REFITTED:
-        held = {k: v for k, v in base.values.items() if k not in own}
-        scouts = sorted(forked.each(lambda start: fit_model(model, data, start=start, fixed=held, multistart=False,
-                                                            screening=True), starts, shared=referenced(data, model)),
-                        key=lambda f: f.rms_ppm)
-        starts = [{name: scout.values[name] for name in own} for scout in scouts[:SCOUTS_REFITTED]]
-    best = candidate
-    for trial in forked.each(lambda start: _candidate(data, model, candidate.effect, base, noise, n_full, start),
-                             starts, shared=referenced(data, model)):
-        if trial.fit.rms_ppm < best.fit.rms_ppm:
-            best = trial
+    need not lead the scouts). The fits of every candidate are worked side by side (``forked.each``): the scouts
+    and the refits that need none first, then the refits from the scouts."""
+    models = [candidate.fit.model for candidate in candidates]
+    owns = [[p.name for p in model.effects[-1].parameters()] for model in models]
+    starts = [[dict(alternative) for alternative in (*model.effects[-1].alternative_starts, *candidate.from_residual)]
+              for model, candidate in zip(models, candidates, strict=True)]
+    scouted = [len(each_start) > SCOUTS_REFITTED for each_start in starts]
+
+    def scout(which: int, start: dict[str, float]) -> FitResult:
+        held = {k: v for k, v in base.values.items() if k not in owns[which]}
+        return fit_model(models[which], data, start=start, fixed=held, multistart=False, screening=True)
+
+    def trial(which: int, start: dict[str, float]) -> Candidate:
+        return _candidate(data, models[which], candidates[which].effect, base, noise, n_full, start)
+
+    shared = {id(obj): obj for model in models for obj in referenced(data, model)}.values()
+    first = [(which, start) for which in range(len(candidates)) for start in starts[which]]
+    done = forked.each(lambda task: (scout if scouted[task[0]] else trial)(*task), first, shared=shared)
+    firsts: list[list[Any]] = [[] for _ in candidates]
+    for (which, _), outcome in zip(first, done, strict=True):
+        firsts[which].append(outcome)
+    trials = [[] if scouted[which] else firsts[which] for which in range(len(candidates))]
+    second = [(which, {name: fit.values[name] for name in owns[which]})
+              for which in range(len(candidates)) if scouted[which]
+              for fit in sorted(firsts[which], key=lambda f: f.rms_ppm)[:SCOUTS_REFITTED]]
+    for (which, _), outcome in zip(second, forked.each(lambda task: trial(*task), second, shared=shared),
+                                   strict=True):
+        trials[which].append(outcome)
+    best = list(candidates)
+    for which, tried in enumerate(trials):
+        for outcome in tried:
+            if outcome.fit.rms_ppm < best[which].fit.rms_ppm:
+                best[which] = outcome
     return best
 
 

@@ -26,6 +26,7 @@ import numpy as np
 
 from ecds_lab.analysis.noise import NoiseEstimate
 from ecds_lab.analysis.noise_margin import loadings, null_moments, significance
+from ecds_lab.analysis.per_readings import per_readings
 from ecds_lab.analysis.phases import phase_labels
 from ecds_lab.data.measurements import Measurements
 
@@ -59,8 +60,9 @@ class ResidualStructure:
                 "significance": round(self.significance, 2), "noise_ratio": ratio, "margin": round(self.margin, 3)}
 
 
+@per_readings
 def state_labels(data: Measurements) -> np.ndarray:
-    """State number of every reading (see the module docstring)."""
+    """State number of every reading (see the module docstring); computed once per campaign (``per_readings``)."""
     phases = phase_labels(data)
     x = np.where(np.isfinite(data.x_commanded_m), np.round(data.x_commanded_m, 6), -1.0)
     start = np.zeros(len(data))
