@@ -31,6 +31,7 @@ from typing import Any, TypeVar
 
 T = TypeVar("T")
 R = TypeVar("R")
+S = TypeVar("S")
 
 #: processes ``each`` may use (1: a plain loop in this process)
 _allowed = 1
@@ -81,27 +82,45 @@ def allowed(workers: int | None = None) -> Iterator[None]:
 def each(work: Callable[[T], R], items: Iterable[T], shared: Iterable[object] = ()) -> list[R]:
     """``[work(item) for item in items]``, on up to the allowed number of forked processes; a result's references
     to an object in ``shared`` are to that very object."""
+    return each_beside(None, work, items, shared)[1]
+
+
+def each_beside(here: Callable[[], S] | None, work: Callable[[T], R], items: Iterable[T],
+                shared: Iterable[object] = ()) -> tuple[S | None, list[R]]:  # None: no ``here``
+    """``here()`` in this process while the forked workers work ``items`` as in ``each``: a long piece that has no
+    use for a worker's result beside short ones that do not need its own (a claim's refit on every reading beside a
+    repolish's starts on a subsample). In one process: ``here()`` first, then the items."""
     global _job
     items = list(items)
     workers = min(_allowed, len(items))
     if workers < 2 or not can_fork():
-        return [work(item) for item in items]
+        done = here() if here is not None else None
+        return done, [work(item) for item in items]
     kept = {id(obj): obj for obj in shared}
     _job = _Job(work, items, kept)
     payloads: list[bytes | None] = [None] * len(items)
     pool = None
+    done = None
     try:
-        pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"),
-                                   initializer=_become_worker)
-        payloads = list(pool.map(_run, range(len(items))))
-    except (OSError, BrokenProcessPool):  # no processes to be had, or one died (killed, out of memory): work here
-        pass
+        try:
+            pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"),
+                                       initializer=_become_worker)
+            results = pool.map(_run, range(len(items)))  # every item is submitted at once
+        except (OSError, BrokenProcessPool):  # no processes to be had, or one died: the items are worked here
+            results = None
+        finally:
+            _job = None
+        done = here() if here is not None else None
+        if results is not None:
+            try:
+                payloads = list(results)
+            except BrokenProcessPool:  # a worker died (killed, out of memory): the items are worked here
+                pass
     finally:
-        _job = None
         if pool is not None:
             _stop(pool)
-    return [work(item) if payload is None else _Loader(io.BytesIO(payload), kept).load()
-            for item, payload in zip(items, payloads, strict=True)]
+    return done, [work(item) if payload is None else _Loader(io.BytesIO(payload), kept).load()
+                  for item, payload in zip(items, payloads, strict=True)]
 
 
 def _stop(pool: ProcessPoolExecutor) -> None:

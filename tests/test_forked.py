@@ -1,9 +1,11 @@
-"""``forked.each``: the same results as a loop, in order, from other processes only when allowed."""
+"""``forked.each``: the same results as a loop, in order, from other processes only when allowed; ``each_beside``: a
+piece worked here meanwhile."""
 
 from __future__ import annotations
 
 import os
 import signal
+import time
 
 import pytest
 
@@ -77,3 +79,32 @@ def test_when_a_worker_dies_the_items_are_worked_here():
 
     with forked.allowed(2):
         assert forked.each(work, [0, 1, 2]) == [(0, True), (1, True), (2, True)]
+
+
+def test_beside_the_workers_a_piece_is_worked_here_meanwhile():
+    with forked.allowed(2):
+        here, results = forked.each_beside(lambda: os.getpid(), lambda item: (item, os.getpid()), range(4))
+    assert here == os.getpid()
+    assert [item for item, _ in results] == [0, 1, 2, 3]
+    assert os.getpid() not in {pid for _, pid in results}
+
+
+def test_in_one_process_the_piece_beside_comes_first_then_the_items():
+    order: list[object] = []
+    here, results = forked.each_beside(lambda: order.append("here") or "done", lambda item: order.append(item) or item,
+                                       [1, 2])
+    assert (here, results, order) == ("done", [1, 2], ["here", 1, 2])
+
+
+def test_a_failure_of_the_piece_beside_ends_the_workers_and_is_raised_here():
+    def failing() -> None:
+        raise KeyboardInterrupt  # as Ctrl-C would, while the workers work
+
+    def slow(item: int) -> int:
+        time.sleep(30)
+        return item
+
+    started = time.monotonic()
+    with forked.allowed(2), pytest.raises(KeyboardInterrupt):
+        forked.each_beside(failing, slow, [1, 2])
+    assert time.monotonic() - started < 10

@@ -184,10 +184,18 @@ def test_a_diagnosis_with_its_fits_on_two_processes_is_the_one_made_in_one(campa
             forked_at.add(traceback.extract_stack()[-2].name)
         return real_each(work, items, shared)
 
+    real_each_beside = forked.each_beside
+
+    def each_beside(here, work, items, shared=()):
+        if here is not None:  # a claim's refit beside its repolish's starts
+            forked_at.add(traceback.extract_stack()[-2].name)
+        return real_each_beside(here, work, items, shared)
+
     monkeypatch.setattr(forked, "each", each)
+    monkeypatch.setattr(forked, "each_beside", each_beside)
     with forked.allowed(2):
         together = run_diagnosis(data, screen_rows=150)
-    assert {"_round", "_refined", "cv_rmses"} <= forked_at
+    assert {"_round", "_refined", "cv_rmses", "_full_fit_beside_starts"} <= forked_at
     assert json.dumps(together.to_json(), sort_keys=True) == json.dumps(alone.to_json(), sort_keys=True)
 
 
@@ -230,3 +238,23 @@ def test_a_repolish_tries_the_starts_behind_a_winner_again_from_it(workers, monk
     assert best.values == {"a": 3.0, "b": 5.0}
     if workers == 1:  # tried here, so seen here: each start once, from the best so far
         assert tried == [{"a": 1.0, "b": 0.0}, {"a": 3.0, "b": 0.0}, {"a": 3.0, "b": 5.0}, {"a": 3.0, "b": 1.0}]
+
+
+def test_a_repolish_whose_first_starts_were_tried_beside_the_refit_ends_where_it_would_have(monkeypatch):
+    # the first starts, tried at once from the start while the claim was refitted (_full_fit_beside_starts), are
+    # taken as they are; the starts behind the winner are then tried again from it, as without them
+    tried: list[dict[str, float]] = []
+
+    def fake_fit(model, data, *, start, **_):
+        tried.append(dict(start))
+        return _Tried(dict(start))
+
+    monkeypatch.setattr(search, "fit_model", fake_fit)
+    claimed = types.SimpleNamespace(model=types.SimpleNamespace(effects=[_StartsInA(), _StartsInB(), _Claimed()]))
+    start = _Tried({"a": 0.0, "b": 0.0})
+    first = [search._tried(claimed.model, "data", start, alternative)
+             for alternative in search._alternatives(claimed.model, 2)]
+    tried.clear()
+    best = search._best_start(start, "data", 2, claimed, first)
+    assert best.values == {"a": 3.0, "b": 5.0}
+    assert {"a": 1.0, "b": 0.0} not in tried and tried[0] == {"a": 3.0, "b": 0.0}  # behind a=1's win, from it

@@ -214,7 +214,8 @@ def _run_diagnosis(data: Measurements, effects: Sequence[str], sensor: SensorCon
             names = [n for n in names if n not in {c.effect for c in group}]
             fresh = False
             continue
-        refit = _full_fit(clean, best)
+        earlier = len(current.effects) - len(effects)
+        refit, screen_start = _full_fit_beside_starts(clean, best, earlier, screen)
         if screen is not clean:  # the claim must hold on every reading, not only on the screened ones
             confirmed = score_candidate(best.effect, refit, current.fit, noise, clean, len(clean))
             confirmed.fit_data = clean
@@ -228,7 +229,7 @@ def _run_diagnosis(data: Measurements, effects: Sequence[str], sensor: SensorCon
         members = [c.effect for c in group] if len(group) > 1 else []
         if members:
             alternatives.append(members)
-        refit = _repolished(refit, clean, len(current.effects) - len(effects), screen)
+        refit = _repolished(refit, clean, earlier, screen, screen_start)
         steps.append(Step([*current.effects, best.effect], refit, residual_mm(refit, clean), full_scale,
                           stands_for=members))
         names = [n for n in names if n not in {c.effect for c in group}]
@@ -689,42 +690,78 @@ def _refined(data: Measurements, candidates: Sequence[Candidate], base: FitResul
     return best
 
 
-def _repolished(fitted: FitResult, data: Measurements, earlier: int, screen: Measurements | None = None) -> FitResult:
+@dataclass
+class _ScreenStart:
+    """Where a repolish on the screening subsample starts (``_repolished``): the claimed model refitted there from
+    the candidate's own solution, and its first alternative starts already tried (None: not yet)."""
+
+    fit: FitResult
+    first: list[FitResult] | None
+
+
+def _full_fit_beside_starts(clean: Measurements, candidate: Candidate, earlier: int, screen: Measurements
+                            ) -> tuple[FitResult, _ScreenStart | None]:
+    """The claim refitted on every reading (``_full_fit``) and, where a repolish will try the starts of the
+    ``earlier`` effects on the screening subsample (``_repolished``), its start there, refitted from the candidate's
+    own solution, not from the refit's: so, with processes to share them (``forked``), its first starts are tried on
+    the subsample while this process refits every reading (``forked.each_beside``)."""
+    if earlier <= 0 or screen is clean:
+        return _full_fit(clean, candidate), None
+    model = candidate.fit.model
+    on_screen = fit_model(model, screen, start=candidate.fit.values, multistart=False, screening=True)
+    first = _alternatives(model, earlier) if forked.workers() > 1 else []
+    refit, tried = forked.each_beside(lambda: _full_fit(clean, candidate),
+                                      functools.partial(_tried, model, screen, on_screen), first,
+                                      shared=referenced(screen, model))
+    assert refit is not None
+    return refit, _ScreenStart(on_screen, tried if first else None)
+
+
+def _repolished(fitted: FitResult, data: Measurements, earlier: int, screen: Measurements | None = None,
+                start: _ScreenStart | None = None) -> FitResult:
     """The new model refitted from the alternative starts of the effects found before the one just added
     (the last ``earlier`` effects before it): a valley an earlier effect settled in alone (a plate's
     thickness, say) may not be the best once the new effect takes its share. The better fit is kept.
 
-    On a screened campaign the starts are tried on the screening subsample ``screen`` against the new model
-    refitted there, and only a start that wins there is polished on every reading (kept if better there too):
-    a dozen full refits of every reading cost minutes at 10^6 readings."""
+    On a screened campaign the starts are tried on the screening subsample ``screen``, from ``start``
+    (``_full_fit_beside_starts``), and only a start that wins there is polished on every reading (kept if better
+    there too): a dozen full refits of every reading cost minutes at 10^6 readings."""
     if earlier <= 0:
         return fitted
-    if screen is None or screen is data:
+    if screen is None or screen is data or start is None:
         return _best_start(fitted, data, earlier, fitted)
-    on_screen = fit_model(fitted.model, screen, start=fitted.values, multistart=False, screening=True)
-    best = _best_start(on_screen, screen, earlier, fitted)
-    if best is on_screen:
+    best = _best_start(start.fit, screen, earlier, fitted, start.first)
+    if best is start.fit:
         return fitted
     trial = fit_model(fitted.model, data, start=best.values, multistart=False, screening=True, polish=True)
     return trial if trial.rms_ppm < fitted.rms_ppm * (1 - 1e-3) else fitted
 
 
-def _best_start(best: FitResult, data: Measurements, earlier: int, claimed: FitResult) -> FitResult:
+def _alternatives(model: SensorModel, earlier: int) -> list[dict[str, float]]:
+    """The alternative starts of the ``earlier`` effects before the last of ``model``, in order."""
+    return [dict(alternative) for effect in model.effects[-1 - earlier:-1] for alternative in effect.alternative_starts]
+
+
+def _tried(model: SensorModel, data: Measurements, base: FitResult, alternative: dict[str, float]) -> FitResult:
+    """``model`` fitted to ``data`` from ``base``'s solution with ``alternative``'s values in place."""
+    return fit_model(model, data, start={**base.values, **alternative}, multistart=False, screening=True)
+
+
+def _best_start(best: FitResult, data: Measurements, earlier: int, claimed: FitResult,
+                first: list[FitResult] | None = None) -> FitResult:
     """``best`` or the best fit of its model on ``data`` from the alternative starts of the ``earlier`` effects
     before the last of ``claimed``'s model, each from the best so far (better by 0.1 % of the RMS to count).
 
     With processes to share them (``forked``), the starts are tried at once from the best so far, and after one that
-    wins those behind it are tried again from it (a win is rare); in one process, one after another."""
-    pending = [dict(alternative) for effect in claimed.model.effects[-1 - earlier:-1]
-               for alternative in effect.alternative_starts]
-
-    def tried(base: FitResult, alternative: dict[str, float]) -> FitResult:
-        return fit_model(claimed.model, data, start={**base.values, **alternative}, multistart=False, screening=True)
-
+    wins those behind it are tried again from it (a win is rare); in one process, one after another. ``first``: the
+    fits from every start at once from ``best``, made already (``_full_fit_beside_starts``)."""
+    pending = _alternatives(claimed.model, earlier)
     while pending:
-        at_once = len(pending) if forked.workers() > 1 else 1
+        at_once = len(pending) if forked.workers() > 1 or first is not None else 1
         batch, pending = pending[:at_once], pending[at_once:]
-        trials = forked.each(functools.partial(tried, best), batch, shared=referenced(data, claimed.model))
+        trials = first if first is not None else forked.each(functools.partial(_tried, claimed.model, data, best),
+                                                             batch, shared=referenced(data, claimed.model))
+        first = None
         won = next((i for i, trial in enumerate(trials) if trial.rms_ppm < best.rms_ppm * (1 - 1e-3)), None)
         if won is not None:
             best = trials[won]
