@@ -13,9 +13,9 @@ A block fits in the processor's cache, where one factorisation of the whole matr
 column. Each is LAPACK's geqrf called with its minimal workspace, so that it takes the unblocked Householder
 reflections (geqr2): for a matrix this thin, LAPACK's blocked variant (what ``scipy.linalg.qr`` asks for, with the
 optimal workspace) spends more on forming its block reflectors than it saves. For 100,000 x 26 on one thread:
-15 ms, against 35 ms through ``scipy.linalg.qr`` by blocks of 4,096 and 76 ms by one factorisation. It is as stable as Householder QR, and the solution
-agrees to rounding. Where the caller allows more CPUs (``forked.allowed``: the command line), the blocks are
-factored on as many threads, each exactly as on one.
+15 ms, against 35 ms through ``scipy.linalg.qr`` by blocks of 4,096 and 76 ms by one factorisation. It is as
+stable as Householder QR, and the solution agrees to rounding. Where the caller allows more CPUs
+(``forked.allowed``: the command line), the blocks are factored on as many threads, each exactly as on one.
 
 ``tall_svd()`` puts this SVD in place of scipy's inside the trust-region solver for the body of the ``with`` (nested
 and concurrent use are fine: the solver's own SVD is back once the last user leaves); matrices shorter than
