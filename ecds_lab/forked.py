@@ -103,8 +103,7 @@ def each_beside(here: Callable[[], S] | None, work: Callable[[T], R], items: Ite
     done = None
     try:
         try:
-            pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"),
-                                       initializer=_become_worker)
+            pool = worker_pool(workers)
             results = pool.map(_run, range(len(items)))  # every item is submitted at once
         except (OSError, BrokenProcessPool):  # no processes to be had, or one died: the items are worked here
             results = None
@@ -118,12 +117,20 @@ def each_beside(here: Callable[[], S] | None, work: Callable[[T], R], items: Ite
                 pass
     finally:
         if pool is not None:
-            _stop(pool)
+            stop(pool)
     return done, [work(item) if payload is None else _Loader(io.BytesIO(payload), kept).load()
                   for item, payload in zip(items, payloads, strict=True)]
 
 
-def _stop(pool: ProcessPoolExecutor) -> None:
+def worker_pool(workers: int) -> ProcessPoolExecutor:
+    """Worker processes forked from this one, each forking none of its own and leaving Ctrl-C to this process (which
+    ends them, ``stop``). They are forked at the first submission: whatever that inherits must be in place by then.
+    A worker that dies (killed, out of memory) breaks the pool (``BrokenProcessPool``) rather than leaving its work
+    waited for."""
+    return ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"), initializer=_become_worker)
+
+
+def stop(pool: ProcessPoolExecutor) -> None:
     """Shut the pool down without waiting for work nobody will collect (after Ctrl-C, say): its workers are ended."""
     workers = list(getattr(pool, "_processes", {}).values())  # the executor's own record of its processes
     pool.shutdown(wait=False, cancel_futures=True)

@@ -5,17 +5,19 @@ figures do not depend on each other. A section asks for a figure with ``Plot`` (
 function, its arguments and a caption); ``start`` forks workers that inherit the plots (so
 nothing but the finished PNG bytes crosses a process boundary) and returns at once, so the
 caller can run the diagnosis meanwhile. Where ``fork`` is not available, or one worker is
-asked for, the figures are drawn in this process when their results are collected.
+asked for, the figures are drawn in this process when their results are collected; so are those of a worker that
+died (killed, out of memory), rather than waited for.
 """
 
 from __future__ import annotations
 
-import multiprocessing
 from collections.abc import Callable
+from concurrent.futures import Future, ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
 from typing import Any
 
-from ecds_lab.forked import can_fork, cpus
+from ecds_lab.forked import can_fork, cpus, stop, worker_pool
 from ecds_lab.report.canvas import Png, styled, warm_up
 
 _PENDING: list[Plot] = []
@@ -53,36 +55,41 @@ class Rendering:
     def __init__(self, plots: list[Plot], workers: int, alongside: bool = False) -> None:
         global _PENDING
         self.plots = plots
-        self._pool = None
-        self._async = None
+        self._pool: ProcessPoolExecutor | None = None
+        self._drawn: list[Future[Png]] = []
         forked = workers > 1 or (alongside and workers == 1)
         if forked and len(plots) > (0 if alongside else 1) and can_fork():
             styled(warm_up)()
-            _PENDING = plots  # the forked workers inherit this list
+            _PENDING = plots  # the workers, forked at the first submission, inherit this list
             try:
-                self._pool = multiprocessing.get_context("fork").Pool(min(workers, len(plots)))
-                self._async = self._pool.map_async(_render_pending, range(len(plots)), chunksize=1)
-            except OSError:  # no processes to be had: draw here instead
+                self._pool = worker_pool(min(workers, len(plots)))
+                self._drawn = [self._pool.submit(_render_pending, index) for index in range(len(plots))]
+            except (OSError, BrokenProcessPool):  # no processes to be had: draw here instead
                 self.close()
             finally:
                 _PENDING = []
 
     def results(self) -> list[Png]:
-        if self._pool is None or self._async is None:
+        if self._pool is None:
             return [plot.render() for plot in self.plots]
         try:
-            return self._async.get()
+            return [self._collected(plot, drawn) for plot, drawn in zip(self.plots, self._drawn, strict=True)]
         finally:
-            self._pool.close()
-            self._pool.join()
-            self._pool = None
+            self.close()
+
+    @staticmethod
+    def _collected(plot: Plot, drawn: Future[Png]) -> Png:
+        """A worker's figure; drawn here if the worker died (its error, if drawing it failed)."""
+        try:
+            return drawn.result()
+        except BrokenProcessPool:
+            return plot.render()
 
     def close(self) -> None:
         """Stop the workers (if still drawing, their figures are dropped)."""
         if self._pool is not None:
-            self._pool.terminate()
-            self._pool.join()
-            self._pool = None
+            stop(self._pool)
+            self._pool, self._drawn = None, []
 
     def __enter__(self) -> Rendering:
         return self

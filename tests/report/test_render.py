@@ -1,8 +1,10 @@
-"""Figures drawn in forked workers come back in order; a failing figure fails the report."""
+"""Figures drawn in forked workers come back in order; a failing figure fails the report; the figures of a worker
+that died are drawn here."""
 
 from __future__ import annotations
 
 import os
+import signal
 
 import pytest
 
@@ -51,3 +53,16 @@ def test_one_worker_draws_in_a_process_of_its_own_only_beside_other_work(alongsi
     assert [p.alt for p in pngs] == ["line 0", "line 1"]
     # a forked worker appends to its own copy of the list: only figures drawn here are seen here
     assert drawn_in == ([] if alongside else [os.getpid()] * 2)
+
+
+def test_the_figures_of_a_worker_that_died_are_drawn_here():
+    here = os.getpid()
+
+    def fatal(n: int) -> Png:
+        if os.getpid() != here:
+            os.kill(os.getpid(), signal.SIGKILL)  # as the out-of-memory killer would
+        return line(n)
+
+    with start([Plot(line, (0,), ""), Plot(fatal, (1,), ""), Plot(line, (2,), "")], 2) as rendering:
+        pngs = rendering.results()
+    assert [p.alt for p in pngs] == ["line 0", "line 1", "line 2"]
