@@ -222,9 +222,10 @@ class _Claimed:
     alternative_starts = ()
 
 
-@pytest.mark.parametrize("workers", [1, 2])
-def test_a_repolish_tries_the_starts_behind_a_winner_again_from_it(workers, monkeypatch):
-    # one after another: a=1 wins (90 ppm), a=3 from it wins (70), b=5 from that wins (65), b=1 does not (69)
+@pytest.fixture
+def fake_repolish(monkeypatch):
+    """Fits replaced by ``_Tried`` (its RMS falls with a and b); the starts they were made from, and a claimed model
+    whose two effects before the claim have starts in a and in b."""
     tried: list[dict[str, float]] = []
 
     def fake_fit(model, data, *, start, **_):
@@ -233,6 +234,13 @@ def test_a_repolish_tries_the_starts_behind_a_winner_again_from_it(workers, monk
 
     monkeypatch.setattr(search, "fit_model", fake_fit)
     claimed = types.SimpleNamespace(model=types.SimpleNamespace(effects=[_StartsInA(), _StartsInB(), _Claimed()]))
+    return tried, claimed
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_a_repolish_tries_the_starts_behind_a_winner_again_from_it(workers, fake_repolish):
+    # one after another: a=1 wins (90 ppm), a=3 from it wins (70), b=5 from that wins (65), b=1 does not (69)
+    tried, claimed = fake_repolish
     with forked.allowed(workers):
         best = search._best_start(_Tried({"a": 0.0, "b": 0.0}), "data", 2, claimed)
     assert best.values == {"a": 3.0, "b": 5.0}
@@ -240,17 +248,10 @@ def test_a_repolish_tries_the_starts_behind_a_winner_again_from_it(workers, monk
         assert tried == [{"a": 1.0, "b": 0.0}, {"a": 3.0, "b": 0.0}, {"a": 3.0, "b": 5.0}, {"a": 3.0, "b": 1.0}]
 
 
-def test_a_repolish_whose_first_starts_were_tried_beside_the_refit_ends_where_it_would_have(monkeypatch):
+def test_a_repolish_whose_first_starts_were_tried_beside_the_refit_ends_where_it_would_have(fake_repolish):
     # the first starts, tried at once from the start while the claim was refitted (_full_fit_beside_starts), are
     # taken as they are; the starts behind the winner are then tried again from it, as without them
-    tried: list[dict[str, float]] = []
-
-    def fake_fit(model, data, *, start, **_):
-        tried.append(dict(start))
-        return _Tried(dict(start))
-
-    monkeypatch.setattr(search, "fit_model", fake_fit)
-    claimed = types.SimpleNamespace(model=types.SimpleNamespace(effects=[_StartsInA(), _StartsInB(), _Claimed()]))
+    tried, claimed = fake_repolish
     start = _Tried({"a": 0.0, "b": 0.0})
     first = [search._tried(claimed.model, "data", start, alternative)
              for alternative in search._alternatives(claimed.model, 2)]
