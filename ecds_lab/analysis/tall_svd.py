@@ -71,13 +71,21 @@ class _Reflectors:
         return qtv
 
 
-def _householder_qr(a: np.ndarray) -> tuple[_Reflectors, np.ndarray]:
-    """Q (reflectors) and R (k x k) of ``a`` (m >= k), by geqrf with its minimal workspace (module docstring)."""
+def _householder_qr(a: np.ndarray) -> _Reflectors:
+    """Q of ``a`` (m >= k) as its reflectors, R in their top k x k upper triangle (``_upper``), by geqrf with its
+    minimal workspace (module docstring)."""
     reflectors, tau, _, info = lapack.dgeqrf(a)
     if info != 0:
         raise np.linalg.LinAlgError(f"dgeqrf failed (info {info})")
-    k = a.shape[1]
-    return _Reflectors(reflectors, tau), np.triu(reflectors[:k])
+    return _Reflectors(reflectors, tau)
+
+
+def _upper(factors: list[_Reflectors]) -> np.ndarray:
+    """The R of each factorisation (the upper triangle of its reflectors' top k rows), stacked: zeroed below the
+    diagonal in one operation for all of them."""
+    k = factors[0].reflectors.shape[1]
+    tops = np.stack([q.reflectors[:k] for q in factors])
+    return np.where(np.triu(np.ones((k, k), bool)), tops, 0.0).reshape(-1, k)
 
 
 class _ImplicitU:
@@ -123,7 +131,7 @@ def _blocked_qr(a: np.ndarray) -> tuple[list[tuple[int, _Reflectors]], _Reflecto
         starts.pop()
     ends = [*starts[1:], n]
 
-    def factored(start: int, end: int) -> tuple[_Reflectors, np.ndarray]:
+    def factored(start: int, end: int) -> _Reflectors:
         return _householder_qr(a[start:end])
 
     threads = min(forked.workers(), len(starts))
@@ -132,11 +140,11 @@ def _blocked_qr(a: np.ndarray) -> tuple[list[tuple[int, _Reflectors]], _Reflecto
             factors = list(pool.map(factored, starts, ends))
     else:
         factors = [factored(start, end) for start, end in zip(starts, ends, strict=True)]
-    blocks = [(start, q) for start, (q, _) in zip(starts, factors, strict=True)]
+    blocks = list(zip(starts, factors, strict=True))
     if len(factors) == 1:
-        return blocks, None, factors[0][1]
-    top, r = _householder_qr(np.vstack([r for _, r in factors]))
-    return blocks, top, r
+        return blocks, None, _upper(factors)
+    top = _householder_qr(_upper(factors))
+    return blocks, top, _upper([top])
 
 
 def thin_svd(a: np.ndarray, full_matrices: bool = True, **options: Any) -> tuple[Any, np.ndarray, np.ndarray]:
