@@ -11,7 +11,7 @@ from ecds_lab.analysis import tall_svd
 
 
 @pytest.mark.parametrize("rows", [
-    6000,  # two blocks
+    6000,  # several blocks
     3 * tall_svd.BLOCK_ROWS + 5,  # a last block shorter than the matrix is wide joins the one before
 ])
 def test_thin_svd_agrees_with_scipy_on_a_tall_matrix(rows):

@@ -123,8 +123,7 @@ def cv_rmses(data: Measurements, fits: Sequence[FitResult], folds: np.ndarray) -
         r = (data.ls_h[held] / trained.predict(data)[held] - 1) * 1e6
         return float(r @ r)
 
-    shared = {id(obj): obj for full in fits for obj in referenced(data, full.model)}
     squares = forked.each(held_out_squares, [(which, k) for which in range(len(fits)) for k in keys],
-                          shared=shared.values())
+                          shared=[obj for full in fits for obj in referenced(data, full.model)])
     count = max(int(scored.sum()), 1)
     return [math.sqrt(sum(squares[which * len(keys):(which + 1) * len(keys)]) / count) for which in range(len(fits))]

@@ -229,7 +229,7 @@ def _run_diagnosis(data: Measurements, effects: Sequence[str], sensor: SensorCon
         members = [c.effect for c in group] if len(group) > 1 else []
         if members:
             alternatives.append(members)
-        refit = _repolished(refit, clean, earlier, screen, screen_start)
+        refit = _repolished(refit, clean, earlier, screen_start)
         steps.append(Step([*current.effects, best.effect], refit, residual_mm(refit, clean), full_scale,
                           stands_for=members))
         names = [n for n in names if n not in {c.effect for c in group}]
@@ -669,7 +669,7 @@ def _refined(data: Measurements, candidates: Sequence[Candidate], base: FitResul
     def trial(which: int, start: dict[str, float]) -> Candidate:
         return _candidate(data, models[which], candidates[which].effect, base, noise, n_full, start)
 
-    shared = {id(obj): obj for model in models for obj in referenced(data, model)}.values()
+    shared = [obj for model in models for obj in referenced(data, model)]
     first = [(which, start) for which in range(len(candidates)) for start in starts[which]]
     done = forked.each(lambda task: (scout if scouted[task[0]] else trial)(*task), first, shared=shared)
     firsts: list[list[Any]] = [[] for _ in candidates]
@@ -692,9 +692,10 @@ def _refined(data: Measurements, candidates: Sequence[Candidate], base: FitResul
 
 @dataclass
 class _ScreenStart:
-    """Where a repolish on the screening subsample starts (``_repolished``): the claimed model refitted there from
-    the candidate's own solution, and its first alternative starts already tried (None: not yet)."""
+    """Where a repolish on the screening subsample starts (``_repolished``): the subsample, the claimed model refitted
+    there from the candidate's own solution, and its first alternative starts already tried (None: not yet)."""
 
+    screen: Measurements
     fit: FitResult
     first: list[FitResult] | None
 
@@ -714,23 +715,24 @@ def _full_fit_beside_starts(clean: Measurements, candidate: Candidate, earlier: 
                                       functools.partial(_tried, model, screen, on_screen), first,
                                       shared=referenced(screen, model))
     assert refit is not None
-    return refit, _ScreenStart(on_screen, tried if first else None)
+    return refit, _ScreenStart(screen, on_screen, tried if first else None)
 
 
-def _repolished(fitted: FitResult, data: Measurements, earlier: int, screen: Measurements | None = None,
+def _repolished(fitted: FitResult, data: Measurements, earlier: int,
                 start: _ScreenStart | None = None) -> FitResult:
     """The new model refitted from the alternative starts of the effects found before the one just added
     (the last ``earlier`` effects before it): a valley an earlier effect settled in alone (a plate's
     thickness, say) may not be the best once the new effect takes its share. The better fit is kept.
 
-    On a screened campaign the starts are tried on the screening subsample ``screen``, from ``start``
-    (``_full_fit_beside_starts``), and only a start that wins there is polished on every reading (kept if better
-    there too): a dozen full refits of every reading cost minutes at 10^6 readings."""
+    On a screened campaign the starts are tried on the screening subsample, from ``start``
+    (``_full_fit_beside_starts``; None on a campaign not screened), and only a start that wins there is polished
+    on every reading (kept if better there too): a dozen full refits of every reading cost minutes at 10^6
+    readings."""
     if earlier <= 0:
         return fitted
-    if screen is None or screen is data or start is None:
+    if start is None:
         return _best_start(fitted, data, earlier, fitted)
-    best = _best_start(start.fit, screen, earlier, fitted, start.first)
+    best = _best_start(start.fit, start.screen, earlier, fitted, start.first)
     if best is start.fit:
         return fitted
     trial = fit_model(fitted.model, data, start=best.values, multistart=False, screening=True, polish=True)
