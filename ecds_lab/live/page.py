@@ -24,6 +24,19 @@ table {{ border-collapse: collapse; font-size: 90%; }} td {{ padding: 0 0.8em; b
 <script>
 function eta(s) {{ if (s === null) return "?"; s = Math.round(s);
   return Math.floor(s / 60) + " min " + (s % 60) + " s"; }}
+// Each plot is asked for again when the run has grown, but only once its last picture has arrived: replacing an
+// image still loading aborts its request, and on a busy machine every picture would be abandoned for the next.
+const PLOTS = ["ls", "temperatures"], wanted = {{}}, loading = {{}};
+function show(id) {{
+  const img = document.getElementById(id);
+  if (loading[id] || wanted[id] === undefined || img.dataset.shown === wanted[id]) return;
+  loading[id] = true; img.dataset.shown = wanted[id]; img.src = wanted[id];
+}}
+for (const id of PLOTS) {{
+  const img = document.getElementById(id);
+  loading[id] = !img.complete;
+  img.onload = img.onerror = () => {{ loading[id] = false; show(id); }};
+}}
 async function poll() {{
   try {{
     const s = await (await fetch("status.json", {{cache: "no-store"}})).json();
@@ -35,10 +48,7 @@ async function poll() {{
     document.getElementById("bar").value = s.fraction;
     document.getElementById("latest").innerHTML = Object.entries(s.latest).map(([k, v]) =>
       "<tr><td>" + k + "</td><td>" + (v === null ? "–" : Number(v).toPrecision(7)) + "</td></tr>").join("");
-    if (s.rows !== window.lastRows) {{
-      window.lastRows = s.rows;
-      for (const id of ["ls", "temperatures"]) document.getElementById(id).src = id + ".png?rows=" + s.rows;
-    }}
+    for (const id of PLOTS) {{ wanted[id] = id + ".png?rows=" + s.rows; show(id); }}
   }} catch (e) {{ document.getElementById("error").textContent = "server gone: " + e; }}
   setTimeout(poll, 1000);
 }}
