@@ -190,3 +190,20 @@ def test_an_effect_without_derivatives_is_known_as_such(station: StationConfig) 
     model = SensorModel(station.sensor, [_NoDerivative(station.sensor)])
     assert not model.has_derivatives
     assert SensorModel(station.sensor, ["thermal_lag"]).has_derivatives
+
+
+@pytest.mark.parametrize("name", ["parasitic_capacitance", "tau_displacement"])
+def test_what_an_effect_keeps_for_its_derivatives_is_never_another_parameters(station: StationConfig,
+                                                                              data: Measurements, name: str) -> None:
+    """The effects that keep an intermediate result for the derivatives asked for at the same parameters (the bound
+    water's relaxation, the tau(x) spline): asked at other parameters in between, every answer is a fresh model's."""
+    model = SensorModel(station.sensor, [name])
+    here = moved(model.parameters())
+    there = moved(model.parameters(), {q.name: q.value for q in model.effects[0].parameters()})
+    assert any(here[k] != there[k] for k in here)
+    for p in (here, there, here):
+        value, tangent = model.prediction_and_jacobian(data, p)
+        fresh = SensorModel(station.sensor, [name])
+        expected_value, expected_tangent = fresh.prediction_and_jacobian(data, p)
+        assert np.array_equal(value, expected_value) and np.array_equal(model.predict(data, p), fresh.predict(data, p))
+        assert all(np.array_equal(tangent[k], expected_tangent[k]) for k in expected_tangent)

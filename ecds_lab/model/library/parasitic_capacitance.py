@@ -52,6 +52,9 @@ class ParasiticCapacitance(Effect):
     _tangent_data: Measurements | None = None
     _tangent_key: tuple[float, ...] = ()
     _tangent: dict[str, np.ndarray]
+    _bound_data: Measurements | None = None
+    _bound_key: tuple[float, ...] = ()
+    _bound_memo: np.ndarray = np.ones(0)
     explains = "moisture in the former changes the coil's parallel capacitance as heating dries it"
     #: Table 2: the moist former adds ~15 pF to the coil's 47.5 pF. Water fills only the pores of the former
     #: between the turns, so moisture adds at most about the dry inter-winding capacitance itself, which
@@ -136,7 +139,7 @@ class ParasiticCapacitance(Effect):
         if p["bound_share"] > 0:
             # colder than at the start: more sorbed water, capped at e^3 (the pores fill up)
             equilibrium = np.exp(np.minimum(-(mid - line.start_c[1:]) / p["sorption_width"], 3.0))
-            bound = relaxation(line.time_s, rate, equilibrium, 1.0, restart=line.restart)
+            bound = self._bound(data, key, rate, equilibrium)
             moisture = (1.0 - p["bound_share"]) * moisture + p["bound_share"] * bound
         out = np.empty(len(data))
         out[line.order] = moisture
@@ -170,7 +173,7 @@ class ParasiticCapacitance(Effect):
         d_free["drying_order"] = by_order
         relative = -(mid - line.start_c[1:]) / p["sorption_width"]
         equilibrium = np.exp(np.minimum(relative, 3.0))
-        bound = relaxation(line.time_s, rate, equilibrium, 1.0, restart=line.restart)
+        bound = self._bound(data, key, rate, equilibrium)
         share = p["bound_share"]
         d_bound: dict[str, np.ndarray] = {}
         if share != 0:  # with no bound water (the simpler law) its derivatives count nothing: not computed
@@ -189,6 +192,17 @@ class ParasiticCapacitance(Effect):
             out[name][line.order] = values
         self._tangent_data, self._tangent_key, self._tangent = data, key, out
         return out
+
+    def _bound(self, data: Measurements, key: tuple[float, ...], rate: np.ndarray, equilibrium: np.ndarray
+               ) -> np.ndarray:
+        """The bound water along the timeline (its relaxation toward ``equilibrium`` at ``rate``), for the moisture
+        parameters ``key``: integrated once for the value and the derivatives a solver asks for at the same
+        parameters."""
+        if self._bound_data is not data or self._bound_key != key:
+            line = self._line
+            self._bound_data, self._bound_key = data, key
+            self._bound_memo = relaxation(line.time_s, rate, equilibrium, 1.0, restart=line.restart)
+        return self._bound_memo
 
     def _with_moisture(self, value: np.ndarray, tangent: Tangent, size: str, data: Measurements,
                        p: Mapping[str, float]) -> tuple[np.ndarray, Tangent]:
