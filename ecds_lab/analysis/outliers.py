@@ -24,6 +24,7 @@ turning points) are judged against the readings next to them instead, and only f
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -169,16 +170,29 @@ def _in_structure(data: Measurements, deviation: np.ndarray, neighbours: np.ndar
 
 
 def describe(data: Measurements, rows: np.ndarray, residuals_ppm: np.ndarray, noise_ppm: float | np.ndarray,
-             index: np.ndarray) -> list[Outlier]:
+             index: np.ndarray, earlier: Sequence[Outlier] = (), original: Measurements | None = None
+             ) -> list[Outlier]:
     """Outlier records for ``rows`` (indices into ``data``), numbered by ``index`` (original rows); ``noise_ppm``
-    as for ``find_glitches``."""
+    as for ``find_glitches``. ``earlier``: the readings excluded before these (rows of ``original``, the data
+    ``index`` numbers): a reading of the same state among them no longer vouches for these, and the reason says so."""
     sigma = np.broadcast_to(np.asarray(noise_ppm, float), np.shape(residuals_ppm))
     deviation = glitch_deviation(data, residuals_ppm, sigma)
     out = []
     for i in rows:
         where = "coil in air" if not np.isfinite(data.x_m[i]) else f"x = {data.x_m[i] * 1e3:.4g} mm"
+        twins = [o.row for o in earlier if original is not None and _same_state(original, o.row, int(index[i]))]
+        repeated = ("not repeated by readings of the same state" if not twins else
+                    "not repeated by the readings of the same state still in the fit (row "
+                    f"{', '.join(str(t) for t in twins)}, of the same state, was excluded as a glitch before it)")
         out.append(Outlier(int(index[i]), float(data.ls_h[i]), float(deviation[i]),
                            f"glitch: {deviation[i]:+.1f} sigma from its neighbours ({where}, "
-                           f"{data.freq_hz[i]:g} Hz, t = {data.time_s[i]:.0f} s), not repeated by "
-                           f"readings of the same state; excluded from the fit"))
+                           f"{data.freq_hz[i]:g} Hz, t = {data.time_s[i]:.0f} s), {repeated}; excluded from the fit"))
     return out
+
+
+def _same_state(data: Measurements, a: int, b: int) -> bool:
+    """Rows ``a`` and ``b`` are readings of one state as the rules judge it: the same frequency, direction and
+    commanded distance (or both in air)."""
+    xa, xb = data.x_commanded_m[a], data.x_commanded_m[b]
+    same_x = xa == xb or not (np.isfinite(xa) or np.isfinite(xb))
+    return bool(data.freq_hz[a] == data.freq_hz[b] and data.direction[a] == data.direction[b] and same_x)

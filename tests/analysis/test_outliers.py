@@ -6,7 +6,7 @@ import dataclasses
 
 import numpy as np
 
-from ecds_lab.analysis.outliers import find_glitches
+from ecds_lab.analysis.outliers import describe, find_glitches
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.simulators import campaign
 from ecds_lab.simulators.config import LabConfig
@@ -135,3 +135,20 @@ def test_suspects_judged_within_their_state_as_over_every_row(monkeypatch):
     assert (np.abs(deviation) > outliers.THRESHOLD).sum() > 100  # many suspects to judge
     assert 0 < reference.sum() < (np.abs(deviation) > outliers.THRESHOLD).sum()  # both answers occur
     np.testing.assert_array_equal(grouped, reference)
+
+
+def test_a_glitch_whose_state_lost_a_reading_to_an_earlier_exclusion_says_so():
+    """A reading is reported "not repeated by readings of the same state" only while those readings are in the fit:
+    once one of its state was excluded as a glitch before it (an earlier round of the robust start), the reason
+    names that row; a reading of another state excluded before changes nothing."""
+    data = sweeps()
+    same = np.flatnonzero((data.freq_hz == data.freq_hz[4]) & (data.x_commanded_m == data.x_commanded_m[4]))
+    other = int(np.flatnonzero(data.freq_hz != data.freq_hz[4])[0])
+    assert len(same) == 3 and other not in same
+    earlier = describe(data, np.array([same[0], other]), np.zeros(len(data)), NOISE_PPM, np.arange(len(data)))
+    later = describe(data, np.array([same[1]]), np.zeros(len(data)), NOISE_PPM, np.arange(len(data)), earlier, data)
+    assert f"(row {same[0]}, of the same state, was excluded as a glitch before it)" in later[0].reason
+    assert str(other) not in later[0].reason.split("(row")[1]
+    alone = describe(data, np.array([same[1]]), np.zeros(len(data)), NOISE_PPM, np.arange(len(data)),
+                     earlier[1:], data)
+    assert "not repeated by readings of the same state;" in alone[0].reason

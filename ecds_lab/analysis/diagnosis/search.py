@@ -473,7 +473,7 @@ def _robust_fit(data: Measurements, effects: list[str], space: _Space, screen_ro
         glitches = find_glitches(clean, fitted.residuals_ppm, sigma)
         if not glitches.any() or glitches.sum() > 0.02 * len(clean) + 2:
             break
-        outliers += describe(clean, np.flatnonzero(glitches), fitted.residuals_ppm, sigma, index)
+        outliers += describe(clean, np.flatnonzero(glitches), fitted.residuals_ppm, sigma, index, outliers, data)
         keep = ~glitches
         clean, index = clean.select(keep), index[keep]
         fitted = fit_model(model, clean, start=fitted.values, multistart=False, screening=True, noise=noise,
