@@ -177,22 +177,20 @@ def describe(data: Measurements, rows: np.ndarray, residuals_ppm: np.ndarray, no
     ``index`` numbers): a reading of the same state among them no longer vouches for these, and the reason says so."""
     sigma = np.broadcast_to(np.asarray(noise_ppm, float), np.shape(residuals_ppm))
     deviation = glitch_deviation(data, residuals_ppm, sigma)
+    # a state as the rules judge it (``_in_structure``): the slide's state (``_PositionGroups``) and the frequency
+    states = _PositionGroups.of(original) if earlier and original is not None else None
     out = []
     for i in rows:
         where = "coil in air" if not np.isfinite(data.x_m[i]) else f"x = {data.x_m[i] * 1e3:.4g} mm"
-        twins = [o.row for o in earlier if original is not None and _same_state(original, o.row, int(index[i]))]
+        row = int(index[i])
+        twins = [] if states is None or original is None else [
+            o.row for o in earlier
+            if states.group[o.row] == states.group[row] and original.freq_hz[o.row] == original.freq_hz[row]]
         repeated = ("not repeated by readings of the same state" if not twins else
                     "not repeated by the readings of the same state still in the fit (row "
                     f"{', '.join(str(t) for t in twins)}, of the same state, was excluded as a glitch before it)")
-        out.append(Outlier(int(index[i]), float(data.ls_h[i]), float(deviation[i]),
+        out.append(Outlier(row, float(data.ls_h[i]), float(deviation[i]),
                            f"glitch: {deviation[i]:+.1f} sigma from its neighbours ({where}, "
                            f"{data.freq_hz[i]:g} Hz, t = {data.time_s[i]:.0f} s), {repeated}; excluded from the fit"))
     return out
 
-
-def _same_state(data: Measurements, a: int, b: int) -> bool:
-    """Rows ``a`` and ``b`` are readings of one state as the rules judge it: the same frequency, direction and
-    commanded distance (or both in air)."""
-    xa, xb = data.x_commanded_m[a], data.x_commanded_m[b]
-    same_x = xa == xb or not (np.isfinite(xa) or np.isfinite(xb))
-    return bool(data.freq_hz[a] == data.freq_hz[b] and data.direction[a] == data.direction[b] and same_x)
