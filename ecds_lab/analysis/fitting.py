@@ -238,12 +238,14 @@ def fit_model(model: SensorModel, data: Measurements, *, start: Mapping[str, flo
     return _result(model, data, best, reasons, estimate, starts, time.perf_counter() - began, terms)
 
 
-def evaluated(result: FitResult, data: Measurements) -> FitResult:
+def evaluated(result: FitResult, data: Measurements, *, noise_anew: bool = False) -> FitResult:
     """``result``'s solution on other readings (a screening subsample), not refitted: its residuals there; its
-    noise stays the fit's own."""
+    noise stays the fit's own, or with ``noise_anew`` is estimated on these readings' residuals (made on first use)."""
     residuals = (data.ls_h / result.predict(data) - 1) * 1e6
+    noise = functools.partial(_noise, result.model, data, result.values, residuals) if noise_anew \
+        else result.noise_estimate
     return dataclasses.replace(result, residuals_ppm=residuals, nfev=0, starts=0, time_s=0.0, weights=None,
-                               loss_scale_ppm=None, jacobian=None)
+                               loss_scale_ppm=None, jacobian=None, noise_estimate=noise)
 
 
 def referenced(data: Measurements, model: SensorModel) -> tuple[object, ...]:

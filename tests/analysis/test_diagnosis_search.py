@@ -259,3 +259,30 @@ def test_a_repolish_whose_first_starts_were_tried_beside_the_refit_ends_where_it
     best = search._best_start(start, "data", 2, claimed, first)
     assert best.values == {"a": 3.0, "b": 5.0}
     assert {"a": 1.0, "b": 0.0} not in tried and tried[0] == {"a": 3.0, "b": 0.0}  # behind a=1's win, from it
+
+
+# -- the robust start on a campaign larger than its reweighting's subsample ---------------------------------------
+def test_a_robust_start_reweighted_on_a_subsample_excludes_the_glitches_the_one_on_every_reading_does(
+        field_campaign, glitched, monkeypatch):
+    data, rows = glitched(field_campaign(frequencies_hz=(15000.0,)), 5, -2500.0, seed=2)
+    space = search._Space(search.SensorConfig(), search.library())
+    sizes: list[int] = []
+    real_fit = search.fit_model
+
+    def fit_model(model, fitted, **options):
+        if options.get("robust"):
+            sizes.append(len(fitted))
+        return real_fit(model, fitted, **options)
+
+    monkeypatch.setattr(search, "fit_model", fit_model)
+    every = search._robust_fit(data, [], space, len(data))
+    assert sizes and set(sizes) == {len(data) - len(rows)}  # reweighted on every reading
+    sizes.clear()
+    screen_rows = len(data) // (3 * search.SCREEN_GROWTH)  # 144 of its 452 readings
+    sampled = search._robust_fit(data, [], space, screen_rows)
+    assert sizes and set(sizes) == {screen_rows * search.SCREEN_GROWTH}  # on a third of them
+    assert [o.row for o in sampled[3]] == [o.row for o in every[3]] == rows
+    # both end with the least-squares fit of every clean reading
+    assert len(sampled[0]) == len(every[0]) and sampled[1].n == every[1].n == len(data) - len(rows)
+    assert sampled[1].rms_ppm == pytest.approx(every[1].rms_ppm, rel=1e-4)
+
