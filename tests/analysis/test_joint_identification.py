@@ -74,7 +74,8 @@ class _Readings:
 
 
 def _step(residuals: np.ndarray) -> SimpleNamespace:
-    return SimpleNamespace(fit=SimpleNamespace(residuals_ppm=residuals))
+    """Stands for the current step: its residuals on the candidates' readings (not a screened campaign's)."""
+    return SimpleNamespace(fit=SimpleNamespace(residuals_ppm=residuals), on_screen=None)
 
 
 def _explaining(name: str, residuals: np.ndarray, data: object, gain: float) -> Candidate:

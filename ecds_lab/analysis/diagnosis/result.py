@@ -90,6 +90,9 @@ class Step:
     #: When the effect added was judged beside a flexible nuisance taking a residual outside the library
     #: (``search._beside_smooth``): the variables that nuisance was smooth in. Claimed.
     beside: list[str] = field(default_factory=list)
+    #: On a screened campaign, the screening subsample and this model refitted there (``search._refitted_on``):
+    #: what its round's candidates were weighed against.
+    on_screen: tuple[Measurements, FitResult] | None = None
 
     @property
     def rmse_ppm(self) -> float:
