@@ -297,3 +297,20 @@ def test_on_a_screened_campaign_a_candidate_gains_only_what_its_effect_explains(
     gains = [candidate.chi2_gain for candidate in result.steps[0].candidates]
     assert len(gains) >= 5 and min(gains) < 1.0, gains
     assert result.verdict == "adequate" and not result.claimed, result.explanation
+
+
+# -- a claim whose refit on every reading left its course open ---------------------------------------------------
+def test_a_claim_refitted_into_a_poor_valley_is_refitted_from_its_own_starts(campaign_with):
+    # a drying refitted from the wrong side of its course (rate 1 /s, screening's budget) ends above the model
+    # without it; scouted from its own starts on every reading and polished, it reaches the drying's valley
+    data = campaign_with("parasitic_capacitance")
+    space = search._Space(search.SensorConfig(), search.library())
+    base = search.fit_model(space.model([]), data)
+    model = space.model(["parasitic_capacitance"])
+    stuck = search.fit_model(model, data, start={"drying_rate": 1.0}, multistart=False, screening=True)
+    assert not search._confirmed("parasitic_capacitance", stuck, base, base.noise, data).passes
+    refitted = search._from_own_starts(data, stuck)
+    assert refitted.rms_ppm < 0.1 * stuck.rms_ppm
+    assert search._confirmed("parasitic_capacitance", refitted, base, base.noise, data).passes
+    # a refit already in the best valley its starts reach is kept as it is
+    assert search._from_own_starts(data, refitted) is refitted
