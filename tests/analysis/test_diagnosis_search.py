@@ -308,9 +308,22 @@ def test_a_claim_refitted_into_a_poor_valley_is_refitted_from_its_own_starts(cam
     base = search.fit_model(space.model([]), data)
     model = space.model(["parasitic_capacitance"])
     stuck = search.fit_model(model, data, start={"drying_rate": 1.0}, multistart=False, screening=True)
-    assert not search._confirmed("parasitic_capacitance", stuck, base, base.noise, data).passes
+    confirmed = search._confirmed("parasitic_capacitance", stuck, base, base.noise, data)
+    assert not confirmed.passes and not search._course_open(confirmed)  # no evidence: no open course either
     refitted = search._from_own_starts(data, stuck)
     assert refitted.rms_ppm < 0.1 * stuck.rms_ppm
     assert search._confirmed("parasitic_capacitance", refitted, base, base.noise, data).passes
     # a refit already in the best valley its starts reach is kept as it is
     assert search._from_own_starts(data, refitted) is refitted
+
+
+def test_a_course_a_subsample_leaves_open_is_told_from_a_claim_that_fails_otherwise(campaign_with):
+    # 80 of the drying campaign's 904 readings: clear evidence, a plausible size, the course open
+    data = search.screened(campaign_with("parasitic_capacitance"), 80)
+    space = search._Space(search.SensorConfig(), search.library())
+    base = search.fit_model(space.model([]), data)
+    fitted = search.fit_model(space.model(["parasitic_capacitance"]), data, start=base.values, multistart=False,
+                              screening=True)
+    confirmed = search._confirmed("parasitic_capacitance", fitted, base, base.noise, data)
+    assert confirmed.checks["evidence"] and confirmed.checks["plausible"] and not confirmed.passes
+    assert search._course_open(confirmed), confirmed.rejected

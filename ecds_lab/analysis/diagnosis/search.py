@@ -50,6 +50,7 @@ from ecds_lab.analysis.diagnosis.checks import (
     check_candidate,
     evidence_rank,
     score_candidate,
+    signature_spread,
     tied,
     whitened,
 )
@@ -218,7 +219,7 @@ def _run_diagnosis(data: Measurements, effects: Sequence[str], sensor: SensorCon
         refit, screen_start = _full_fit_beside_starts(clean, best, earlier, screen)
         if screen is not clean:  # the claim must hold on every reading, not only on the screened ones
             confirmed = _confirmed(best.effect, refit, current.fit, noise, clean)
-            if not confirmed.passes and _undetermined([confirmed]) and best.effect_object.alternative_starts:
+            if not confirmed.passes and _course_open(confirmed) and best.effect_object.alternative_starts:
                 refit = _from_own_starts(clean, refit)
                 confirmed = _confirmed(best.effect, refit, current.fit, noise, clean)
             if not confirmed.passes:
@@ -811,6 +812,13 @@ def _confirmed(name: str, refit: FitResult, current: FitResult, noise: NoiseEsti
     confirmed.fit_data = clean
     check_candidate(confirmed)
     return confirmed
+
+
+def _course_open(confirmed: Candidate) -> bool:
+    """A claim checked on every reading with clear evidence and a plausible size but its own course left open there
+    (``Effect.signature``): the subsample's valley of its course, not the data, may be what leaves it open."""
+    spread = signature_spread(confirmed)
+    return bool(_undetermined([confirmed])) and spread is not None and not spread < 1.0
 
 
 def _from_own_starts(clean: Measurements, refit: FitResult) -> FitResult:
