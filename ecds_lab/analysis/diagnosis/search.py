@@ -219,7 +219,7 @@ def _run_diagnosis(data: Measurements, effects: Sequence[str], sensor: SensorCon
         refit, screen_start = _full_fit_beside_starts(clean, best, earlier, screen)
         if screen is not clean:  # the claim must hold on every reading, not only on the screened ones
             confirmed = _confirmed(best.effect, refit, current.fit, noise, clean)
-            if not confirmed.passes and _course_open(confirmed) and best.effect_object.alternative_starts:
+            if not confirmed.passes and _course_open(confirmed):
                 refit = _from_own_starts(clean, refit)
                 confirmed = _confirmed(best.effect, refit, current.fit, noise, clean)
             if not confirmed.passes:
@@ -823,11 +823,13 @@ def _course_open(confirmed: Candidate) -> bool:
 
 def _from_own_starts(clean: Measurements, refit: FitResult) -> FitResult:
     """``refit`` or, if better (by 0.1 % of the RMS, as a repolish's start), the claimed model refitted on every
-    reading from its effect's alternative starts: each scouted with only the effect's own parameters free (the rest
-    held where ``refit`` left them), the best scout polished with the model free. For a claim whose size or course
-    its refit on every reading left open: a subsample holds a few readings of a half-hour drying, and cannot tell
-    its valleys apart (docs/diagnosis.md)."""
+    reading from its effect's alternative starts (``refit`` itself when it has none): each scouted with only the
+    effect's own parameters free (the rest held where ``refit`` left them), the best scout polished with the model
+    free. For a claim whose course its refit on every reading left open (``_course_open``): a subsample holds a few
+    readings of a half-hour drying, and cannot tell its valleys apart (docs/diagnosis.md)."""
     model = refit.model
+    if not model.effects[-1].alternative_starts:
+        return refit
     own = {p.name for p in model.effects[-1].parameters()}
     held = {name: value for name, value in refit.values.items() if name not in own}
 
