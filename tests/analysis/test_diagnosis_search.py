@@ -122,6 +122,35 @@ def test_advice_never_asks_for_what_the_campaign_already_holds(field_lab):
     assert not design.meets({"frequencies_target_hot": 2}) and design.meets({"target_span_k": 50.0})
 
 
+# -- a round on the same model and readings reuses the fits made for it ------------------------------------------
+def test_a_round_weighing_the_same_model_again_reuses_its_fits_and_answers_alike(campaign_with, monkeypatch):
+    """The drying campaign screened at 100 readings: a claim fails its checks on every reading and is dropped,
+    which leaves the model as it was, and the round after it weighs the same candidates on the same readings.
+    Reusing the fits made for it (``_RoundWork``) gives the answer a round from scratch gives, with fewer fits."""
+    data = campaign_with("parasitic_capacitance")
+    fits, confirmations = [], []
+    real_candidate, real_round, real_confirmed = search._candidate, search._round, search._confirmed
+
+    def counted(*args, **kwargs):
+        fits.append(1)
+        return real_candidate(*args, **kwargs)
+
+    def confirmed(*args, **kwargs):
+        confirmations.append(real_confirmed(*args, **kwargs))
+        return confirmations[-1]
+
+    monkeypatch.setattr(search, "_candidate", counted)
+    monkeypatch.setattr(search, "_confirmed", confirmed)
+    reused = run_diagnosis(data, screen_rows=100)
+    with_work = len(fits)
+    fits.clear()
+    monkeypatch.setattr(search, "_round", lambda *args, **kwargs: real_round(*args[:8], **{**kwargs, "work": None}))
+    anew = run_diagnosis(data, screen_rows=100)
+    assert any(not c.passes for c in confirmations)  # a claim was dropped on every reading
+    assert reused.to_json() == anew.to_json()
+    assert with_work < len(fits)
+
+
 # -- the held-out check's margin, in noise units --------------------------------------------------------------
 def test_the_held_out_check_needs_a_margin_in_noise_units():
     from ecds_lab.analysis.diagnosis.held_out import HELD_OUT_CHI2, held_out_gain

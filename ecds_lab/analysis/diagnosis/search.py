@@ -177,6 +177,7 @@ def _run_diagnosis(data: Measurements, effects: Sequence[str], sensor: SensorCon
     base_cv = None
     claimed_cv: float | None = None
     fresh = True  # a new model: its held-out error is not yet known from the round before
+    work: _RoundWork | None = None
     while True:
         current = steps[-1]
         if len(steps) > max_steps:
@@ -185,8 +186,10 @@ def _run_diagnosis(data: Measurements, effects: Sequence[str], sensor: SensorCon
                 limits.append(f"the search stopped at its limit of {max_steps} added effect(s) "
                               f"(max_steps); not tested against the final model: {', '.join(untested)}")
             break
+        if work is None or work.screen is not screen or work.step is not current:
+            work = _RoundWork(screen, current)
         ranked, blocked, current_cv = _round(screen, clean, current, names, space, noise, folds,
-                                             claimed_cv if fresh else None)
+                                             claimed_cv if fresh else work.base_cv, work)
         if not fresh:  # the same model again, fewer names: the candidates set aside stay in its ranking
             ranked += [c for c in current.candidates if c.effect not in names]
         if len(steps) == 1:
@@ -552,13 +555,17 @@ def _absorbed_at_every_shape(model: SensorModel, data: Measurements, current: Ma
 
 
 def _round(screen: Measurements, clean: Measurements, current: Step, names: list[str], models: _Space,
-           noise: NoiseEstimate, folds: np.ndarray | None,
-           current_cv: float | None = None) -> tuple[list[Candidate], dict[str, str], float | None]:
+           noise: NoiseEstimate, folds: np.ndarray | None, current_cv: float | None = None,
+           work: _RoundWork | None = None) -> tuple[list[Candidate], dict[str, str], float | None]:
     """Fit and check every candidate against the current model; ranked best first (passing ones
     first, then by evidence). Also: candidates these data cannot test (name -> why), and the
-    current model's held-out error."""
+    current model's held-out error. ``work``: what rounds on this model and screen worked out already, reused
+    and added to (``_RoundWork``)."""
+    work = work if work is not None and work.screen is screen and work.step is current else _RoundWork(screen, current)
     if screen is clean:
         base = current.fit
+    elif current.on_screen is not None and current.on_screen[0] is screen:
+        base = current.on_screen[1]
     else:
         base = _refitted_on(screen, current.fit)
         current.on_screen = (screen, base)
@@ -583,11 +590,14 @@ def _round(screen: Measurements, clean: Measurements, current: Step, names: list
         candidate.from_residual = [dict(s) for s in from_residual[1:]]
         return candidate
 
-    for name, outcome in zip(names, forked.each(tried, names, shared=(clean, *models.shared(screen))), strict=True):
+    untried = [name for name in names if name not in work.tried]
+    work.tried.update(zip(untried, forked.each(tried, untried, shared=(clean, *models.shared(screen))), strict=True))
+    for name in names:
+        outcome = work.tried[name]
         if isinstance(outcome, str):
             untestable[name] = outcome
         else:
-            ranked.append(outcome)
+            ranked.append(_unchecked(outcome))
     ranked.sort(key=evidence_rank)
     # Alternative starts where another valley could change the outcome: not once the model is at the
     # noise, and not for candidates far behind the leader; once the leader is at the noise, only for
@@ -599,28 +609,59 @@ def _round(screen: Measurements, clean: Measurements, current: Step, names: list
         leading = [i for i, candidate in enumerate(ranked[:LEADING])
                    if (candidate.not_better and not solved) or (candidate.rmse_ppm > ADEQUATE_RATIO * noise.ppm and (
                        candidate.chi2_gain >= (TIE_REACH if solved else 0.1) * leader_gain or _walled(candidate)))]
-        refined = _refined(screen, [ranked[i] for i in leading], base, noise, len(clean))
-        for i, candidate in zip(leading, refined, strict=True):
-            ranked[i] = candidate
+        unrefined = [ranked[i] for i in leading if ranked[i].effect not in work.refined]
+        work.refined.update((c.effect, refined) for c, refined in
+                            zip(unrefined, _refined(screen, unrefined, base, noise, len(clean)), strict=True))
+        for i in leading:
+            ranked[i] = _unchecked(work.refined[ranked[i].effect])
     for candidate in ranked:
         check_candidate(candidate)
     ranked.sort(key=lambda c: (not c.passes, evidence_rank(c)))
     base_cv = first_cv = None
     if folds is not None and ranked and ranked[0].passes:  # the previous round's claim already has its own
         # the current model's held-out error and the first candidate's (checked first below), side by side
-        scores = cv_rmses(screen, [ranked[0].fit] if current_cv is not None else [base, ranked[0].fit], folds)
-        base_cv, first_cv = current_cv if current_cv is not None else scores[0], scores[-1]
+        known = work.cv.get(id(ranked[0].fit))
+        if current_cv is not None and known is not None:
+            base_cv, first_cv = current_cv, known
+        else:
+            scores = cv_rmses(screen, [ranked[0].fit] if current_cv is not None else [base, ranked[0].fit], folds)
+            base_cv, first_cv = current_cv if current_cv is not None else scores[0], scores[-1]
     leader = None
     for candidate in ranked:  # held-out error, lazily: for the leader and whatever might tie with it
         if not candidate.passes or folds is None:
             continue
         if leader is not None and not tied(leader, candidate):
             continue
-        check_held_out(candidate, base_cv, folds, screen, noise, first_cv if candidate is ranked[0] else None)
+        check_held_out(candidate, base_cv, folds, screen, noise,
+                       first_cv if candidate is ranked[0] else work.cv.get(id(candidate.fit)))
+        work.cv[id(candidate.fit)] = candidate.cv_rmse_ppm
         if candidate.passes and leader is None:
             leader = candidate
     ranked.sort(key=lambda c: (not c.passes, evidence_rank(c)))
+    work.base_cv = base_cv if base_cv is not None else work.base_cv
     return ranked, untestable, base_cv
+
+
+@dataclass
+class _RoundWork:
+    """What the rounds on one current model and screening subsample worked out: each candidate as fitted (or why
+    it is untestable), each as refined, each one's held-out error, and the current model's. A round after a claim
+    dropped on every reading, or a partial group set aside, weighs the same model on the same readings, and the
+    fits it would make are the ones made already (the same inputs, the same results)."""
+
+    screen: Measurements
+    step: Step
+    tried: dict[str, Candidate | str] = dataclasses.field(default_factory=dict)
+    refined: dict[str, Candidate] = dataclasses.field(default_factory=dict)
+    #: held-out errors by the fit's identity (the fits themselves are kept in ``tried`` and ``refined``)
+    cv: dict[int, float | None] = dataclasses.field(default_factory=dict)
+    base_cv: float | None = None
+
+
+def _unchecked(candidate: Candidate) -> Candidate:
+    """A fresh copy of ``candidate`` for a round's checks to fill (``check_candidate``, ``check_held_out``)."""
+    return dataclasses.replace(candidate, checks={}, rejected=[], cv_rmse_ppm=None, base_cv_rmse_ppm=None,
+                               held_out_gain=None, from_residual=list(candidate.from_residual))
 
 
 def _refitted_on(screen: Measurements, fitted: FitResult) -> FitResult:
