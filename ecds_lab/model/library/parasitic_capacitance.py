@@ -34,6 +34,7 @@ from ecds_lab.data.measurements import Measurements
 from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.model.effects import Effect, Inputs, register
 from ecds_lab.model.library.history import relaxation, relaxation_derivative
+from ecds_lab.model.library.remembered import Remembered
 from ecds_lab.model.parameters import Parameter
 from ecds_lab.model.tangents import InputTangents, Tangent, plus
 
@@ -41,20 +42,14 @@ from ecds_lab.model.tangents import InputTangents, Tangent, plus
 _MOISTURE_PARAMETERS = ("drying_rate", "drying_onset", "drying_width", "drying_order", "bound_share", "sorption_width")
 
 
+def _moisture_key(p: Mapping[str, float]) -> tuple[float, ...]:
+    """The values of the parameters the moisture m(t) depends on."""
+    return tuple(p[name] for name in _MOISTURE_PARAMETERS)
+
+
 @register
 class ParasiticCapacitance(Effect):
     name = "parasitic_capacitance"
-    _memo_data: Measurements | None = None
-    _line_data: Measurements | None = None
-    _line: _Timeline
-    _memo_key: tuple[float, ...] = ()
-    _memo: np.ndarray = np.ones(0)
-    _tangent_data: Measurements | None = None
-    _tangent_key: tuple[float, ...] = ()
-    _tangent: dict[str, np.ndarray]
-    _bound_data: Measurements | None = None
-    _bound_key: tuple[float, ...] = ()
-    _bound_memo: np.ndarray = np.ones(0)
     explains = "moisture in the former changes the coil's parallel capacitance as heating dries it"
     #: Table 2: the moist former adds ~15 pF to the coil's 47.5 pF. Water fills only the pores of the former
     #: between the turns, so moisture adds at most about the dry inter-winding capacitance itself, which
@@ -80,6 +75,11 @@ class ParasiticCapacitance(Effect):
         limit = max(50e-12, sensor.capacitance_f)
         self.plausible = {"moist_dC": (0.0, limit)}  # type: ignore[misc]  # per sensor, not per class
         self._dc_bound = max(1e-10, 2 * limit)
+        # worked out once for the value and the derivatives a solver asks for at the same parameters
+        self._timeline: Remembered[_Timeline] = Remembered()
+        self._moisture: Remembered[np.ndarray] = Remembered()
+        self._moisture_tangent: Remembered[dict[str, np.ndarray]] = Remembered()
+        self._bound_water: Remembered[np.ndarray] = Remembered()
 
     def parameters(self) -> list[Parameter]:
         return [
@@ -122,15 +122,14 @@ class ParasiticCapacitance(Effect):
 
     def moisture(self, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
         """m(t) per recording: the drying rate and the equilibrium at the mean temperature of each interval."""
-        key = (p["drying_rate"], p["drying_onset"], p["drying_width"], p["drying_order"], p["bound_share"],
-               p["sorption_width"])
-        if self._memo_data is data and self._memo_key == key:
-            return self._memo
         if len(data) == 0:
             return np.ones(0)
-        if self._line_data is not data:
-            self._line_data, self._line = data, _Timeline.of(data)
-        line = self._line
+        key = _moisture_key(p)
+        return self._moisture.get(data, key, lambda: self._moisture_along(data, p, key))
+
+    def _moisture_along(self, data: Measurements, p: Mapping[str, float], key: tuple[float, ...]) -> np.ndarray:
+        """``moisture``'s work."""
+        line = self._line(data)
         mid = 0.5 * (line.temp_c[1:] + line.temp_c[:-1])
         rate = p["drying_rate"] * expit((mid - p["drying_onset"]) / p["drying_width"])
         step = rate * line.dt_s
@@ -143,20 +142,19 @@ class ParasiticCapacitance(Effect):
             moisture = (1.0 - p["bound_share"]) * moisture + p["bound_share"] * bound
         out = np.empty(len(data))
         out[line.order] = moisture
-        self._memo_data, self._memo_key, self._memo = data, key, out
         return out
 
     def moisture_derivatives(self, data: Measurements, p: Mapping[str, float]) -> dict[str, np.ndarray]:
         """dm/d parameter per row for the six parameters of ``moisture`` (the same recurrences differentiated)."""
-        key = (p["drying_rate"], p["drying_onset"], p["drying_width"], p["drying_order"], p["bound_share"],
-               p["sorption_width"])
-        if self._tangent_data is data and self._tangent_key == key:
-            return self._tangent
         if len(data) == 0:
             return {name: np.zeros(0) for name in _MOISTURE_PARAMETERS}
-        if self._line_data is not data:
-            self._line_data, self._line = data, _Timeline.of(data)
-        line = self._line
+        key = _moisture_key(p)
+        return self._moisture_tangent.get(data, key, lambda: self._moisture_derivatives_along(data, p, key))
+
+    def _moisture_derivatives_along(self, data: Measurements, p: Mapping[str, float], key: tuple[float, ...]
+                                    ) -> dict[str, np.ndarray]:
+        """``moisture_derivatives``' work."""
+        line = self._line(data)
         mid = 0.5 * (line.temp_c[1:] + line.temp_c[:-1])
         z = (mid - p["drying_onset"]) / p["drying_width"]
         sigma = expit(z)
@@ -190,19 +188,20 @@ class ParasiticCapacitance(Effect):
         for name, values in in_line.items():
             out[name] = np.empty(len(data))
             out[name][line.order] = values
-        self._tangent_data, self._tangent_key, self._tangent = data, key, out
         return out
+
+    def _line(self, data: Measurements) -> _Timeline:
+        """The readings in time order per recording (``_Timeline``), laid out once per campaign."""
+        return self._timeline.get(data, None, lambda: _Timeline.of(data))
 
     def _bound(self, data: Measurements, key: tuple[float, ...], rate: np.ndarray, equilibrium: np.ndarray
                ) -> np.ndarray:
         """The bound water along the timeline (its relaxation toward ``equilibrium`` at ``rate``), for the moisture
         parameters ``key``: integrated once for the value and the derivatives a solver asks for at the same
         parameters."""
-        if self._bound_data is not data or self._bound_key != key:
-            line = self._line
-            self._bound_data, self._bound_key = data, key
-            self._bound_memo = relaxation(line.time_s, rate, equilibrium, 1.0, restart=line.restart)
-        return self._bound_memo
+        line = self._line(data)
+        return self._bound_water.get(data, key,
+                                     lambda: relaxation(line.time_s, rate, equilibrium, 1.0, restart=line.restart))
 
     def _with_moisture(self, value: np.ndarray, tangent: Tangent, size: str, data: Measurements,
                        p: Mapping[str, float]) -> tuple[np.ndarray, Tangent]:

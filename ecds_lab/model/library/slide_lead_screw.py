@@ -28,7 +28,9 @@ from typing import ClassVar
 import numpy as np
 
 from ecds_lab.data.measurements import Measurements
+from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.model.effects import Effect, register
+from ecds_lab.model.library.remembered import Remembered
 from ecds_lab.model.parameters import Parameter
 from ecds_lab.model.tangents import Tangent, plus
 
@@ -61,8 +63,10 @@ class SlideLeadScrew(Effect):
     reveal_needs: ClassVar[dict[str, float]] = {"finest_step_mm": 0.5}
     #: The other common leads (the longest is the default start, which every testable campaign resolves).
     alternative_starts = tuple({"screw_lead": lead} for lead in COMMON_LEADS_M[:-1])
-    _memo_data: Measurements | None = None
-    _memo_shortest: float = 0.0
+
+    def __init__(self, sensor: SensorConfig) -> None:
+        super().__init__(sensor)
+        self._shortest: Remembered[float] = Remembered()
 
     def parameters(self) -> list[Parameter]:
         return [
@@ -120,9 +124,7 @@ class SlideLeadScrew(Effect):
 
     def shortest_lead(self, data: Measurements) -> float:
         """The shortest lead these positions resolve (m): twice their closest spacing (remembered per data)."""
-        if data is not self._memo_data:
-            self._memo_data, self._memo_shortest = data, 2 * _positions(data)[1]
-        return self._memo_shortest
+        return self._shortest.get(data, None, lambda: 2 * _positions(data)[1])
 
     def effective_distance(self, x_m: np.ndarray, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
         if p["screw_lead"] < self.shortest_lead(data):  # an alias of a longer lead: nothing these data can tell

@@ -17,7 +17,9 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from ecds_lab.data.measurements import Measurements
+from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.model.effects import Effect, Inputs, register
+from ecds_lab.model.library.remembered import Remembered
 from ecds_lab.model.parameters import Parameter
 from ecds_lab.model.tangents import InputTangents, Tangent, plus, scaled
 
@@ -41,7 +43,10 @@ class TauDisplacement(Effect):
     plausible: ClassVar[dict[str, tuple[float, float]]] = {name: (-2.0, 2.0) for name in FREE_KNOTS}
     reveal = "sweep the distance at both 500 Hz and 15 kHz (tau_T(x) changes the screening most at 500 Hz)"
     reveal_needs: ClassVar[dict[str, float]] = {"frequencies": 2}
-    _last_spline: tuple[bytes, CubicSpline] | None = None
+
+    def __init__(self, sensor: SensorConfig) -> None:
+        super().__init__(sensor)
+        self._spline_of: Remembered[CubicSpline] = Remembered()
 
     def parameters(self) -> list[Parameter]:
         return [Parameter(name, 0.0, -3.0, 3.0, "1", f"ln(tau_T / tau_T at 60 mm) at {name[6:]}", 0.05)
@@ -74,10 +79,7 @@ class TauDisplacement(Effect):
         """The natural cubic spline through the knot values of ``p``: built once for the value and the derivatives
         a solver asks for at the same parameters (its construction was 5 % of a 10^5-reading diagnosis)."""
         values = _knot_values(p)
-        key = values.tobytes()
-        if self._last_spline is None or self._last_spline[0] != key:
-            self._last_spline = (key, CubicSpline(KNOTS_M, values, bc_type="natural"))
-        return self._last_spline[1]
+        return self._spline_of.get(None, values.tobytes(), lambda: CubicSpline(KNOTS_M, values, bc_type="natural"))
 
 
 #: The natural cubic spline through each unit vector of knot values (one column per knot), built once: the
