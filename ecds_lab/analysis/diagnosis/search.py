@@ -186,8 +186,7 @@ def _run_diagnosis(data: Measurements, effects: Sequence[str], sensor: SensorCon
                 limits.append(f"the search stopped at its limit of {max_steps} added effect(s) "
                               f"(max_steps); not tested against the final model: {', '.join(untested)}")
             break
-        if work is None or work.screen is not screen or work.step is not current:
-            work = _RoundWork(screen, current)
+        work = _RoundWork.kept(work, screen, current)
         ranked, blocked, current_cv = _round(screen, clean, current, names, space, noise, folds,
                                              claimed_cv if fresh else work.base_cv, work)
         if not fresh:  # the same model again, fewer names: the candidates set aside stay in its ranking
@@ -561,7 +560,7 @@ def _round(screen: Measurements, clean: Measurements, current: Step, names: list
     first, then by evidence). Also: candidates these data cannot test (name -> why), and the
     current model's held-out error. ``work``: what rounds on this model and screen worked out already, reused
     and added to (``_RoundWork``)."""
-    work = work if work is not None and work.screen is screen and work.step is current else _RoundWork(screen, current)
+    work = _RoundWork.kept(work, screen, current)
     if screen is clean:
         base = current.fit
     elif current.on_screen is not None and current.on_screen[0] is screen:
@@ -656,6 +655,11 @@ class _RoundWork:
     #: held-out errors by the fit's identity (the fits themselves are kept in ``tried`` and ``refined``)
     cv: dict[int, float | None] = dataclasses.field(default_factory=dict)
     base_cv: float | None = None
+
+    @classmethod
+    def kept(cls, work: _RoundWork | None, screen: Measurements, step: Step) -> _RoundWork:
+        """``work`` if it is for this step on this screen, else a new, empty one."""
+        return work if work is not None and work.screen is screen and work.step is step else cls(screen, step)
 
 
 def _unchecked(candidate: Candidate) -> Candidate:
