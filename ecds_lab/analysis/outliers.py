@@ -31,6 +31,7 @@ import numpy as np
 
 from ecds_lab.analysis.noise import reading_groups, smooth_residual
 from ecds_lab.data.measurements import Measurements
+from ecds_lab.data.row_labels import row_labels
 
 #: Deviation from the local smooth, in noise sigmas, that marks a glitch (about one false flag in
 #: 10^6 readings of Gaussian noise).
@@ -136,8 +137,7 @@ class _PositionGroups:
     @classmethod
     def of(cls, data: Measurements) -> _PositionGroups:
         x = np.where(np.isinf(data.x_commanded_m), np.inf, data.x_commanded_m)
-        _, group = np.unique(np.column_stack([data.direction, x]), axis=0, return_inverse=True)
-        group = group.ravel()
+        group = row_labels(data.direction, x)
         order = np.argsort(group, kind="stable")
         starts = np.searchsorted(group[order], np.arange(group.max(initial=-1) + 2))
         return cls(group, order, starts)

@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from ecds_lab.data.measurements import Measurements
+from ecds_lab.data.row_labels import row_labels
 
 #: A pause longer than this (s) without readings starts a new phase.
 MAX_PAUSE_S = 900.0
@@ -33,7 +34,7 @@ def phase_labels(data: Measurements, max_pause_s: float = MAX_PAUSE_S) -> np.nda
 
 def within_phase(values: np.ndarray, labels: np.ndarray, also: np.ndarray | None = None) -> np.ndarray:
     """``values`` minus their mean in each phase (and in each class of ``also``, e.g. the frequency)."""
-    key = labels if also is None else np.unique(np.column_stack([labels, also]), axis=0, return_inverse=True)[1]
+    key = labels if also is None else row_labels(labels, also)
     key = np.asarray(key).ravel()
     counts = np.bincount(key)
     means = np.bincount(key, weights=values) / np.maximum(counts, 1)

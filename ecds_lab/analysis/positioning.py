@@ -28,6 +28,7 @@ from scipy.optimize import brentq, minimize
 from ecds_lab.analysis.grouping import visit_labels
 from ecds_lab.analysis.phases import phase_labels
 from ecds_lab.data.measurements import Measurements
+from ecds_lab.data.row_labels import row_labels
 
 #: How many revisit differences the declared figure is worth (a datasheet's 1 sigma, no better).
 DECLARED_DOF = 10.0
@@ -174,7 +175,7 @@ def _revisit_differences(data: Measurements, r: np.ndarray, reading: np.ndarray,
     if target.sum() < 2 * MIN_PASS_POINTS:
         return nothing
     rows = np.flatnonzero(target)
-    key = np.unique(np.column_stack([visits[rows], data.freq_hz[rows]]), axis=0, return_inverse=True)[1].ravel()
+    key = row_labels(visits[rows], data.freq_hz[rows])
     count = np.bincount(key).astype(float)
 
     def mean(values: np.ndarray) -> np.ndarray:
@@ -196,8 +197,7 @@ def _revisit_differences(data: Measurements, r: np.ndarray, reading: np.ndarray,
         return nothing
     rank = _rank_within(order, same)[same]
     d, v, sp = m[j] - m[i], var_r[i] + var_r[j], 0.5 * (sens[i] + sens[j])
-    passes = np.unique(np.column_stack([segment[i], freq[i], direction[i], phase[i], phase[j], rank]), axis=0,
-                       return_inverse=True)[1].ravel()
+    passes = row_labels(segment[i], freq[i], direction[i], phase[i], phase[j], rank)
     u_all, factor_all, keep = np.zeros(len(d)), np.zeros(len(d)), np.zeros(len(d), bool)
     for p in np.unique(passes):
         members = np.flatnonzero(passes == p)
@@ -209,7 +209,7 @@ def _revisit_differences(data: Measurements, r: np.ndarray, reading: np.ndarray,
         factor_all[members] = np.sum(residual_operator**2, axis=1)
         keep[members] = True
     scale = np.column_stack([factor_all, factor_all * v])[keep]
-    pair = np.unique(np.column_stack([visits[first[i]], visits[first[j]]]), axis=0, return_inverse=True)[1].ravel()
+    pair = row_labels(visits[first[i]], visits[first[j]])
     return u_all[keep], scale, sp[keep], pair[keep]
 
 

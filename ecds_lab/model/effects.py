@@ -113,6 +113,10 @@ class Effect:
     #: False for an effect a diagnosis tries only when named among its candidates (it would tie with a library
     #: effect wherever it acts, and the tie would stand where that effect was claimed before).
     tried_by_default: ClassVar[bool] = True
+    #: Modules the effect's search hooks (``starts_from_residual``) import when first called rather than at the top of
+    #: its module, which every command loads: a diagnosis imports them once before it forks its workers, each of which
+    #: would otherwise import them anew (scipy.signal: 0.5 s CPU a worker, five times a 10^5-reading diagnosis).
+    modules_for_search: ClassVar[tuple[str, ...]] = ()
 
     def __init__(self, sensor: SensorConfig) -> None:
         self.sensor = sensor

@@ -14,6 +14,7 @@ from ecds_lab.analysis.fitting import FitResult, fit_model, referenced
 from ecds_lab.analysis.noise import NoiseEstimate
 from ecds_lab.analysis.phases import phase_labels
 from ecds_lab.data.measurements import Measurements
+from ecds_lab.data.row_labels import row_labels
 
 FOLDS = 4
 #: Bands of distance (or stretches of time in air) per phase that are held out together.
@@ -74,7 +75,7 @@ def folds_of(data: Measurements) -> np.ndarray | None:
         rows = np.flatnonzero((phases == phase) & ~finite)
         rows = rows[np.argsort(data.time_s[rows], kind="stable")]
         block[rows] = np.arange(len(rows)) * BLOCKS // max(len(rows), 1)
-    groups = np.unique(np.column_stack([phases, block, finite]), axis=0, return_inverse=True)[1].ravel()
+    groups = row_labels(phases, block, finite)
     groups = _split_visits(data, groups)
     unique = np.unique(groups)
     if len(unique) < 2 * FOLDS:

@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import importlib
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -75,6 +76,7 @@ from ecds_lab.analysis.outliers import Outlier, describe, find_glitches
 from ecds_lab.analysis.per_readings import per_readings
 from ecds_lab.analysis.subsample import screened
 from ecds_lab.data.measurements import Measurements
+from ecds_lab.data.row_labels import row_labels
 from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.model.effects import EffectRegistry, library
 from ecds_lab.model.sensor_model import SensorModel
@@ -164,6 +166,8 @@ def _run_diagnosis(data: Measurements, effects: Sequence[str], sensor: SensorCon
     clean, base, noise, outliers, released = _robust_fit(data, effects, space, screen_rows, fitted)
     space = _Space(space.sensor, registry, frozenset(released))
     names = [n for n in (candidates if candidates is not None else default_candidates(registry)) if n not in effects]
+    for module in sorted({m for name in names for m in registry[name].modules_for_search}):
+        importlib.import_module(module)  # once here, not in every worker forked for the candidates
     screen = screened(clean, screen_rows)
     folds = folds_of(screen) if cross_validate else None
     full_scale = float(np.ptp(clean.x_mm[np.isfinite(clean.x_m)])) if np.isfinite(clean.x_m).any() else 0.0
@@ -380,7 +384,7 @@ def _measuring_states(data: Measurements) -> np.ndarray:
     """The state (frequency, direction, commanded distance or the coil in air) of every reading, numbered; computed
     once per campaign (``per_readings``)."""
     x = np.where(np.isfinite(data.x_commanded_m), np.round(data.x_commanded_m, 6), -1.0)
-    return np.unique(np.column_stack([data.freq_hz, data.direction, x]), axis=0, return_inverse=True)[1].ravel()
+    return row_labels(data.freq_hz, data.direction, x)
 
 
 def _mark_drift(steps: list[Step], data: Measurements, noise: NoiseEstimate, acting: list[np.ndarray]) -> None:

@@ -29,6 +29,7 @@ from ecds_lab.analysis.noise_margin import loadings, null_moments, significance
 from ecds_lab.analysis.per_readings import per_readings
 from ecds_lab.analysis.phases import phase_labels
 from ecds_lab.data.measurements import Measurements
+from ecds_lab.data.row_labels import row_labels
 
 #: Temperature bins (K) and time bins within a phase (s) of one state.
 TEMPERATURE_BIN_K = 2.0
@@ -71,7 +72,7 @@ def state_labels(data: Measurements) -> np.ndarray:
         start[rows] = data.time_s[rows].min()
     columns = [phases, data.freq_hz, data.direction, x, np.floor(data.t_target_c / TEMPERATURE_BIN_K),
                np.floor(data.t_coil_c / TEMPERATURE_BIN_K), np.floor((data.time_s - start) / TIME_BIN_S)]
-    return np.unique(np.column_stack(columns), axis=0, return_inverse=True)[1].ravel()
+    return row_labels(*columns)
 
 
 def residual_structure(data: Measurements, residuals_ppm: np.ndarray, noise: NoiseEstimate,

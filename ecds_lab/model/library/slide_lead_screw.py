@@ -63,6 +63,7 @@ class SlideLeadScrew(Effect):
     reveal_needs: ClassVar[dict[str, float]] = {"finest_step_mm": 0.5}
     #: The other common leads (the longest is the default start, which every testable campaign resolves).
     alternative_starts = tuple({"screw_lead": lead} for lead in COMMON_LEADS_M[:-1])
+    modules_for_search = ("scipy.signal",)  # its periodogram (``starts_from_residual``)
 
     def __init__(self, sensor: SensorConfig) -> None:
         super().__init__(sensor)
@@ -91,7 +92,7 @@ class SlideLeadScrew(Effect):
         """The best peaks of a weighted Lomb-Scargle periodogram of the residual distance error over the
         resolvable leads (see the module docstring), each with its sine and cosine parts."""
         from scipy.signal import lombscargle  # here: importing scipy.signal costs every command that loads the
-        # library ~0.4 s CPU, and only the diagnosis needs the periodogram
+        # library ~0.4 s CPU, and only the diagnosis needs the periodogram (``modules_for_search``)
 
         count, closest = _positions(data)
         shortest = max(LEAD_RANGE_M[0], 1.02 * 2 * closest)
