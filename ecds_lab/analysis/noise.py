@@ -52,7 +52,6 @@ from functools import cache
 from typing import Any
 
 import numpy as np
-from scipy.ndimage import median_filter
 from scipy.optimize import brentq
 
 from ecds_lab.analysis.grouping import design_effect, ramping, visit_labels
@@ -301,6 +300,19 @@ def reading_groups(data: Measurements) -> list[np.ndarray]:
     return np.split(key, breaks)
 
 
+def running_median(values: np.ndarray, size: int) -> np.ndarray:
+    """The median of each reading's window of ``size`` (odd) readings centred on it, the ends repeated beyond the
+    first and last (``scipy.ndimage.median_filter(values, size, mode="nearest")``, the same numbers: a median of an
+    odd count is one of the values). Not through scipy.ndimage: importing it costs every command 0.24 s."""
+    if size < 1 or size % 2 == 0:
+        raise ValueError(f"a running median's window must be a positive odd number of readings, not {size}")
+    values = np.asarray(values, float)
+    if len(values) == 0:
+        return values.copy()
+    padded = np.pad(values, size // 2, mode="edge")
+    return np.median(np.lib.stride_tricks.sliding_window_view(padded, size), axis=1)
+
+
 def smooth_residual(data: Measurements, residuals_ppm: np.ndarray, window: int = SMOOTH_WINDOW,
                     groups: list[np.ndarray] | None = None) -> np.ndarray:
     """Running median of the residual along each series of like readings (``reading_groups``, or ``groups``
@@ -309,7 +321,7 @@ def smooth_residual(data: Measurements, residuals_ppm: np.ndarray, window: int =
     out = r.copy()
     for rows in groups if groups is not None else reading_groups(data):
         if len(rows) >= 3:
-            out[rows] = median_filter(r[rows], size=min(window, len(rows) - (1 - len(rows) % 2)), mode="nearest")
+            out[rows] = running_median(r[rows], min(window, len(rows) - (1 - len(rows) % 2)))
     return out
 
 

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from ecds_lab.analysis.noise import estimate_noise
+from ecds_lab.analysis.noise import estimate_noise, running_median
 from ecds_lab.data.measurements import Measurements
 
 
@@ -130,3 +130,19 @@ def test_the_local_quadratic_is_scipy_s_savitzky_golay_filter(window):
         values = rng.normal(size=n) + 0.01 * np.arange(n) ** 2
         assert np.allclose(local_quadratic(values, window), savgol_filter(values, window, 2, mode="interp"),
                            rtol=0, atol=1e-10 * np.abs(values).max())
+
+
+@pytest.mark.parametrize("size", [1, 3, 5, 7])
+def test_the_running_median_is_scipys_median_filter_with_the_ends_repeated(size):
+    from scipy.ndimage import median_filter
+
+    rng = np.random.default_rng(size)
+    for n in (1, 2, size, 50, 1001):
+        values = rng.standard_t(2, n) * 40.0
+        values[rng.random(n) < 0.2] = 3.0  # ties
+        np.testing.assert_array_equal(running_median(values, size), median_filter(values, size=size, mode="nearest"))
+
+
+def test_a_running_median_of_an_even_window_is_refused():
+    with pytest.raises(ValueError, match="positive odd number of readings, not 4"):
+        running_median(np.zeros(10), 4)

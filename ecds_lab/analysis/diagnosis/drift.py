@@ -13,8 +13,8 @@ that the readings in air before and after it show as well.
 from __future__ import annotations
 
 import numpy as np
-from scipy.ndimage import median_filter
 
+from ecds_lab.analysis.noise import running_median
 from ecds_lab.data.measurements import Measurements
 
 #: Readings of the running median that smooths the residual outside the claim's signature.
@@ -35,7 +35,7 @@ def drift_read_outside(data: Measurements, residual: np.ndarray, acts: np.ndarra
     if not (t_out.min() < inside_t.min() and t_out.max() > inside_t.max()):
         return None
     order = np.argsort(t_out, kind="stable")
-    smooth = median_filter(np.asarray(residual, float)[outside][order], size=SMOOTH_READINGS, mode="nearest")
+    smooth = running_median(np.asarray(residual, float)[outside][order], SMOOTH_READINGS)
     return np.interp(data.time_s, t_out[order], smooth)
 
 
