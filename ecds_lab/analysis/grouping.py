@@ -97,6 +97,20 @@ def thermal_state_labels(data: Measurements) -> np.ndarray:
     return labels
 
 
+def stretch_labels(data: Measurements) -> np.ndarray:
+    """Stretches of readings taken alike, numbered: a thermal state, or the readings of one phase taken while a
+    heater ramps one after another (``ramping``). Where an effect's evidence comes from, stretch by stretch
+    (``diagnosis.checks.worst_stretch``)."""
+    states, moving, phase = thermal_state_labels(data), ramping(data), phase_labels(data)
+    order = np.lexsort((data.time_s, phase))
+    key_state = np.where(moving[order], -1, states[order])
+    starts = np.ones(len(order), bool)
+    starts[1:] = (phase[order][1:] != phase[order][:-1]) | (key_state[1:] != key_state[:-1])
+    labels = np.empty(len(data), int)
+    labels[order] = np.cumsum(starts) - 1
+    return labels
+
+
 def intraclass_correlation(values: np.ndarray, labels: np.ndarray) -> float:
     """One-way ANOVA estimate of the intraclass correlation of ``values`` within clusters ``labels``
     (unequal sizes: Searle's n0); 0 when no cluster has two members, clipped to [0, 1]."""

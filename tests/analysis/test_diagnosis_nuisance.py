@@ -83,3 +83,15 @@ def test_an_expansion_is_found_beside_a_gain_drift():
     assert "former_expansion" in result.claimed
     assert "outside the library" in result.explanation
     assert set(result.claimed) <= {"former_expansion", "tau_displacement", "thermal_lag"}
+
+
+def test_a_gain_made_in_one_stretch_at_the_sweeps_cost_is_not_claimed_beside_the_smooth():
+    """Validation study seed 2027, case 157: a moist former and a tilting plate, coil heated, 15 kHz
+    only. Beside the smooth in time, a backlash of 38 um passed every check on a gain of 50 noise variances made by
+    the readings at one place while the coil heated (+357), paid for by every sweep (-102, -36, -65, -50): what
+    noise costs a true effect there is a few standard deviations. Now it is not claimed, and the residual is
+    outside the library, in time."""
+    result = run_diagnosis(_study_campaign(2027, 157))
+    assert "slide_backlash" not in result.claimed and not result.claimed
+    assert result.verdict == "missing_effect"
+    assert result.associations[0].variable == "time_s"

@@ -14,6 +14,7 @@ from ecds_lab.analysis.grouping import (
     design_effect,
     intraclass_correlation,
     ramping,
+    stretch_labels,
     temperature_rates_k_per_s,
     thermal_state_labels,
     visit_labels,
@@ -66,6 +67,15 @@ def test_ramping_and_thermal_states_follow_the_temperatures():
     assert len(np.unique(states[:50])) == 1 and len(np.unique(states[150:])) == 1
     assert states[0] != states[-1]
     assert len(np.unique(states[70:130])) == 60  # every ramping reading its own state
+
+
+def test_a_ramp_is_one_stretch_between_the_states_before_and_after_it():
+    t = np.arange(200) * 60.0
+    coil = np.r_[np.full(60, 22.0), 22 + 0.3 * np.arange(80), np.full(60, 46.0)]
+    stretches = stretch_labels(readings(np.full(200, 30.0), t_coil=coil, time_s=t))
+    steady, ramp, hot = stretches[:50], stretches[70:130], stretches[150:]
+    assert len(set(steady)) == len(set(ramp)) == len(set(hot)) == 1  # not a stretch per ramping reading
+    assert len({steady[0], ramp[0], hot[0]}) == 3
 
 
 def test_the_rates_of_the_same_readings_are_found_once_and_new_temperatures_get_their_own():

@@ -6,10 +6,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.special import chdtri, ndtr  # not scipy.stats: importing it costs every diagnosis 0.3 s
+from scipy.special import chdtri, ndtr, ndtri  # not scipy.stats: importing it costs every diagnosis 0.3 s
 
 from ecds_lab.analysis.diagnosis.result import DISPLAY_UNITS, Candidate
 from ecds_lab.analysis.fitting import FitResult, combination_stderr
+from ecds_lab.analysis.grouping import stretch_labels
 from ecds_lab.analysis.noise import NoiseEstimate
 from ecds_lab.data.measurements import Measurements
 
@@ -63,6 +64,43 @@ def score_candidate(name: str, fitted: FitResult, base: FitResult, noise: NoiseE
     delta_s = n_s * math.log(max(float(rc @ rc), 1e-300) / max(float(rb @ rb), 1e-300)) / deff + penalty
     scale2 = max(noise.ppm**2, rss_c / n)
     return Candidate(name, fitted, delta, delta_s, (rss_b - rss_c) / scale2 / deff)
+
+
+def worst_stretch(candidate: Candidate, base: FitResult, noise: NoiseEstimate, data: Measurements
+                  ) -> tuple[float, float, int]:
+    """Of the stretches (``grouping.stretch_labels``) whose fit the candidate worsens by MIN_CHI2_GAIN noise
+    variances or more (the gain a claim needs, the same units), the one worsened most in standard deviations of
+    what noise costs a true effect there: (those deviations, its loss, its readings); (0, 0, 0) when none is.
+    Were the effect true, its change of the prediction d would cost a stretch at most noise: its chi-square gain
+    there is sum(d^2 + 2 d e), whose noise part has the standard deviation 2 sqrt(sum d^2) (times the design
+    effect's root). A stretch far below that pays for a gain made elsewhere: the effect's size is set by structure
+    it does not describe."""
+    rb = whitened(base.residuals_ppm, data, noise) / noise.ppm
+    rc = whitened(candidate.fit.residuals_ppm, data, noise) / noise.ppm
+    labels = stretch_labels(data)
+    deff = max(noise.design_effect, 1.0)
+    gain = np.bincount(labels, weights=rb * rb - rc * rc)
+    spread = 2.0 * np.sqrt(np.bincount(labels, weights=(rb - rc) ** 2) * deff)
+    z = np.divide(gain, spread, out=np.zeros_like(gain), where=spread > 0)
+    worse = np.flatnonzero(-gain / deff >= MIN_CHI2_GAIN)
+    if not len(worse):
+        return 0.0, 0.0, 0
+    worst = int(worse[np.argmin(z[worse])])
+    return float(z[worst]), float(-gain[worst] / deff), int(np.count_nonzero(labels == worst))
+
+
+def check_stretches(candidate: Candidate, base: FitResult, noise: NoiseEstimate, data: Measurements) -> None:
+    """Add the check ``consistent``: no stretch of readings worsened by what would count as evidence and beyond
+    what noise costs a true effect there (``worst_stretch``), at the same one-sided tail as MIN_Z shared out over
+    the stretches (Bonferroni)."""
+    stretches = int(stretch_labels(data).max()) + 1 if len(data) else 1
+    limit = float(ndtri(float(ndtr(-MIN_Z)) / stretches))
+    z, loss, rows = worst_stretch(candidate, base, noise, data)
+    candidate.checks["consistent"] = z >= limit
+    if z < limit:
+        candidate.rejected.append(f"it worsens a stretch of {rows} readings by {loss:.0f} noise variances, "
+                                  f"{-z:.1f} standard deviations of what noise costs a true effect there (allowed "
+                                  f"{-limit:.1f}): its gain is made elsewhere, on structure it does not describe")
 
 
 def check_candidate(candidate: Candidate) -> None:

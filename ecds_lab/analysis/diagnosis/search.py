@@ -49,6 +49,7 @@ from ecds_lab.analysis.diagnosis.checks import (
     SIGNATURE_SHARE,
     at_bound,
     check_candidate,
+    check_stretches,
     evidence_rank,
     score_candidate,
     signature_spread,
@@ -302,7 +303,8 @@ def _beside_smooth(screen: Measurements, clean: Measurements, steps: list[Step],
     """With the search ended on a residual outside the library, the remaining candidates judged again beside a
     flexible nuisance that takes that residual (``nuisance.smooth_effect``: splines in the variables of its first
     SMOOTH_ASSOCIATIONS associations beyond chance), fitted with the final model. A candidate passing
-    every check against that nuisance model (evidence, identifiability, plausibility, held out), with no rival
+    every check against that nuisance model (evidence, identifiability, plausibility, held out, and no stretch of
+    readings worsened beyond what noise costs a true effect: ``checks.check_stretches``), with no rival
     taking the same part, is claimed beside the residual outside the library: refitted without the nuisance and
     appended to ``steps`` (``Step.beside``), then the rest are judged again. True when any was claimed. ``names``
     loses the effects claimed. Not on a screened campaign (a subsample): a claim there would need confirming on
@@ -321,6 +323,9 @@ def _beside_smooth(screen: Measurements, clean: Measurements, steps: list[Step],
         base = fit_model(model, screen, start=final.fit.values, multistart=False, screening=True)
         current = Step([*final.effects, NUISANCE], base, residual_mm(base, screen), full_scale)
         ranked, _, _ = _round(screen, screen, current, names, beside, noise, folds)
+        for candidate in ranked:
+            if candidate.passes:  # a gain made on structure the nuisance leaves, at a cost elsewhere, is no claim
+                check_stretches(candidate, base, noise, screen)
         passing = [c for c in ranked if c.passes]
         if not passing:
             break
