@@ -103,6 +103,33 @@ def check_stretches(candidate: Candidate, base: FitResult, noise: NoiseEstimate,
                                   f"{-limit:.1f}): its gain is made elsewhere, on structure it does not describe")
 
 
+def gain_where_it_acts(candidate: Candidate, base: FitResult, noise: NoiseEstimate, data: Measurements) -> float:
+    """The candidate's chi-square gain (noise variances, design effect applied) on the readings its own action
+    moves by SIGNATURE_SHARE of their noise: its fit against the same fit with the effect absent (its size
+    parameters zero, ``Effect.size_parameters``, or its ``absent_form``), everything else held. A gain elsewhere
+    is the rest of the model refitted beside it (a backlash moves no reading taken without a direction)."""
+    effect = candidate.effect_object
+    size = effect.size_parameters or effect.key_parameters or tuple(p.name for p in effect.parameters())
+    absent = {**candidate.fit.values, **{name: 0.0 for name in size}, **effect.absent_form}
+    model = candidate.fit.model
+    with np.errstate(all="ignore"):
+        action = (model.predict(data, candidate.fit.values) / model.predict(data, absent) - 1.0) * 1e6
+    acts = np.abs(whitened(np.nan_to_num(action), data, noise)) >= SIGNATURE_SHARE * noise.ppm
+    rb = whitened(base.residuals_ppm, data, noise)[acts] / noise.ppm
+    rc = whitened(candidate.fit.residuals_ppm, data, noise)[acts] / noise.ppm
+    return float(rb @ rb - rc @ rc) / max(noise.design_effect, 1.0)
+
+
+def check_where_it_acts(candidate: Candidate, base: FitResult, noise: NoiseEstimate, data: Measurements) -> None:
+    """Add the check ``acts_where_it_gains``: the evidence a claim needs (MIN_CHI2_GAIN) made on the readings the
+    effect itself moves (``gain_where_it_acts``), not by what the rest of the model does beside it."""
+    gain = gain_where_it_acts(candidate, base, noise, data)
+    candidate.checks["acts_where_it_gains"] = gain >= MIN_CHI2_GAIN
+    if gain < MIN_CHI2_GAIN:
+        candidate.rejected.append(f"on the readings it moves itself it gains {gain:.1f} noise variances (needs "
+                                  f"{MIN_CHI2_GAIN:g}): the rest of its gain is the model beside it refitted")
+
+
 def check_candidate(candidate: Candidate) -> None:
     """Fill ``checks`` and ``rejected``: evidence, identifiability, plausible size."""
     reasons = candidate.rejected

@@ -50,6 +50,7 @@ from ecds_lab.analysis.diagnosis.checks import (
     at_bound,
     check_candidate,
     check_stretches,
+    check_where_it_acts,
     evidence_rank,
     score_candidate,
     signature_spread,
@@ -326,6 +327,7 @@ def _beside_smooth(screen: Measurements, clean: Measurements, steps: list[Step],
         for candidate in ranked:
             if candidate.passes:  # a gain made on structure the nuisance leaves, at a cost elsewhere, is no claim
                 check_stretches(candidate, base, noise, screen)
+                check_where_it_acts(candidate, base, noise, screen)
         passing = [c for c in ranked if c.passes]
         if not passing:
             break
