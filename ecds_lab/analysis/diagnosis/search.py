@@ -304,8 +304,9 @@ def _beside_smooth(screen: Measurements, clean: Measurements, steps: list[Step],
     """With the search ended on a residual outside the library, the remaining candidates judged again beside a
     flexible nuisance that takes that residual (``nuisance.smooth_effect``: splines in the variables of its first
     SMOOTH_ASSOCIATIONS associations beyond chance), fitted with the final model. A candidate passing
-    every check against that nuisance model (evidence, identifiability, plausibility, held out, and no stretch of
-    readings worsened beyond what noise costs a true effect: ``checks.check_stretches``), with no rival
+    every check against that nuisance model (evidence, identifiability, plausibility, held out; no stretch of
+    readings worsened beyond what noise costs a true effect, ``checks.check_stretches``; its evidence made on the
+    readings it moves itself, ``checks.check_where_it_acts``), with no rival
     taking the same part, is claimed beside the residual outside the library: refitted without the nuisance and
     appended to ``steps`` (``Step.beside``), then the rest are judged again. True when any was claimed. ``names``
     loses the effects claimed. Not on a screened campaign (a subsample): a claim there would need confirming on
