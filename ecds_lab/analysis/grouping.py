@@ -17,6 +17,7 @@ import math
 
 import numpy as np
 
+from ecds_lab.analysis.per_readings import per_readings
 from ecds_lab.analysis.phases import phase_labels
 from ecds_lab.data.measurements import Measurements
 
@@ -97,10 +98,12 @@ def thermal_state_labels(data: Measurements) -> np.ndarray:
     return labels
 
 
+@per_readings
 def stretch_labels(data: Measurements) -> np.ndarray:
     """Stretches of readings taken alike, numbered: a thermal state, or the readings of one phase taken while a
     heater ramps one after another (``ramping``). Where an effect's evidence comes from, stretch by stretch
-    (``diagnosis.checks.worst_stretch``)."""
+    (``diagnosis.checks.worst_stretch``); worked out once per campaign (``per_readings``), as each candidate beside
+    the smooth asks again."""
     states, moving, phase = thermal_state_labels(data), ramping(data), phase_labels(data)
     order = np.lexsort((data.time_s, phase))
     key_state = np.where(moving[order], -1, states[order])
