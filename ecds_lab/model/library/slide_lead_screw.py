@@ -7,10 +7,12 @@ In quadrature, x_eff = x + a sin(2 pi x / p) + b cos(2 pi x / p): a and b enter 
 p is the one nonlinear parameter (the sign of x relative to the machine coordinate only moves phi).
 The same position shows the same error from either direction (unlike backlash or random scatter
 between moves). Positions taken on a regular grid g alias a lead to others (p and 1/(1/p + k/g)):
-only leads longer than twice the closest spacing of the positions can be told. A shorter lead
-therefore moves nothing in these data (its error is not determinable, so never claimed), and the
-effect is tested only where the steps resolve at least the longest lead it declares (20 mm: steps of
-10 mm or less).
+only leads longer than twice the steps can be told, and only where the steps sample the screw's
+turns in a run (``RESOLVING_STEPS`` consecutive steps, two samples per turn over two turns): one pair
+of close positions among coarser steps resolves no turn, and a lead it seemed to allow is an alias
+(0.78 mm on 0.75 mm steps reads as a wave of 22 mm). A shorter lead therefore moves nothing in these
+data (its error is not determinable, so never claimed), and the effect is tested only where the steps
+resolve at least the longest lead it declares (20 mm: runs of steps of 10 mm or less).
 
 The lead is found over the whole declared range by a scan of the residual over leads: the current
 model's residual as a distance error, detrended by a cubic in x per direction and frequency, in a
@@ -40,6 +42,9 @@ LEAD_RANGE_M = (0.5e-3, 20e-3)
 COMMON_LEADS_M = (1e-3, 2e-3, 2.5e-3, 4e-3, 5e-3, 8e-3, 10e-3)
 #: A period needs this many distinct positions (3 parameters and a margin against chance).
 MIN_POSITIONS = 8
+#: A lead is resolved by a run of this many consecutive steps each at most half of it (two turns, two samples
+#: per turn: Nyquist over more than one turn).
+RESOLVING_STEPS = 4
 #: Leads scanned by the periodogram (log-spaced over the resolvable part of LEAD_RANGE_M), and peaks kept.
 LEAD_GRID = 600
 PEAKS = 3
@@ -78,13 +83,13 @@ class SlideLeadScrew(Effect):
         ]
 
     def unidentifiable(self, data: Measurements) -> dict[str, str]:
-        count, closest = _positions(data)
+        count, step = _positions(data)
         if count < MIN_POSITIONS:
             return {n: f"{count} distinct positions (a periodic error needs {MIN_POSITIONS})" for n in _NAMES}
-        if 2 * closest >= LEAD_RANGE_M[1] * (1 - 1e-6):  # (positions to 1 um: their spacing rounds)
-            return {n: f"the closest positions are {closest * 1e3:.3g} mm apart: no screw lead of "
-                       f"{LEAD_RANGE_M[1] * 1e3:g} mm or less can be resolved (it needs steps shorter than "
-                       f"{LEAD_RANGE_M[1] * 500:g} mm)" for n in _NAMES}
+        if 2 * step >= LEAD_RANGE_M[1] * (1 - 1e-6):  # (positions to 1 um: their spacing rounds)
+            return {n: f"the positions are {step * 1e3:.3g} mm apart or more in every run of {RESOLVING_STEPS} "
+                       f"steps: no screw lead of {LEAD_RANGE_M[1] * 1e3:g} mm or less can be resolved (it needs "
+                       f"steps shorter than {LEAD_RANGE_M[1] * 500:g} mm)" for n in _NAMES}
         return {}
 
     def starts_from_residual(self, data: Measurements, shift_m: np.ndarray,
@@ -94,8 +99,8 @@ class SlideLeadScrew(Effect):
         from scipy.signal import lombscargle  # here: importing scipy.signal costs every command that loads the
         # library ~0.4 s CPU, and only the diagnosis needs the periodogram (``modules_for_search``)
 
-        count, closest = _positions(data)
-        shortest = max(LEAD_RANGE_M[0], 1.02 * 2 * closest)
+        count, step = _positions(data)
+        shortest = max(LEAD_RANGE_M[0], 1.02 * 2 * step)
         if count < MIN_POSITIONS or shortest >= LEAD_RANGE_M[1]:
             return ()
         leads = np.geomspace(shortest, LEAD_RANGE_M[1], LEAD_GRID)
@@ -124,7 +129,8 @@ class SlideLeadScrew(Effect):
         return tuple(starts)
 
     def shortest_lead(self, data: Measurements) -> float:
-        """The shortest lead these positions resolve (m): twice their closest spacing (remembered per data)."""
+        """The shortest lead these positions resolve (m): twice their resolving step (``_positions``; remembered per
+        data)."""
         return self._shortest.get(data, None, lambda: 2 * _positions(data)[1])
 
     def effective_distance(self, x_m: np.ndarray, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
@@ -169,6 +175,10 @@ def _detrended(data: Measurements, shift_m: np.ndarray, weights: np.ndarray
 
 
 def _positions(data: Measurements) -> tuple[int, float]:
-    """How many distinct positions (to 1 um) the data hold, and the closest spacing of two (m; inf for one)."""
+    """How many distinct positions (to 1 um) the data hold, and their resolving step (m; inf for too few): the
+    longest step in their finest run of ``RESOLVING_STEPS`` consecutive steps."""
     positions = np.unique(np.round(data.x_m[np.isfinite(data.x_m)], 6))
-    return len(positions), float(np.diff(positions).min()) if len(positions) > 1 else math.inf
+    steps = np.diff(positions)
+    if len(steps) < RESOLVING_STEPS:
+        return len(positions), math.inf
+    return len(positions), float(np.lib.stride_tricks.sliding_window_view(steps, RESOLVING_STEPS).max(axis=1).min())

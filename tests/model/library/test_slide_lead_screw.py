@@ -78,3 +78,16 @@ def test_a_lead_the_positions_cannot_resolve_moves_nothing(screw):
     p = {"screw_sin": 10e-6, "screw_cos": 0.0}
     np.testing.assert_array_equal(screw.effective_distance(data.x_m, data, {**p, "screw_lead": 3e-3}), data.x_m)
     assert np.ptp(screw.effective_distance(data.x_m, data, {**p, "screw_lead": 6e-3}) - data.x_m) > 15e-6
+
+
+def test_one_close_pair_among_coarser_steps_resolves_no_shorter_lead(screw):
+    """Steps of 0.75 mm resolve leads from 1.5 mm; a pair 0.083 mm apart among them does not make a 0.78 mm lead
+    (there an alias of a 22 mm wave) determinable: it moves nothing."""
+    fine = np.r_[30.667, np.arange(30.75, 36.01, 0.75), np.arange(40.0, 100.1, 5.0)]
+    data = at_positions(fine)
+    assert screw.shortest_lead(data) == pytest.approx(1.5e-3)
+    p = {"screw_sin": 10e-6, "screw_cos": 0.0}
+    np.testing.assert_array_equal(screw.effective_distance(data.x_m, data, {**p, "screw_lead": 0.78e-3}), data.x_m)
+    assert np.ptp(screw.effective_distance(data.x_m, data, {**p, "screw_lead": 1.6e-3}) - data.x_m) > 15e-6
+    starts = screw.starts_from_residual(data, np.sin(2 * np.pi * data.x_m / 3e-3) * 1e-5, np.ones(len(data)))
+    assert starts and min(start["screw_lead"] for start in starts) >= 1.5e-3  # the scan starts at the shortest
