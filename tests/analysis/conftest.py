@@ -12,8 +12,8 @@ import pytest
 from ecds_lab.simulators import campaign
 from ecds_lab.simulators.config import LabConfig
 from ecds_lab.simulators.lab import SimulatedLab
-from ecds_lab.study.campaigns import QUIET_LAB
-from ecds_lab.study.cases import merged
+from ecds_lab.study.campaigns import QUIET_LAB, measure
+from ecds_lab.study.cases import draw_case, merged
 
 #: 16 positions over 20-100 mm keep each campaign near 700 readings (fast, still every phase).
 POSITIONS_MM = tuple(float(x) for x in np.linspace(20.0, 100.0, 16))
@@ -29,6 +29,17 @@ def hidden_effect_campaign(*effects: str, seed: int = 7):
 @pytest.fixture
 def campaign_with():
     return hidden_effect_campaign
+
+
+@cache
+def _study_campaign(seed: int, number: int):
+    """Campaign ``number`` of the validation study drawn with ``seed`` (benchmarks/validation_study.py)."""
+    return measure(draw_case(number, seed))
+
+
+@pytest.fixture
+def study_campaign():
+    return _study_campaign
 
 
 def field_lab_config(seed: int = 3, **parts: dict) -> LabConfig:

@@ -3,8 +3,6 @@ remaining candidates judged beside a smooth in the variables that residual lives
 
 from __future__ import annotations
 
-from functools import cache
-
 import numpy as np
 
 from ecds_lab.analysis.diagnosis import run_diagnosis
@@ -12,13 +10,6 @@ from ecds_lab.analysis.diagnosis.nuisance import MIN_SPACING, NAME, smooth_effec
 from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.model.effects import library
 from ecds_lab.model.sensor_model import SensorModel
-from ecds_lab.study.campaigns import measure
-from ecds_lab.study.cases import draw_case
-
-
-@cache
-def _study_campaign(seed: int, number: int):
-    return measure(draw_case(number, seed))
 
 
 def _smooth_model(data, variables):
@@ -27,10 +18,10 @@ def _smooth_model(data, variables):
     return SensorModel(SensorConfig(), [NAME], registry=library().with_effects(smooth))
 
 
-def test_the_smooth_has_exact_derivatives():
+def test_the_smooth_has_exact_derivatives(study_campaign):
     """The nuisance's tangent equals finite differences of the prediction, coefficient by coefficient, and the
     baseline's tangents carry the smooth's factor."""
-    data = _study_campaign(2026, 63)
+    data = study_campaign(2026, 63)
     model = _smooth_model(data, ["time_s", "t_coil_c"])
     scales = {q.name: q.prior_scale for q in model.parameters()}
     p = {q.name: q.value for q in model.parameters()}
@@ -49,9 +40,9 @@ def test_the_smooth_has_exact_derivatives():
         assert np.abs(tangent[name] - numeric).max() <= 1e-5 * np.abs(tangent[name]).max()
 
 
-def test_the_smooth_cannot_follow_a_sweep():
+def test_the_smooth_cannot_follow_a_sweep(study_campaign):
     """Knots are no closer than MIN_SPACING: over one sweep (minutes) there is no smooth in time at all."""
-    data = _study_campaign(2026, 63)
+    data = study_campaign(2026, 63)
     first = data.select(data.time_s < data.time_s.min() + 0.5 * MIN_SPACING["time_s"])
     assert smooth_effect(first, ["time_s"]) is None
     smooth = smooth_effect(data, ["time_s"])
@@ -60,13 +51,13 @@ def test_the_smooth_cannot_follow_a_sweep():
     assert np.diff(np.unique(knots)).min() >= MIN_SPACING["time_s"]
 
 
-def test_a_lead_screw_is_found_beside_a_reabsorption():
+def test_a_lead_screw_is_found_beside_a_reabsorption(study_campaign):
     """Validation study seed 2026 case 63: a lead screw (17.8 um over 9.9 mm) and the former re-absorbing humidity
     while the coil cools (outside the library). The baseline leaves 1567 ppm against 23 ppm noise, living in time and
     the coil's temperature; judged against that residual the lead screw gained 0.7 noise variances and was missed.
     Beside a smooth in those variables it passes every check and is claimed, and the residual is still said to lie
     outside the library, in time or the coil's temperature."""
-    result = run_diagnosis(_study_campaign(2026, 63))
+    result = run_diagnosis(study_campaign(2026, 63))
     assert "slide_lead_screw" in result.claimed
     step = next(s for s in result.steps[1:] if s.effects[-1] == "slide_lead_screw")
     assert step.beside and set(step.beside) <= {"time_s", "t_coil_c"}
@@ -75,34 +66,34 @@ def test_a_lead_screw_is_found_beside_a_reabsorption():
     assert set(result.claimed) <= {"slide_lead_screw", "tau_displacement", "thermal_lag"}
 
 
-def test_an_expansion_is_found_beside_a_gain_drift():
+def test_an_expansion_is_found_beside_a_gain_drift(study_campaign):
     """Validation study seed 2026 case 105: the former's expansion beside a drift of the bridge's gain (outside the
     library). Missed before (the expansion gained too little against the drift's residual); claimed beside a smooth
     in time, with the drift still said to lie outside the library."""
-    result = run_diagnosis(_study_campaign(2026, 105))
+    result = run_diagnosis(study_campaign(2026, 105))
     assert "former_expansion" in result.claimed
     assert "outside the library" in result.explanation
     assert set(result.claimed) <= {"former_expansion", "tau_displacement", "thermal_lag"}
 
 
-def test_a_gain_made_in_one_stretch_at_the_sweeps_cost_is_not_claimed_beside_the_smooth():
+def test_a_gain_made_in_one_stretch_at_the_sweeps_cost_is_not_claimed_beside_the_smooth(study_campaign):
     """Validation study seed 2027, case 157: a moist former and a tilting plate, coil heated, 15 kHz
     only. Beside the smooth in time, a backlash of 38 um passed every check on a gain of 50 noise variances made by
     the readings at one place while the coil heated (+357), paid for by every sweep (-102, -36, -65, -50): what
     noise costs a true effect there is a few standard deviations. Now it is not claimed, and the residual is
     outside the library, in time."""
-    result = run_diagnosis(_study_campaign(2027, 157))
+    result = run_diagnosis(study_campaign(2027, 157))
     assert "slide_backlash" not in result.claimed and not result.claimed
     assert result.verdict == "missing_effect"
     assert result.associations[0].variable == "time_s"
 
 
-def test_a_gain_made_on_readings_the_effect_does_not_move_is_not_claimed_beside_the_smooth():
+def test_a_gain_made_on_readings_the_effect_does_not_move_is_not_claimed_beside_the_smooth(study_campaign):
     """Validation study seed 2027, case 29: a bending, a pickup of the heater current and a re-absorption, coil
     heated. Beside the smooth in time a backlash of 26 um passed every check on a gain of 62 noise variances, of
     which the sweeps, the only readings a backlash moves, gave 6: the rest was the baseline and the smooth refitted
     beside it on the readings taken at one place while the coil heated. Now it is not claimed, and neither is
     tau(x) there (15 of 39)."""
-    result = run_diagnosis(_study_campaign(2027, 29))
+    result = run_diagnosis(study_campaign(2027, 29))
     assert not result.claimed
     assert result.verdict == "missing_effect"
