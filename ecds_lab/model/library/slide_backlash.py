@@ -2,6 +2,13 @@
 
 Lead-screw play leaves the carriage short of the commanded position by half the backlash,
 on the side it came from: x_eff = x - direction * b / 2 (direction +1 increasing x, -1 decreasing).
+
+It shows as the difference between the same position approached from both sides under the same conditions; with
+the calibration taking any offset shared by every reading, that difference is all that tells it. So it is tested
+only where ``MIN_PAIRED_POSITIONS`` positions were each approached from both sides at the same coil and target
+temperatures (in the same ``SAME_TEMPERATURE_K`` bin): a slide sweeping up that comes down only to start a hot
+run has its two sides at different temperatures, and whatever the heat does there (a plate bending nearer) would
+be read as play.
 """
 
 from __future__ import annotations
@@ -12,9 +19,17 @@ from typing import ClassVar
 import numpy as np
 
 from ecds_lab.data.measurements import Measurements
+from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.model.effects import Effect, register
+from ecds_lab.model.library.remembered import Remembered
 from ecds_lab.model.parameters import Parameter
 from ecds_lab.model.tangents import Tangent, plus
+
+#: Positions a backlash needs approached from both sides at the same temperatures: one such pair differs by
+#: whatever else differs between its two visits, two show an offset that follows the direction.
+MIN_PAIRED_POSITIONS = 2
+#: Coil and target temperatures within the same bin of this width (K) count as the same conditions.
+SAME_TEMPERATURE_K = 2.0
 
 
 @register
@@ -26,12 +41,23 @@ class SlideBacklash(Effect):
     reveal = "approach every position from both directions (a forward and a backward sweep)"
     reveal_needs: ClassVar[dict[str, float]] = {"directions": 2}
 
+    def __init__(self, sensor: SensorConfig) -> None:
+        super().__init__(sensor)
+        self._paired: Remembered[int] = Remembered()
+
     def parameters(self) -> list[Parameter]:
         return [Parameter("backlash", 0.0, -1e-3, 1e-3, "m", "slide backlash (play between directions)", 2e-5)]
 
     def unidentifiable(self, data: Measurements) -> dict[str, str]:
         directions = set(np.unique(data.direction[np.isfinite(data.x_m)]).tolist()) - {0}
-        return {} if directions == {-1, 1} else {"backlash": "the data approach from one direction only"}
+        if directions != {-1, 1}:
+            return {"backlash": "the data approach from one direction only"}
+        paired = self._paired.get(data, None, lambda: _paired_positions(data))
+        if paired < MIN_PAIRED_POSITIONS:
+            return {"backlash": f"{paired} position(s) approached from both directions at the same temperatures "
+                                f"(a backlash needs {MIN_PAIRED_POSITIONS}; the two sides differ in temperature "
+                                f"elsewhere)"}
+        return {}
 
     def effective_distance(self, x_m: np.ndarray, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
         return x_m - data.direction * p["backlash"] / 2
@@ -39,3 +65,22 @@ class SlideBacklash(Effect):
     def d_effective_distance(self, x_m: np.ndarray, dx: Tangent, data: Measurements,
                              p: Mapping[str, float]) -> tuple[np.ndarray, Tangent]:
         return self.effective_distance(x_m, data, p), plus(dx, {"backlash": -0.5 * data.direction})
+
+
+def _paired_positions(data: Measurements) -> int:
+    """How many positions (to 1 um) were approached from both directions with the coil and target temperatures in
+    the same ``SAME_TEMPERATURE_K`` bins, on any of the grids of bins shifted by half a bin in either temperature (so
+    two approaches within half a bin of each other always share one, wherever the bins' edges fall)."""
+    rows = np.isfinite(data.x_m) & (data.direction != 0)
+    if not rows.any():
+        return 0
+    x_um, direction = np.round(data.x_m[rows] * 1e6), data.direction[rows]
+    coil, target = data.t_coil_c[rows] / SAME_TEMPERATURE_K, data.t_target_c[rows] / SAME_TEMPERATURE_K
+    paired: set[float] = set()
+    for coil_shift in (0.0, 0.5):
+        for target_shift in (0.0, 0.5):
+            conditions = np.column_stack([x_um, np.floor(coil + coil_shift), np.floor(target + target_shift),
+                                          direction])
+            places, sides = np.unique(np.unique(conditions, axis=0)[:, :3], axis=0, return_counts=True)
+            paired.update(places[sides > 1, 0].tolist())
+    return len(paired)
