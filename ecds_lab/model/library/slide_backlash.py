@@ -74,13 +74,16 @@ def _paired_positions(data: Measurements) -> int:
     rows = np.isfinite(data.x_m) & (data.direction != 0)
     if not rows.any():
         return 0
-    x_um, direction = np.round(data.x_m[rows] * 1e6), data.direction[rows]
+    x_um = np.round(data.x_m[rows] * 1e6).astype(np.int64)
+    up = (data.direction[rows] > 0).astype(np.int64)
     coil, target = data.t_coil_c[rows] / SAME_TEMPERATURE_K, data.t_target_c[rows] / SAME_TEMPERATURE_K
-    paired: set[float] = set()
+    paired: set[int] = set()
     for coil_shift in (0.0, 0.5):
         for target_shift in (0.0, 0.5):
-            conditions = np.column_stack([x_um, np.floor(coil + coil_shift), np.floor(target + target_shift),
-                                          direction])
-            places, sides = np.unique(np.unique(conditions, axis=0)[:, :3], axis=0, return_counts=True)
-            paired.update(places[sides > 1, 0].tolist())
+            # one integer per (position, coil bin, target bin): 2^20 bins each is beyond any temperature
+            place = (x_um << 40) + (np.floor(coil + coil_shift).astype(np.int64) % (1 << 20) << 20) \
+                + np.floor(target + target_shift).astype(np.int64) % (1 << 20)
+            approaches = np.unique(place * 2 + up)
+            places, sides = np.unique(approaches // 2, return_counts=True)
+            paired.update((places[sides > 1] >> 40).tolist())
     return len(paired)
