@@ -125,6 +125,14 @@ class Effect:
         """The effect's own parameters with starting values, bounds and units."""
         return []
 
+    def key_names(self) -> tuple[str, ...]:
+        """The parameters that must be clearly determined for it to be named: ``key_parameters``, or all its own."""
+        return self.key_parameters or tuple(p.name for p in self.parameters())
+
+    def size_names(self) -> tuple[str, ...]:
+        """The parameters that together make its size: ``size_parameters``, or the key ones (``key_names``)."""
+        return self.size_parameters or self.key_names()
+
     def unidentifiable(self, data: Measurements) -> dict[str, str]:
         """Parameters these data cannot determine (name -> reason); they are fixed at their start."""
         return {}

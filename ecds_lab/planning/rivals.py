@@ -193,9 +193,9 @@ def hypothetical_size(registry: EffectRegistry, effect: str, sensor: SensorConfi
     cls = registry.get(effect)
     if cls is None:
         return {}
-    parameters = cls(sensor).parameters()
-    keys = cls.key_parameters or tuple(p.name for p in parameters)
-    return {p.name: (p.value if p.value != 0 else p.prior_scale) for p in parameters if p.name in keys}
+    made = cls(sensor)
+    keys = made.key_names()
+    return {p.name: (p.value if p.value != 0 else p.prior_scale) for p in made.parameters() if p.name in keys}
 
 
 def tie_rivals(result: Diagnosis, group: Sequence[str], registry: EffectRegistry) -> list[Rival]:

@@ -14,8 +14,8 @@ from ecds_lab.analysis.diagnosis.checks import identified, plausible_size
 def _candidate(values: dict[str, float], units: dict[str, str], plausible: dict[str, tuple[float, float]]):
     params = {name: SimpleNamespace(name=name, value=v, unit=units[name], lower=-3.0, upper=3.0, fixed=False)
               for name, v in values.items()}
-    effect = SimpleNamespace(key_parameters=tuple(values), size_parameters=(), parameters=lambda: list(params.values()),
-                             plausible=plausible)
+    effect = SimpleNamespace(key_names=lambda: tuple(values), size_names=lambda: tuple(values),
+                             parameters=lambda: list(params.values()), plausible=plausible)
     fit = SimpleNamespace(parameter=params.__getitem__, values=dict(values), free_names=list(values),
                           covariance=np.full((len(values), len(values)), math.inf),
                           stderr={name: math.inf for name in values})

@@ -428,6 +428,6 @@ def test_a_claim_is_made_at_a_fit_that_passes_its_checks(study_campaign):
     result = run_diagnosis(study_campaign(2028, 44))
     for step in result.steps[1:]:
         effect = step.fit.model.effects[-1]
-        keys = effect.key_parameters or tuple(p.name for p in effect.parameters())
+        keys = effect.key_names()
         assert not [name for name in keys if name in step.fit.free_names and at_bound(step.fit, name)], (
             step.effects, result.explanation)

@@ -20,7 +20,8 @@ def _fitted(values: dict[str, float], covariance: np.ndarray, size: tuple[str, .
             keys: tuple[str, ...] | None = None) -> SimpleNamespace:
     params = {name: SimpleNamespace(name=name, value=v, unit="1", lower=-3.0, upper=3.0, fixed=False)
               for name, v in values.items()}
-    effect = SimpleNamespace(name="curve", key_parameters=tuple(values) if keys is None else keys, size_parameters=size,
+    key_names = tuple(values) if keys is None else keys
+    effect = SimpleNamespace(name="curve", key_names=lambda: key_names, size_names=lambda: size or key_names,
                              parameters=lambda: list(params.values()), plausible={})
     stderr = dict(zip(values, np.sqrt(np.diag(covariance)).tolist(), strict=True))
     fit = SimpleNamespace(parameter=params.__getitem__, values=dict(values), free_names=list(values),

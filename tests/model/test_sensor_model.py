@@ -189,3 +189,14 @@ def test_a_registry_enters_an_effect_once():
         registry.add(Other)
     with pytest.raises(ValueError, match="no name"):
         effects_module.register(type("Nameless", (Effect,), {}))
+
+
+def test_an_effects_key_and_size_parameters_default_to_all_its_own():
+    """What the diagnosis must see determined (``key_names``) and what makes an effect's size (``size_names``): the
+    declared ones, else every parameter of the effect, and the size the key ones."""
+    sensor = SensorConfig()
+    assert make_effect("slide_backlash", sensor).key_names() == ("backlash",)  # none declared: all its own
+    screw = make_effect("slide_lead_screw", sensor)
+    assert screw.key_names() == ("screw_sin", "screw_cos") == screw.size_names()
+    bending = make_effect("target_bending", sensor)
+    assert bending.size_names() == ("bending", "bending_quadratic") != bending.key_names()

@@ -109,7 +109,7 @@ def gain_where_it_acts(candidate: Candidate, base: FitResult, noise: NoiseEstima
     parameters zero, ``Effect.size_parameters``, or its ``absent_form``), everything else held. A gain elsewhere
     is the rest of the model refitted beside it (a backlash moves no reading taken without a direction)."""
     effect = candidate.effect_object
-    size = effect.size_parameters or effect.key_parameters or tuple(p.name for p in effect.parameters())
+    size = effect.size_names()
     absent = {**candidate.fit.values, **{name: 0.0 for name in size}, **effect.absent_form}
     model = candidate.fit.model
     with np.errstate(all="ignore"):
@@ -161,7 +161,7 @@ def identified(candidate: Candidate) -> tuple[bool, list[str]]:
     zero, or the effect's size parameters (``Effect.size_parameters``, default the key ones) jointly at the same
     confidence (``joint_wald``)."""
     effect = candidate.effect_object
-    keys = effect.key_parameters or tuple(p.name for p in effect.parameters())
+    keys = effect.key_names()
     reasons, best_z = [], 0.0
     for name in keys:
         p = candidate.fit.parameter(name)
@@ -170,7 +170,7 @@ def identified(candidate: Candidate) -> tuple[bool, list[str]]:
         if at_bound(candidate.fit, name):
             reasons.append(f"{name} sits at its bound ({_shown(p.value, p.unit)})")
         best_z = max(best_z, _z(candidate, name))
-    size = tuple(n for n in (effect.size_parameters or keys) if not candidate.fit.parameter(n).fixed)
+    size = tuple(n for n in effect.size_names() if not candidate.fit.parameter(n).fixed)
     if best_z < MIN_Z and not joint_wald(candidate, size) >= float(chdtri(max(len(size), 1), JOINT_TAIL)):
         jointly = f", {', '.join(size)} jointly as well" if len(size) > 1 else ""
         reasons.append(f"its key parameter{'s' if len(keys) > 1 else ''} {', '.join(keys)} "

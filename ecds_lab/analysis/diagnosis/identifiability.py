@@ -137,7 +137,7 @@ def absorbed(model: SensorModel, data: Measurements, values: Mapping[str, float]
     ``values``: the current solution with the effect's own parameters at their starts."""
     effect = model.effects[-1]
     own = effect.parameters()
-    keys = list(effect.key_parameters or [p.name for p in own])
+    keys = list(effect.key_names())
     target = columns(model, data, values, keys, _steps(own)) * _weights(data, noise)
     norms = np.linalg.norm(target, axis=0)
     if not (norms > 0).any():

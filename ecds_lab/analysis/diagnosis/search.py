@@ -589,7 +589,7 @@ def _round(screen: Measurements, clean: Measurements, current: Step, names: list
         model = models.model([*current.effects, name])
         effect = model.effects[-1]
         fixed = model.unidentifiable(screen)
-        keys = effect.key_parameters or tuple(p.name for p in effect.parameters())
+        keys = effect.key_names()
         if all(k in fixed for k in keys):
             return "; ".join(sorted({fixed[k] for k in keys}))
         from_residual = effect.starts_from_residual(screen, shift_m, shift_weights)
