@@ -40,6 +40,11 @@ def whitened(residuals_ppm: np.ndarray, data: Measurements, noise: NoiseEstimate
     return np.asarray(residuals_ppm, float) * (noise.ppm / noise.sigma_ppm(data))
 
 
+def _in_noise_units(fit: FitResult, data: Measurements, noise: NoiseEstimate) -> np.ndarray:
+    """A fit's residuals weighed by each reading's noise (``whitened``), in units of the mean noise."""
+    return whitened(fit.residuals_ppm, data, noise) / noise.ppm
+
+
 def score_candidate(name: str, fitted: FitResult, base: FitResult, noise: NoiseEstimate, data: Measurements,
                     n_full: int) -> Candidate:
     """Evidence of a fitted candidate against the current model: BIC overall and on its signature, and
@@ -75,8 +80,7 @@ def worst_stretch(candidate: Candidate, base: FitResult, noise: NoiseEstimate, d
     there is sum(d^2 + 2 d e), whose noise part has the standard deviation 2 sqrt(sum d^2) (times the design
     effect's root). A stretch far below that pays for a gain made elsewhere: the effect's size is set by structure
     it does not describe."""
-    rb = whitened(base.residuals_ppm, data, noise) / noise.ppm
-    rc = whitened(candidate.fit.residuals_ppm, data, noise) / noise.ppm
+    rb, rc = _in_noise_units(base, data, noise), _in_noise_units(candidate.fit, data, noise)
     labels = stretch_labels(data)
     deff = max(noise.design_effect, 1.0)
     gain = np.bincount(labels, weights=rb * rb - rc * rc)
@@ -115,8 +119,7 @@ def gain_where_it_acts(candidate: Candidate, base: FitResult, noise: NoiseEstima
     with np.errstate(all="ignore"):
         action = (model.predict(data, candidate.fit.values) / model.predict(data, absent) - 1.0) * 1e6
     acts = np.abs(whitened(np.nan_to_num(action), data, noise)) >= SIGNATURE_SHARE * noise.ppm
-    rb = whitened(base.residuals_ppm, data, noise)[acts] / noise.ppm
-    rc = whitened(candidate.fit.residuals_ppm, data, noise)[acts] / noise.ppm
+    rb, rc = _in_noise_units(base, data, noise)[acts], _in_noise_units(candidate.fit, data, noise)[acts]
     return float(rb @ rb - rc @ rc) / max(noise.design_effect, 1.0)
 
 

@@ -43,21 +43,14 @@ class SlideBacklash(Effect):
 
     def __init__(self, sensor: SensorConfig) -> None:
         super().__init__(sensor)
-        self._paired: Remembered[int] = Remembered()
+        self._untestable: Remembered[dict[str, str]] = Remembered()
 
     def parameters(self) -> list[Parameter]:
         return [Parameter("backlash", 0.0, -1e-3, 1e-3, "m", "slide backlash (play between directions)", 2e-5)]
 
     def unidentifiable(self, data: Measurements) -> dict[str, str]:
-        directions = set(np.unique(data.direction[np.isfinite(data.x_m)]).tolist()) - {0}
-        if directions != {-1, 1}:
-            return {"backlash": "the data approach from one direction only"}
-        paired = self._paired.get(data, None, lambda: _paired_positions(data))
-        if paired < MIN_PAIRED_POSITIONS:
-            return {"backlash": f"{paired} position(s) approached from both directions at the same temperatures "
-                                f"(a backlash needs {MIN_PAIRED_POSITIONS}; the two sides differ in temperature "
-                                f"elsewhere)"}
-        return {}
+        # every fit asks: worked out once per data (``_untestable``)
+        return dict(self._untestable.get(data, None, lambda: _untestable(data)))
 
     def effective_distance(self, x_m: np.ndarray, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
         return x_m - data.direction * p["backlash"] / 2
@@ -65,6 +58,19 @@ class SlideBacklash(Effect):
     def d_effective_distance(self, x_m: np.ndarray, dx: Tangent, data: Measurements,
                              p: Mapping[str, float]) -> tuple[np.ndarray, Tangent]:
         return self.effective_distance(x_m, data, p), plus(dx, {"backlash": -0.5 * data.direction})
+
+
+def _untestable(data: Measurements) -> dict[str, str]:
+    """Why these data cannot tell a backlash (``SlideBacklash.unidentifiable``): one direction only, or too few
+    positions approached from both sides at the same temperatures."""
+    directions = set(np.unique(data.direction[np.isfinite(data.x_m)]).tolist()) - {0}
+    if directions != {-1, 1}:
+        return {"backlash": "the data approach from one direction only"}
+    paired = _paired_positions(data)
+    if paired < MIN_PAIRED_POSITIONS:
+        return {"backlash": f"{paired} position(s) approached from both directions at the same temperatures "
+                            f"(a backlash needs {MIN_PAIRED_POSITIONS}; the two sides differ in temperature elsewhere)"}
+    return {}
 
 
 def _paired_positions(data: Measurements) -> int:

@@ -8,18 +8,9 @@ import math
 import numpy as np
 import pytest
 
-from ecds_lab.data.measurements import Measurements
 from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.model.effects import library, make_effect
 from ecds_lab.model.library.slide_lead_screw import COMMON_LEADS_M, SlideLeadScrew
-
-
-def at_positions(x_mm) -> Measurements:
-    x = np.asarray(x_mm, float)
-    n = len(x)
-    return Measurements(time_s=np.arange(n, dtype=float), x_m=x * 1e-3, freq_hz=np.full(n, 15000.0),
-                        t_coil_c=np.full(n, 22.0), t_target_c=np.full(n, 22.0), ls_h=np.full(n, 0.05),
-                        rs_ohm=np.full(n, 20.0))
 
 
 @pytest.fixture
@@ -27,9 +18,9 @@ def screw() -> SlideLeadScrew:
     return SlideLeadScrew(SensorConfig())
 
 
-def test_the_distance_runs_ahead_and_behind_over_one_lead(screw):
+def test_the_distance_runs_ahead_and_behind_over_one_lead(screw, readings_at):
     lead = 4e-3
-    data = at_positions([40.0, 41.0, 42.0, 43.0, 44.0, math.inf])
+    data = readings_at([40.0, 41.0, 42.0, 43.0, 44.0, math.inf])
     p = {"screw_sin": 10e-6, "screw_cos": -3e-6, "screw_lead": lead}
     moved = screw.effective_distance(data.x_m, data, p)
     shift = moved[:5] - data.x_m[:5]
@@ -38,24 +29,24 @@ def test_the_distance_runs_ahead_and_behind_over_one_lead(screw):
     assert np.isinf(moved[5])  # the coil in air stays in air
 
 
-def test_the_hook_shifts_the_distance_it_is_given(screw):
+def test_the_hook_shifts_the_distance_it_is_given(screw, readings_at):
     """Chained after another distance effect, the error adds to that effect's distance."""
-    data = at_positions(np.linspace(20.0, 30.0, 11))
+    data = readings_at(np.linspace(20.0, 30.0, 11))
     p = {"screw_sin": 5e-6, "screw_cos": 0.0, "screw_lead": 5e-3}
     moved = data.x_m - 1e-4
     np.testing.assert_allclose(screw.effective_distance(moved, data, p) - moved,
                                screw.effective_distance(data.x_m, data, p) - data.x_m, atol=1e-15)
 
 
-def test_too_few_positions_or_steps_too_coarse_leave_it_undetermined(screw):
-    few = screw.unidentifiable(at_positions([20.0, 40.0, 60.0, 80.0, 100.0] * 4))
+def test_too_few_positions_or_steps_too_coarse_leave_it_undetermined(screw, readings_at):
+    few = screw.unidentifiable(readings_at([20.0, 40.0, 60.0, 80.0, 100.0] * 4))
     assert set(few) == {"screw_sin", "screw_cos", "screw_lead"} and "5 distinct positions" in few["screw_lead"]
-    coarse = screw.unidentifiable(at_positions(np.linspace(20.0, 100.0, 9)))  # 10 mm steps: no lead <= 20 mm
+    coarse = screw.unidentifiable(readings_at(np.linspace(20.0, 100.0, 9)))  # 10 mm steps: no lead <= 20 mm
     assert set(coarse) == {"screw_sin", "screw_cos", "screw_lead"} and "10 mm apart" in coarse["screw_sin"]
     # 6.67 mm steps resolve the leads of 13.3-20 mm the effect declares (issue 23: its whole range is tested)
-    assert screw.unidentifiable(at_positions(np.linspace(20.0, 100.0, 13))) == {}
+    assert screw.unidentifiable(readings_at(np.linspace(20.0, 100.0, 13))) == {}
     fine = np.r_[np.arange(20.0, 30.0, 1.0), np.arange(30.0, 100.1, 5.0)]
-    assert screw.unidentifiable(at_positions([*fine, math.inf])) == {}
+    assert screw.unidentifiable(readings_at([*fine, math.inf])) == {}
 
 
 def test_it_is_in_the_library_with_plausible_sizes_and_the_common_leads_as_starts():
@@ -71,20 +62,20 @@ def test_it_is_in_the_library_with_plausible_sizes_and_the_common_leads_as_start
                for lead in COMMON_LEADS_M)
 
 
-def test_a_lead_the_positions_cannot_resolve_moves_nothing(screw):
+def test_a_lead_the_positions_cannot_resolve_moves_nothing(screw, readings_at):
     """On 2 mm steps a 3 mm lead is an alias of a 6 mm one: the data cannot tell it, so it shifts nothing."""
-    data = at_positions(np.arange(20.0, 60.0, 2.0))
+    data = readings_at(np.arange(20.0, 60.0, 2.0))
     assert screw.shortest_lead(data) == pytest.approx(4e-3)
     p = {"screw_sin": 10e-6, "screw_cos": 0.0}
     np.testing.assert_array_equal(screw.effective_distance(data.x_m, data, {**p, "screw_lead": 3e-3}), data.x_m)
     assert np.ptp(screw.effective_distance(data.x_m, data, {**p, "screw_lead": 6e-3}) - data.x_m) > 15e-6
 
 
-def test_one_close_pair_among_coarser_steps_resolves_no_shorter_lead(screw):
+def test_one_close_pair_among_coarser_steps_resolves_no_shorter_lead(screw, readings_at):
     """Steps of 0.75 mm resolve leads from 1.5 mm; a pair 0.083 mm apart among them does not make a 0.78 mm lead
     (there an alias of a 22 mm wave) determinable: it moves nothing."""
     fine = np.r_[30.667, np.arange(30.75, 36.01, 0.75), np.arange(40.0, 100.1, 5.0)]
-    data = at_positions(fine)
+    data = readings_at(fine)
     assert screw.shortest_lead(data) == pytest.approx(1.5e-3)
     p = {"screw_sin": 10e-6, "screw_cos": 0.0}
     np.testing.assert_array_equal(screw.effective_distance(data.x_m, data, {**p, "screw_lead": 0.78e-3}), data.x_m)
