@@ -69,6 +69,11 @@ _INSIDE_BOUND = 1e-3
 #: evaluations and 38,000 (0.7 %) in the next 365, which cost 566 s; at this budget it stops 23,000 above that end
 #: (0.1 % of the model's chi-square; the claim's gain is 5 million). At 10^5 readings no polish comes near it.
 _POLISH_BUDGET = 4
+#: A polish told the noise (``fit_model``'s ``noise_ppm``) also stops at the first step that gains less than this in
+#: chi-square, in units of that noise's variance: a tenth of one reading's variance decides nothing the diagnosis
+#: weighs (its evidence needs 25). A relative cost change of 1e-8 asks for 0.01 at 10^5 readings left at 4x the
+#: noise, three more evaluations of every reading in some polishes there.
+NEGLIGIBLE_CHI2 = 0.1
 _SEARCH_GAIN = 1e-6
 #: Huber's loss turns from squares to linear this many noise sigmas out (Gaussian efficiency ~99 %; a
 #: reading 20 sigmas out then pulls a parameter 10x less than under squares).
@@ -186,7 +191,7 @@ def fit(data: Measurements, effects: Sequence[str | Effect] = (), sensor: Sensor
 def fit_model(model: SensorModel, data: Measurements, *, start: Mapping[str, float] | None = None,
               fixed: Mapping[str, float] | None = None, multistart: bool | None = None,
               rows: np.ndarray | None = None, screening: bool = False, noise: NoiseEstimate | None = None,
-              robust: bool = False, polish: bool = False) -> FitResult:
+              robust: bool = False, polish: bool = False, noise_ppm: float | None = None) -> FitResult:
     """Fit a model: parameters the data cannot determine and those in ``fixed`` are held constant.
 
     ``start`` overrides start values; ``multistart`` None tries more starts only when needed.
@@ -198,7 +203,8 @@ def fit_model(model: SensorModel, data: Measurements, *, start: Mapping[str, flo
     uses Huber's loss beyond ``ROBUST_SIGMAS`` x ``noise.ppm`` (module docstring).
     ``polish``: ``start`` is this model's solution on other readings of the campaign (a subsample), near the answer,
     so the solver's first trust region is not confined by a parameter starting on its bound (``_solve``); with
-    ``screening``, it stops after ``_POLISH_BUDGET`` evaluations per parameter.
+    ``screening``, it stops after ``_POLISH_BUDGET`` evaluations per parameter, and with ``noise_ppm`` (one reading's
+    noise, ppm) at a step gaining less than ``NEGLIGIBLE_CHI2`` in that noise's variance.
     """
     if len(data) == 0:
         raise ValueError("no measurements to fit")
@@ -216,7 +222,7 @@ def fit_model(model: SensorModel, data: Measurements, *, start: Mapping[str, flo
     given = set(reasons) | set(start or {})  # an extension the caller fixed or started is not nested
     simpler = {name: value for effect in model.effects if not given & set(effect.simpler_form)
                for name, value in effect.simpler_form.items()}
-    best, starts = _simpler_first(model, data, params, simpler, rows, screening, terms, polish)
+    best, starts = _simpler_first(model, data, params, simpler, rows, screening, terms, polish, noise_ppm)
     if multistart or (multistart is None and _needs_restart(best, _repeat_noise(fitted, best))):
         alternatives = _alternative_starts(model, data, params)
         if rows is None and terms.weights is None and len(data) > _SEARCH_ROWS:
@@ -383,6 +389,21 @@ def _residual_function(model: SensorModel, data: Measurements, scaling: Scaling,
     return residuals
 
 
+def _first_known(residuals: Callable[[np.ndarray], np.ndarray], theta0: np.ndarray, first: np.ndarray
+                 ) -> Callable[[np.ndarray], np.ndarray]:
+    """``residuals`` answering its first call at ``theta0`` with ``first``, already computed (the solver's first
+    evaluation, every reading's, made once)."""
+    known = [first]
+
+    def answered(theta: np.ndarray) -> np.ndarray:
+        if known and np.array_equal(theta, theta0):
+            return known.pop()
+        known.clear()
+        return residuals(theta)
+
+    return answered
+
+
 #: Rows of the Jacobian filled at a time (``_jacobian_function``): 4,096 x 30 parameters is 1 MB.
 _JACOBIAN_BLOCK = 4096
 
@@ -421,9 +442,10 @@ def _jacobian_function(model: SensorModel, data: Measurements, scaling: Scaling,
 
 def _solve(model: SensorModel, data: Measurements, params: Sequence[Parameter],
            rows: np.ndarray | None = None, screening: bool = False,
-           terms: _ErrorTerms = _ErrorTerms(), polish: bool = False) -> tuple[Any, Scaling]:
-    """One local least-squares fit from the parameters' current values (theta = 0); ``polish`` as for
-    ``fit_model``."""
+           terms: _ErrorTerms = _ErrorTerms(), polish: bool = False, noise_ppm: float | None = None
+           ) -> tuple[Any, Scaling]:
+    """One local least-squares fit from the parameters' current values (theta = 0); ``polish`` and ``noise_ppm`` as
+    for ``fit_model``."""
     scaling = Scaling(params)
     residuals = _residual_function(model, data, scaling, rows, terms.solve_weights)
     if not scaling.names:
@@ -437,6 +459,11 @@ def _solve(model: SensorModel, data: Measurements, params: Sequence[Parameter],
     inside = np.minimum(_INSIDE_BOUND if polish else 1e-9, 0.25 * (upper - lower))
     theta0 = np.clip(np.zeros(len(scaling.names)), lower + inside, upper - inside)
     tolerance, budget = (1e-8, _POLISH_BUDGET if polish else 15) if screening else (1e-12, 200)
+    cost_tolerance = tolerance
+    if polish and noise_ppm and screening:  # trf stops at a step gaining less than ftol x the cost before it
+        first = residuals(theta0)
+        residuals = _first_known(residuals, theta0, first)
+        cost_tolerance = max(tolerance, NEGLIGIBLE_CHI2 * noise_ppm**2 / float(first @ first))
     # The exact Jacobian where every effect gives its derivatives (one pass of the model per Jacobian, against one
     # per free parameter for finite differences); otherwise scipy's finite differences.
     jac = _jacobian_function(model, data, scaling, rows, terms.solve_weights) if model.has_derivatives else "2-point"
@@ -445,23 +472,24 @@ def _solve(model: SensorModel, data: Measurements, params: Sequence[Parameter],
     # since threads only contend on a matrix this thin (``blas_threads``), and through its QR (``tall_svd``).
     with one_blas_thread(), tall_svd():
         result = least_squares(residuals, theta0, jac=jac, bounds=(lower, upper), method="trf", x_scale=1.0,
-                               ftol=tolerance, xtol=tolerance, gtol=tolerance, max_nfev=budget * (len(theta0) + 1))
+                               ftol=cost_tolerance, xtol=tolerance, gtol=tolerance, max_nfev=budget * (len(theta0) + 1))
     return result, scaling
 
 
 def _simpler_first(model: SensorModel, data: Measurements, params: Sequence[Parameter], simpler: Mapping[str, float],
                    rows: np.ndarray | None, screening: bool,
-                   terms: _ErrorTerms = _ErrorTerms(), polish: bool = False) -> tuple[tuple[Any, Scaling], int]:
+                   terms: _ErrorTerms = _ErrorTerms(), polish: bool = False, noise_ppm: float | None = None
+                   ) -> tuple[tuple[Any, Scaling], int]:
     """The local fit, nested where effects declare a simpler form (``Effect.simpler_form``): solved
     with those parameters held at it first, then with them free from their own start values and
     every other parameter at that solution; the better of the two (so never worse than the simpler
-    law). Also the number of solves. ``polish`` as for ``fit_model``."""
+    law). Also the number of solves. ``polish`` and ``noise_ppm`` as for ``fit_model``."""
     if not simpler:
-        return _solve(model, data, params, rows, screening, terms, polish), 1
-    first = _solve(model, data, update(params, fixed=simpler), rows, screening, terms, polish)
+        return _solve(model, data, params, rows, screening, terms, polish, noise_ppm), 1
+    first = _solve(model, data, update(params, fixed=simpler), rows, screening, terms, polish, noise_ppm)
     result, scaling = first
     solution = {k: v for k, v in scaling.values(result.x).items() if k not in simpler}
-    second = _solve(model, data, update(params, values=solution), rows, screening, terms, polish)
+    second = _solve(model, data, update(params, values=solution), rows, screening, terms, polish, noise_ppm)
     return (second if second[0].cost <= result.cost else first), 2
 
 

@@ -119,16 +119,17 @@ def test_a_large_campaign_tries_its_restarts_on_a_subsample_and_still_finds_them
         assert abs(result.values[name] - truth[name]) <= 4 * result.stderr[name], name
 
 
-def polished_and_plain(campaign, offset: float):
+def polished_and_plain(campaign, offset: float, noise_ppm: float | None = None):
     """A drying that is absent in truth (conductance 0, every water molecule bound: both on their bounds), fitted by
-    a screening fit and a screening polish from a start ``offset`` away in L0, alpha and p1 (1: near the answer)."""
+    a screening fit and a screening polish (told ``noise_ppm``) from a start ``offset`` away in L0, alpha and p1 (1:
+    near the answer)."""
     model = SensorModel(None, ["parasitic_capacitance"])
     truth = values_of(model.parameters()) | {"moist_dC": 2e-13, "moist_dG": 0.0, "bound_share": 1.0}
     rng = np.random.default_rng(3)
     data = replace(campaign, ls_h=model.predict(campaign, truth) * (1 + 20e-6 * rng.standard_normal(len(campaign))))
     start = truth | {"L0": truth["L0"] * (1 + offset * 3e-5), "alpha": truth["alpha"] + offset * 2e-6,
                      "p1": truth["p1"] + offset * 2e-5}
-    return (fit_model(model, data, start=start, multistart=False, screening=True, polish=True),
+    return (fit_model(model, data, start=start, multistart=False, screening=True, polish=True, noise_ppm=noise_ppm),
             fit_model(model, data, start=start, multistart=False, screening=True))
 
 
@@ -150,6 +151,18 @@ def test_a_screening_polish_stops_at_its_budget_of_evaluations(campaign, monkeyp
     budget = len(polished.free_names) + 1
     assert polished.nfev <= budget < plain.nfev, (polished.nfev, budget, plain.nfev)
     assert polished.rms_ppm == pytest.approx(plain.rms_ppm, rel=1e-3)
+
+
+def test_a_polish_told_the_noise_stops_at_a_step_that_gains_a_negligible_chi_square(campaign, monkeypatch):
+    """Told the reading noise, a polish stops at the first step gaining less than ``NEGLIGIBLE_CHI2`` in its
+    variance: never later than without it, and where it leaves the fit less than that is left to gain. Raised
+    here until it bites, it stops sooner than without it."""
+    polished, _ = polished_and_plain(campaign, 10.0)
+    told = polished_and_plain(campaign, 10.0, NOISE_PPM)[0]
+    chi2 = (told.residuals_ppm @ told.residuals_ppm - polished.residuals_ppm @ polished.residuals_ppm) / NOISE_PPM**2
+    assert told.nfev <= polished.nfev and abs(chi2) < 1.0, (told.nfev, polished.nfev, chi2)
+    monkeypatch.setattr(fitting, "NEGLIGIBLE_CHI2", 1e3)
+    assert polished_and_plain(campaign, 10.0, NOISE_PPM)[0].nfev < polished.nfev
 
 
 def test_a_solution_evaluated_on_other_readings_carries_their_residuals_and_its_own_noise(baseline_fit, campaign):

@@ -224,11 +224,11 @@ def _run_diagnosis(data: Measurements, effects: Sequence[str], sensor: SensorCon
             fresh = False
             continue
         earlier = len(current.effects) - len(effects)
-        refit, screen_start = _full_fit_beside_starts(clean, best, earlier, screen)
+        refit, screen_start = _full_fit_beside_starts(clean, best, earlier, screen, noise.ppm)
         if screen is not clean:  # the claim must hold on every reading, not only on the screened ones
             confirmed = _confirmed(best.effect, refit, current.fit, noise, clean)
             if not confirmed.passes and _course_open(confirmed):
-                refit = _from_own_starts(clean, refit)
+                refit = _from_own_starts(clean, refit, noise.ppm)
                 confirmed = _confirmed(best.effect, refit, current.fit, noise, clean)
             if not confirmed.passes:
                 best.checks["confirmed_on_all_readings"] = False
@@ -239,7 +239,8 @@ def _run_diagnosis(data: Measurements, effects: Sequence[str], sensor: SensorCon
         members = [c.effect for c in group] if len(group) > 1 else []
         if members:
             alternatives.append(members)
-        refit = _held(_repolished(refit, clean, earlier, screen_start), refit, best.effect, current.fit, noise, clean)
+        refit = _held(_repolished(refit, clean, earlier, screen_start, noise.ppm), refit, best.effect, current.fit,
+                      noise, clean)
         steps.append(Step([*current.effects, best.effect], refit, residual_mm(refit, clean), full_scale,
                           stands_for=members))
         names = [n for n in names if n not in {c.effect for c in group}]
@@ -791,18 +792,19 @@ class _ScreenStart:
     first: list[FitResult] | None
 
 
-def _full_fit_beside_starts(clean: Measurements, candidate: Candidate, earlier: int, screen: Measurements
-                            ) -> tuple[FitResult, _ScreenStart | None]:
+def _full_fit_beside_starts(clean: Measurements, candidate: Candidate, earlier: int, screen: Measurements,
+                            noise_ppm: float | None = None) -> tuple[FitResult, _ScreenStart | None]:
     """The claim refitted on every reading (``_full_fit``) and, where a repolish will try the starts of the
     ``earlier`` effects on the screening subsample (``_repolished``), its start there, refitted from the candidate's
     own solution, not from the refit's: so, with processes to share them (``forked``), its first starts are tried on
-    the subsample while this process refits every reading (``forked.each_beside``)."""
+    the subsample while this process refits every reading (``forked.each_beside``). ``noise_ppm`` as for
+    ``_polished``."""
     if earlier <= 0 or screen is clean:
-        return _full_fit(clean, candidate), None
+        return _full_fit(clean, candidate, noise_ppm), None
     model = candidate.fit.model
     on_screen = fit_model(model, screen, start=candidate.fit.values, multistart=False, screening=True)
     first = _alternatives(model, earlier) if forked.workers() > 1 else []
-    refit, tried = forked.each_beside(lambda: _full_fit(clean, candidate),
+    refit, tried = forked.each_beside(lambda: _full_fit(clean, candidate, noise_ppm),
                                       functools.partial(_tried, model, screen, on_screen), first,
                                       shared=referenced(screen, model))
     assert refit is not None
@@ -810,7 +812,7 @@ def _full_fit_beside_starts(clean: Measurements, candidate: Candidate, earlier: 
 
 
 def _repolished(fitted: FitResult, data: Measurements, earlier: int,
-                start: _ScreenStart | None = None) -> FitResult:
+                start: _ScreenStart | None = None, noise_ppm: float | None = None) -> FitResult:
     """The new model refitted from the alternative starts of the effects found before the one just added
     (the last ``earlier`` effects before it): a valley an earlier effect settled in alone (a plate's
     thickness, say) may not be the best once the new effect takes its share. The better fit is kept.
@@ -818,7 +820,7 @@ def _repolished(fitted: FitResult, data: Measurements, earlier: int,
     On a screened campaign the starts are tried on the screening subsample, from ``start``
     (``_full_fit_beside_starts``; None on a campaign not screened), and only a start that wins there is polished
     on every reading (kept if better there too): a dozen full refits of every reading cost minutes at 10^6
-    readings."""
+    readings. ``noise_ppm`` as for ``_polished``."""
     if earlier <= 0:
         return fitted
     if start is None:
@@ -826,7 +828,7 @@ def _repolished(fitted: FitResult, data: Measurements, earlier: int,
     best = _best_start(start.fit, start.screen, earlier, fitted, start.first)
     if best is start.fit:
         return fitted
-    trial = _polished(fitted.model, data, best.values)
+    trial = _polished(fitted.model, data, best.values, noise_ppm)
     return trial if trial.rms_ppm < fitted.rms_ppm * (1 - 1e-3) else fitted
 
 
@@ -888,13 +890,14 @@ def _course_open(confirmed: Candidate) -> bool:
     return bool(_undetermined([confirmed])) and spread is not None and not spread < 1.0
 
 
-def _from_own_starts(clean: Measurements, refit: FitResult) -> FitResult:
+def _from_own_starts(clean: Measurements, refit: FitResult, noise_ppm: float | None = None) -> FitResult:
     """``refit`` or, if better (by 0.1 % of the RMS, as a repolish's start), the claimed model refitted on every
     reading from its effect's alternative starts (``refit`` itself when it has none): each scouted with only the
     effect's own parameters free (the rest held where ``refit`` left them) on the largest screen (LARGEST_SCREEN
     readings: 24 s instead of 143 s at 10^6) and weighed on every reading, the best polished with the model free.
     For a claim whose course its refit on every reading left open (``_course_open``): a 2,500-reading subsample
-    holds a few readings of a half-hour drying, and cannot tell its valleys apart (docs/diagnosis.md)."""
+    holds a few readings of a half-hour drying, and cannot tell its valleys apart (docs/diagnosis.md). ``noise_ppm``
+    as for ``_polished``."""
     model = refit.model
     if not model.effects[-1].alternative_starts:
         return refit
@@ -909,27 +912,30 @@ def _from_own_starts(clean: Measurements, refit: FitResult) -> FitResult:
     if sample is not clean:  # each scout's valley as every reading sees it
         scouts = [evaluated(fit, clean) for fit in scouts]
     best = min(scouts, key=lambda fit: fit.rms_ppm)
-    trial = _polished(model, clean, best.values)
+    trial = _polished(model, clean, best.values, noise_ppm)
     return trial if trial.rms_ppm < refit.rms_ppm * (1 - 1e-3) else refit
 
 
-def _full_fit(clean: Measurements, candidate: Candidate) -> FitResult:
-    """The claimed model on every reading, from the screening solution (itself, when no subsample was screened)."""
+def _full_fit(clean: Measurements, candidate: Candidate, noise_ppm: float | None = None) -> FitResult:
+    """The claimed model on every reading, from the screening solution (itself, when no subsample was screened);
+    ``noise_ppm`` as for ``_polished``."""
     if clean is candidate.fit_data:
         return candidate.fit
     # From the screening solution a polish to a relative cost change of 1e-8 is all the claim needs;
     # the last digits of a slow direction are not worth thousands of evaluations on every reading.
-    return _polished(candidate.fit.model, clean, candidate.fit.values)
+    return _polished(candidate.fit.model, clean, candidate.fit.values, noise_ppm)
 
 
-def _polished(model: SensorModel, clean: Measurements, start: Mapping[str, float]) -> FitResult:
+def _polished(model: SensorModel, clean: Measurements, start: Mapping[str, float], noise_ppm: float | None = None
+              ) -> FitResult:
     """``model`` polished on every reading from ``start`` (its solution on a subsample); on a campaign more than
     SCREEN_GROWTH times the largest screen, polished on that screen first: a walk from a 2,500-reading valley is
-    dozens of evaluations, each a second at 10^6 readings."""
+    dozens of evaluations, each a second at 10^6 readings. With ``noise_ppm`` (the search's reading noise) a polish
+    stops at a step that gains a negligible chi-square (``fitting.NEGLIGIBLE_CHI2``)."""
     if len(clean) > SCREEN_GROWTH * LARGEST_SCREEN:
         start = fit_model(model, screened(clean, LARGEST_SCREEN), start=start, multistart=False, screening=True,
-                          polish=True).values
-    return fit_model(model, clean, start=start, multistart=False, screening=True, polish=True)
+                          polish=True, noise_ppm=noise_ppm).values
+    return fit_model(model, clean, start=start, multistart=False, screening=True, polish=True, noise_ppm=noise_ppm)
 
 
 def _distance_error(result: FitResult, data: Measurements, noise: NoiseEstimate) -> tuple[np.ndarray, np.ndarray]:
