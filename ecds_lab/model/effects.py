@@ -106,6 +106,14 @@ class Effect:
     #: asks whether that predicted action, start against absent, is visible beyond a calibration: a signature
     #: mostly absorbed by one (a shift of the distance at one frequency) may leave far more than the noise.
     absent_form: ClassVar[dict[str, float]] = {}
+    #: Parameter values at which the effect's course runs in time alone, whatever the temperatures (empty: it has
+    #: no such form). The slow drift every instrument has (a bridge's gain creeping with the hours) is such a
+    #: course; a claim must fit better than this form by the evidence a claim needs (``checks.check_in_time``).
+    in_time_alone: ClassVar[dict[str, float]] = {}
+    #: True for an effect whose signature a slow drift in time leaves as well between sweeps taken one after another
+    #: (a backlash's difference between the directions): a claim must keep the evidence a claim needs beside a
+    #: straight-line drift of every reading in time (``checks.check_beyond_drift``).
+    drift_leaves_it: ClassVar[bool] = False
     #: Parameters that are one physical quantity with another effect's parameter of the same name (a plate's
     #: thickness: its skin recession and its conductivity change are one plate's); a model with both effects
     #: holds one, declared by the first, and fixes it only where every effect declaring it would.

@@ -197,6 +197,40 @@ def test_a_course_a_small_screen_leaves_open_is_judged_again_on_a_larger_one(cam
     assert "parasitic_capacitance" in kept_small.undetermined and not kept_small.claimed, kept_small.explanation
 
 
+def test_a_drying_faster_hot_than_cold_is_claimed_and_one_at_one_pace_is_not(campaign_with, study_campaign):
+    """Drying is driven by heat (``Effect.in_time_alone``, ``checks.check_in_time``). The lab's moist former dries
+    as the coil is heated: claimed, its fit beating the same drying in time alone. Validation study seed 2029 case
+    149 (15 kHz, coil heated to 60 and 120 C; no moisture, the bridge's gain drifting by -126 ppm an hour, the
+    former's expansion with a hysteresis, a lead screw): a drying from 22 C on at one pace took the drift and was
+    claimed; in time alone it fits as well: not claimed, and the residual is outside the library, in time."""
+    drying = run_diagnosis(campaign_with("parasitic_capacitance"))
+    assert drying.claimed[:1] == ["parasitic_capacitance"], drying.explanation
+    claimed = next(c for c in drying.steps[0].candidates if c.effect == "parasitic_capacitance")
+    assert claimed.checks["needs_temperature"]
+    drift = run_diagnosis(study_campaign(2029, 149))
+    assert "parasitic_capacitance" not in drift.claimed, drift.explanation
+    assert any(c.effect == "parasitic_capacitance" and c.checks.get("needs_temperature") is False
+               for step in drift.steps for c in step.candidates), drift.explanation
+    assert drift.verdict == "missing_effect" and "outside the library" in drift.explanation, drift.explanation
+    assert "time_s" in [a.variable for a in drift.associations[:2]], drift.explanation
+
+
+def test_a_difference_between_the_directions_that_a_drift_leaves_as_well_is_no_backlash(field_lab, study_campaign):
+    """A backlash is what the directions differ by (``Effect.drift_leaves_it``, ``checks.check_beyond_drift``). The
+    faithful lab's 30 um of play, swept up and down once at 15 kHz in 3.4 minutes: claimed, beside a straight-line
+    drift in time too. Validation study seed 2029 case 60 (500 Hz and 15 kHz, up and down, 7 minutes; no backlash, the
+    bridge's gain drifting by 214 ppm an hour): 2.9 um of play was claimed (chi-square 59); beside a drift it gains
+    nothing, and is not claimed."""
+    lab = field_lab(slide={"backlash": {"enabled": True, "backlash_um": 30.0}})
+    play = run_diagnosis(campaign.displacement_sweep(lab, campaign.PAPER_POSITIONS_MM, (15000.0,)))
+    assert play.claimed == ["slide_backlash"], play.explanation
+    assert next(c for c in play.steps[0].candidates if c.effect == "slide_backlash").checks["beyond_drift"]
+    drift = run_diagnosis(study_campaign(2029, 60))
+    assert "slide_backlash" not in drift.claimed, drift.explanation
+    assert any(c.effect == "slide_backlash" and c.checks.get("beyond_drift") is False
+               for step in drift.steps for c in step.candidates), drift.explanation
+
+
 # -- the search's independent fits on two processes (forked.each) -----------------------------------------------
 @pytest.mark.skipif(not forked.can_fork(), reason="this platform does not fork")
 def test_a_diagnosis_with_its_fits_on_two_processes_is_the_one_made_in_one(campaign_with, monkeypatch):

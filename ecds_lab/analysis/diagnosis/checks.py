@@ -152,6 +152,38 @@ def check_candidate(candidate: Candidate) -> None:
     reasons += why
 
 
+def check_in_time(candidate: Candidate, in_time: FitResult, noise: NoiseEstimate, data: Measurements,
+                  n_full: int) -> None:
+    """Add the check ``needs_temperature`` for an effect with a course in time alone (``Effect.in_time_alone``):
+    its fit must beat the same model refitted in that form (``in_time``) by the evidence a claim needs, or a slow
+    drift in time, which no library effect describes, would explain what it took as well (a bridge's gain drifting
+    by 126 ppm an hour was claimed as a drying at one pace from 22 C on). ``n_full`` as for ``score_candidate``."""
+    versus = score_candidate(candidate.effect, candidate.fit, in_time, noise, data, n_full)
+    clear = (not versus.not_better and versus.delta_bic_signature <= DECISIVE_DELTA_BIC
+             and versus.chi2_gain >= MIN_CHI2_GAIN)
+    candidate.checks["needs_temperature"] = clear
+    if not clear:
+        candidate.rejected.append(f"its course needs no temperature: in time alone it fits within chi-square "
+                                  f"{max(versus.chi2_gain, 0.0):.1f} (needs {MIN_CHI2_GAIN:g}), as a slow drift "
+                                  f"would")
+
+
+def check_beyond_drift(candidate: Candidate, drifting: FitResult, with_it: FitResult, noise: NoiseEstimate,
+                       data: Measurements, n_full: int) -> None:
+    """Add the check ``beyond_drift`` for an effect whose signature a slow drift leaves as well
+    (``Effect.drift_leaves_it``): beside a straight-line drift of every reading in time (``drifting``: the current
+    model with it), the effect (``with_it``: that model with the effect too) must still gain the evidence a claim
+    needs. ``n_full`` as for ``score_candidate``."""
+    beside = score_candidate(candidate.effect, with_it, drifting, noise, data, n_full)
+    clear = (not beside.not_better and beside.delta_bic_signature <= DECISIVE_DELTA_BIC
+             and beside.chi2_gain >= MIN_CHI2_GAIN)
+    candidate.checks["beyond_drift"] = clear
+    if not clear:
+        candidate.rejected.append(f"beside a slow drift of every reading in time it gains chi-square "
+                                  f"{max(beside.chi2_gain, 0.0):.1f} (needs {MIN_CHI2_GAIN:g}): a drift between "
+                                  f"the sweeps leaves the same")
+
+
 def at_bound(fit: FitResult, name: str) -> bool:
     """A parameter within BOUND_MARGIN of its range from a bound (a fit there ran into a wall, not a minimum)."""
     p = fit.parameter(name)

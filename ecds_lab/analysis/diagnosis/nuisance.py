@@ -15,7 +15,9 @@ readings in a few minutes would otherwise get knots that follow x through time),
 and none closer than ``MIN_SPACING`` in that variable, so the smooth cannot follow a signature that changes within
 a sweep (a lead screw's period in x, a backlash between directions). Where the smooth can follow a candidate's
 signature (a moist former's drying, in the coil's temperature and time), the candidate gains nothing beside it and
-is not claimed: an honest answer, not a miss.
+is not claimed: an honest answer, not a miss. The simplest such nuisance, a straight line in time per frequency in L
+alone (``linear_drift_effect``: a bridge's gain creeping), is what an effect a drift between sweeps can mimic must
+stand beside (``checks.check_beyond_drift``).
 """
 
 from __future__ import annotations
@@ -71,16 +73,35 @@ def smooth_effect(data: Measurements, variables: Sequence[str]) -> type[Effect] 
             splines.append((name, knots))
     if not splines:
         return None
+    return _smooth_class(data, splines, DEGREE)
+
+
+def linear_drift_effect(data: Measurements) -> type[Effect] | None:
+    """A nuisance effect class (named ``NAME``) of a straight line in time per frequency of ``data``, in L alone: the
+    slow drift every instrument has, at its simplest (a bridge's gain creeping with the hours); None when the
+    readings span no time."""
+    time_s = data.time_s[np.isfinite(data.time_s)]
+    if len(time_s) < 2 or not float(np.ptp(time_s)) > 0:
+        return None
+    low, high = float(time_s.min()), float(time_s.max())
+    return _smooth_class(data, [("time_s", np.array([low, low, high, high]))], 1, in_capacitance=False)
+
+
+def _smooth_class(data: Measurements, splines: list[tuple[str, np.ndarray]], degree: int,
+                  in_capacitance: bool = True) -> type[Effect]:
+    """The nuisance class of B-splines of ``degree`` on the knots of ``splines`` (variable, full knot vector), per
+    frequency of ``data``, and in the coil's capacitance unless not ``in_capacitance``."""
     frequencies = tuple(float(f) for f in np.unique(data.freq_hz))
-    per_set = sum(len(knots) - DEGREE - 1 for _, knots in splines)
+    per_set = sum(len(knots) - degree - 1 for _, knots in splines)
 
     class Smooth(_Smooth):
         pass
 
+    Smooth.degree = degree
     Smooth.splines = tuple(splines)
     Smooth.frequencies = frequencies
     Smooth.columns = per_set * len(frequencies)
-    Smooth.capacitance_columns = per_set
+    Smooth.capacitance_columns = per_set if in_capacitance else 0
     return Smooth
 
 
@@ -91,6 +112,7 @@ class _Smooth(Effect):
     explains = "a smooth relative change of L where the residual outside the library lives"
     tried_by_default = False
     splines: ClassVar[tuple[tuple[str, np.ndarray], ...]] = ()
+    degree: ClassVar[int] = DEGREE
     frequencies: ClassVar[tuple[float, ...]] = ()
     columns: ClassVar[int] = 0
     capacitance_columns: ClassVar[int] = 0
@@ -114,7 +136,7 @@ class _Smooth(Effect):
         for name, knots in self.splines:
             values = np.nan_to_num(VARIABLES[name].values(data), nan=knots[0])
             values = np.clip(values, knots[0], knots[-1])
-            blocks.append(BSpline.design_matrix(values, knots, DEGREE).toarray())
+            blocks.append(BSpline.design_matrix(values, knots, self.degree).toarray())
         self._splined = (data, np.hstack(blocks))
         return self._splined[1]
 
@@ -141,7 +163,7 @@ class _Smooth(Effect):
     def _added_capacitance(self, data: Measurements, p: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:
         splined = self.splined(data)
         coefficients = np.array([p[f"smooth_c{k}"] for k in range(self.capacitance_columns)])
-        return splined, splined @ coefficients
+        return splined, splined[:, :self.capacitance_columns] @ coefficients
 
     def series_inductance(self, l_h: np.ndarray, inputs: Inputs, data: Measurements,
                           p: Mapping[str, float]) -> np.ndarray:

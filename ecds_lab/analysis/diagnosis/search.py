@@ -48,7 +48,9 @@ from ecds_lab.analysis.diagnosis.advice import suggestions
 from ecds_lab.analysis.diagnosis.checks import (
     SIGNATURE_SHARE,
     at_bound,
+    check_beyond_drift,
     check_candidate,
+    check_in_time,
     check_stretches,
     check_where_it_acts,
     evidence_rank,
@@ -68,7 +70,7 @@ from ecds_lab.analysis.diagnosis.identifiability import (
     start_values,
 )
 from ecds_lab.analysis.diagnosis.nuisance import NAME as NUISANCE
-from ecds_lab.analysis.diagnosis.nuisance import SMOOTHABLE, smooth_effect
+from ecds_lab.analysis.diagnosis.nuisance import SMOOTHABLE, linear_drift_effect, smooth_effect
 from ecds_lab.analysis.diagnosis.result import Candidate, Diagnosis, Step
 from ecds_lab.analysis.diagnosis.structure import ResidualStructure, residual_structure
 from ecds_lab.analysis.diagnosis.verdict import ADEQUATE_RATIO, STRUCTURE_SIGNIFICANCE, outside_library, verdict_of
@@ -628,6 +630,16 @@ def _round(screen: Measurements, clean: Measurements, current: Step, names: list
             ranked[i] = _unchecked(work.refined[ranked[i].effect])
     for candidate in ranked:
         check_candidate(candidate)
+        if candidate.passes and candidate.effect_object.in_time_alone:
+            if id(candidate.fit) not in work.in_time:
+                work.in_time[id(candidate.fit)] = _in_time_alone(candidate.fit, screen)
+            check_in_time(candidate, work.in_time[id(candidate.fit)], noise, screen, len(clean))
+        if candidate.passes and candidate.effect_object.drift_leaves_it:
+            if id(candidate.fit) not in work.beside_drift:
+                work.beside_drift[id(candidate.fit)] = _beside_drift(candidate, base, screen, models)
+            drifting = work.beside_drift[id(candidate.fit)]
+            if drifting is not None:
+                check_beyond_drift(candidate, *drifting, noise, screen, len(clean))
     ranked.sort(key=lambda c: (not c.passes, evidence_rank(c)))
     base_cv = first_cv = None
     if folds is not None and ranked and ranked[0].passes:  # the previous round's claim already has its own
@@ -667,12 +679,50 @@ class _RoundWork:
     refined: dict[str, Candidate] = dataclasses.field(default_factory=dict)
     #: held-out errors by the fit's identity (the fits themselves are kept in ``tried`` and ``refined``)
     cv: dict[int, float | None] = dataclasses.field(default_factory=dict)
+    #: each passing fit's model refitted with its course in time alone (``_in_time_alone``), by the fit's identity
+    in_time: dict[int, FitResult] = dataclasses.field(default_factory=dict)
+    #: each such fit's current model with a linear drift in time, without and with its effect (``_beside_drift``)
+    beside_drift: dict[int, tuple[FitResult, FitResult] | None] = dataclasses.field(default_factory=dict)
     base_cv: float | None = None
 
     @classmethod
     def kept(cls, work: _RoundWork | None, screen: Measurements, step: Step) -> _RoundWork:
         """``work`` if it is for this step on this screen, else a new, empty one."""
         return work if work is not None and work.screen is screen and work.step is step else cls(screen, step)
+
+
+def _in_time_alone(fitted: FitResult, data: Measurements) -> FitResult:
+    """``fitted``'s model refitted to ``data`` with its last effect's course in time alone (``Effect.in_time_alone``),
+    what the fit held still held: the best from its solution and from the effect's other starts of the values that
+    form leaves free (a pace fitted to the hot readings alone need not be the pace of every reading)."""
+    effect = fitted.model.effects[-1]
+    form = effect.in_time_alone
+    fixed = {**{k: v for k, v in fitted.values.items() if k not in fitted.free_names}, **form}
+    starts: dict[tuple[tuple[str, float], ...], dict[str, float]] = {}
+    for alternative in ({}, *effect.alternative_starts):
+        start = {k: v for k, v in alternative.items() if k not in form}
+        starts.setdefault(tuple(sorted(start.items())), start)
+    fits = [fit_model(fitted.model, data, start={**fitted.values, **start, **form}, fixed=fixed, multistart=False,
+                      screening=True) for start in starts.values()]
+    return min(fits, key=lambda fit: fit.rms_ppm)
+
+
+def _beside_drift(candidate: Candidate, base: FitResult, data: Measurements, models: _Space
+                  ) -> tuple[FitResult, FitResult] | None:
+    """The current model (``base``) refitted to ``data`` beside a straight-line drift of every reading in time
+    (``nuisance.linear_drift_effect``), and that model with ``candidate``'s effect too, from its values; None when the
+    readings span no time, or beside the nuisance smooth (``_beside_smooth``), which takes a slow drift already."""
+    drift = linear_drift_effect(data)
+    effects = [effect.name for effect in base.model.effects]
+    if drift is None or NUISANCE in effects:
+        return None
+    beside = _Space(models.sensor, models.registry.with_effects(drift), models.released)
+    drifting = fit_model(beside.model([*effects, NUISANCE]), data, start=base.values, multistart=False,
+                         screening=True)
+    own = {p.name: candidate.fit.values[p.name] for p in candidate.effect_object.parameters()}
+    with_it = fit_model(beside.model([*effects, NUISANCE, candidate.effect]), data,
+                        start={**drifting.values, **own}, multistart=False, screening=True)
+    return drifting, with_it
 
 
 def _unchecked(candidate: Candidate) -> Candidate:

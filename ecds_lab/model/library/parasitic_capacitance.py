@@ -69,6 +69,9 @@ class ParasiticCapacitance(Effect):
                           # e-folding every ~20 K) from a former a few mm thick (~1e-3/s at 100 C).
                           {"bound_share": 1.0, "drying_rate": 1e-2, "drying_onset": 150.0, "drying_width": 20.0})
     simpler_form: ClassVar[dict[str, float]] = {"bound_share": 0.0, "sorption_width": 18.0}
+    #: Free water drying at one pace at every coil temperature (the onset on its lowest bound, a threshold): a course
+    #: in time alone, as a bridge's drifting gain runs. Drying is driven by heat: the data must show it faster hot.
+    in_time_alone: ClassVar[dict[str, float]] = {"drying_onset": 20.0, "drying_width": 0.2, "bound_share": 0.0}
 
     def __init__(self, sensor: SensorConfig) -> None:
         super().__init__(sensor)

@@ -40,6 +40,10 @@ class SlideBacklash(Effect):
     plausible: ClassVar[dict[str, tuple[float, float]]] = {"backlash": (-500e-6, 500e-6)}
     reveal = "approach every position from both directions (a forward and a backward sweep)"
     reveal_needs: ClassVar[dict[str, float]] = {"directions": 2}
+    #: Sweeps up then down leave a drift between them as a difference between the directions (a bridge's gain
+    #: creeping by 214 ppm an hour over a 7-minute campaign was claimed as 2.9 um of play, validation study seed
+    #: 2029 case 60): the play must show beside a drift in time.
+    drift_leaves_it = True
 
     def __init__(self, sensor: SensorConfig) -> None:
         super().__init__(sensor)
