@@ -114,6 +114,9 @@ class Effect:
     #: (a backlash's difference between the directions): a claim must keep the evidence a claim needs beside a
     #: straight-line drift of every reading in time (``checks.check_beyond_drift``).
     drift_leaves_it: ClassVar[bool] = False
+    #: The measurement that tells the effect from a slow drift in time, suggested when the data could not
+    #: (``in_time_alone``, ``drift_leaves_it``).
+    reveal_beside_drift: ClassVar[str] = ""
     #: Parameters that are one physical quantity with another effect's parameter of the same name (a plate's
     #: thickness: its skin recession and its conductivity change are one plate's); a model with both effects
     #: holds one, declared by the first, and fixes it only where every effect declaring it would.

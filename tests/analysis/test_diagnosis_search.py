@@ -18,6 +18,8 @@ from ecds_lab.analysis.diagnosis import run_diagnosis, search
 from ecds_lab.analysis.diagnosis.advice import Design
 from ecds_lab.analysis.diagnosis.checks import at_bound
 from ecds_lab.data.measurements import Measurements
+from ecds_lab.model.library.parasitic_capacitance import ParasiticCapacitance
+from ecds_lab.model.library.slide_backlash import SlideBacklash
 from ecds_lab.simulators import campaign
 
 POSITIONS_MM = (25.0, 30.0, 40.0, 50.0, 60.0, 70.0, 85.0, 100.0)
@@ -213,6 +215,7 @@ def test_a_drying_faster_hot_than_cold_is_claimed_and_one_at_one_pace_is_not(cam
                for step in drift.steps for c in step.candidates), drift.explanation
     assert drift.verdict == "missing_effect" and "outside the library" in drift.explanation, drift.explanation
     assert "time_s" in [a.variable for a in drift.associations[:2]], drift.explanation
+    assert ParasiticCapacitance.reveal_beside_drift in drift.suggested_measurements
 
 
 def test_a_difference_between_the_directions_that_a_drift_leaves_as_well_is_no_backlash(field_lab, study_campaign):
@@ -229,6 +232,7 @@ def test_a_difference_between_the_directions_that_a_drift_leaves_as_well_is_no_b
     assert "slide_backlash" not in drift.claimed, drift.explanation
     assert any(c.effect == "slide_backlash" and c.checks.get("beyond_drift") is False
                for step in drift.steps for c in step.candidates), drift.explanation
+    assert SlideBacklash.reveal_beside_drift in drift.suggested_measurements  # the measurement that tells them apart
 
 
 # -- the search's independent fits on two processes (forked.each) -----------------------------------------------

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ecds_lab.analysis.diagnosis.checks import DRIFT_CHECKS
 from ecds_lab.analysis.diagnosis.result import Diagnosis
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.model.effects import EffectRegistry
@@ -81,7 +82,9 @@ def _longest_hold_s(data: Measurements) -> float:
 
 def suggestions(result: Diagnosis, registry: EffectRegistry) -> list[str]:
     """Measurements that would separate the alternatives or determine an undetermined effect (each
-    effect's ``reveal``), de-duplicated, without those the campaign already holds."""
+    effect's ``reveal``), de-duplicated, without those the campaign already holds; and for an effect of the final
+    round that failed only because a slow drift in time explains what it took as well, the measurement that tells
+    the two apart (``Effect.reveal_beside_drift``)."""
     design = Design.of(result.data)
     groups = [*result.alternatives, *([result.undetermined] if result.undetermined else [])]
     out: list[str] = []
@@ -92,6 +95,11 @@ def suggestions(result: Diagnosis, registry: EffectRegistry) -> list[str]:
                 continue
             if cls.reveal not in out:
                 out.append(cls.reveal)
+    for candidate in result.steps[-1].candidates:  # failed only for what a slow drift would leave as well
+        failed = {name for name, passed in candidate.checks.items() if not passed}
+        text = candidate.effect_object.reveal_beside_drift
+        if failed and failed <= DRIFT_CHECKS and text and text not in out:
+            out.append(text)
     if design.frequencies < 2 and groups:
         other = next((f for f in USUAL_FREQUENCIES_HZ if f not in design.present_hz), USUAL_FREQUENCIES_HZ[0])
         text = (f"measure at {other:g} Hz as well: with one frequency tau_T and the coupling are tied together")

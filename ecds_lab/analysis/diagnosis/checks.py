@@ -137,8 +137,7 @@ def check_candidate(candidate: Candidate) -> None:
     """Fill ``checks`` and ``rejected``: evidence, identifiability, plausible size."""
     reasons = candidate.rejected
     checks = candidate.checks
-    checks["evidence"] = ((not candidate.not_better) and candidate.delta_bic_signature <= DECISIVE_DELTA_BIC
-                          and candidate.chi2_gain >= MIN_CHI2_GAIN)
+    checks["evidence"] = clear_evidence(candidate)
     if candidate.not_better:
         reasons.append("the fit with it ends no better than without it")
     elif not checks["evidence"]:
@@ -152,20 +151,22 @@ def check_candidate(candidate: Candidate) -> None:
     reasons += why
 
 
+#: The checks a candidate fails when a slow drift in time explains what it took as well (``check_in_time``,
+#: ``check_beyond_drift``).
+NEEDS_TEMPERATURE, BEYOND_DRIFT = "needs_temperature", "beyond_drift"
+DRIFT_CHECKS = frozenset({NEEDS_TEMPERATURE, BEYOND_DRIFT})
+
+
 def check_in_time(candidate: Candidate, in_time: FitResult, noise: NoiseEstimate, data: Measurements,
                   n_full: int) -> None:
     """Add the check ``needs_temperature`` for an effect with a course in time alone (``Effect.in_time_alone``):
     its fit must beat the same model refitted in that form (``in_time``) by the evidence a claim needs, or a slow
     drift in time, which no library effect describes, would explain what it took as well (a bridge's gain drifting
     by 126 ppm an hour was claimed as a drying at one pace from 22 C on). ``n_full`` as for ``score_candidate``."""
-    versus = score_candidate(candidate.effect, candidate.fit, in_time, noise, data, n_full)
-    clear = (not versus.not_better and versus.delta_bic_signature <= DECISIVE_DELTA_BIC
-             and versus.chi2_gain >= MIN_CHI2_GAIN)
-    candidate.checks["needs_temperature"] = clear
-    if not clear:
-        candidate.rejected.append(f"its course needs no temperature: in time alone it fits within chi-square "
-                                  f"{max(versus.chi2_gain, 0.0):.1f} (needs {MIN_CHI2_GAIN:g}), as a slow drift "
-                                  f"would")
+    _gains_clearly(candidate, NEEDS_TEMPERATURE, score_candidate(candidate.effect, candidate.fit, in_time, noise,
+                                                                  data, n_full),
+                   "its course needs no temperature: in time alone it fits within chi-square {gain:.1f} (needs "
+                   "{needs:g}), as a slow drift would")
 
 
 def check_beyond_drift(candidate: Candidate, drifting: FitResult, with_it: FitResult, noise: NoiseEstimate,
@@ -174,14 +175,25 @@ def check_beyond_drift(candidate: Candidate, drifting: FitResult, with_it: FitRe
     (``Effect.drift_leaves_it``): beside a straight-line drift of every reading in time (``drifting``: the current
     model with it), the effect (``with_it``: that model with the effect too) must still gain the evidence a claim
     needs. ``n_full`` as for ``score_candidate``."""
-    beside = score_candidate(candidate.effect, with_it, drifting, noise, data, n_full)
-    clear = (not beside.not_better and beside.delta_bic_signature <= DECISIVE_DELTA_BIC
-             and beside.chi2_gain >= MIN_CHI2_GAIN)
-    candidate.checks["beyond_drift"] = clear
+    _gains_clearly(candidate, BEYOND_DRIFT, score_candidate(candidate.effect, with_it, drifting, noise, data, n_full),
+                   "beside a slow drift of every reading in time it gains chi-square {gain:.1f} (needs {needs:g}): a "
+                   "drift between the sweeps leaves the same")
+
+
+def clear_evidence(scored: Candidate) -> bool:
+    """A fit better than the one it was scored against, by a BIC gain on its signature and a chi-square gain that
+    count as clear evidence (DECISIVE_DELTA_BIC, MIN_CHI2_GAIN)."""
+    return (not scored.not_better and scored.delta_bic_signature <= DECISIVE_DELTA_BIC
+            and scored.chi2_gain >= MIN_CHI2_GAIN)
+
+
+def _gains_clearly(candidate: Candidate, check: str, versus: Candidate, reason: str) -> None:
+    """Record ``check`` on ``candidate``: its fit scored against a rival form of the model (``versus``) shows clear
+    evidence; else ``reason`` (formatted with the gain and the gain needed) among its rejections."""
+    clear = clear_evidence(versus)
+    candidate.checks[check] = clear
     if not clear:
-        candidate.rejected.append(f"beside a slow drift of every reading in time it gains chi-square "
-                                  f"{max(beside.chi2_gain, 0.0):.1f} (needs {MIN_CHI2_GAIN:g}): a drift between "
-                                  f"the sweeps leaves the same")
+        candidate.rejected.append(reason.format(gain=max(versus.chi2_gain, 0.0), needs=MIN_CHI2_GAIN))
 
 
 def at_bound(fit: FitResult, name: str) -> bool:

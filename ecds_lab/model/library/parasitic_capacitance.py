@@ -72,6 +72,8 @@ class ParasiticCapacitance(Effect):
     #: Free water drying at one pace at every coil temperature (the onset on its lowest bound, a threshold): a course
     #: in time alone, as a bridge's drifting gain runs. Drying is driven by heat: the data must show it faster hot.
     in_time_alone: ClassVar[dict[str, float]] = {"drying_onset": 20.0, "drying_width": 0.2, "bound_share": 0.0}
+    reveal_beside_drift = ("log the coil at room temperature for an hour before heating it and after it has cooled: "
+                           "a drift in time goes on there, a drying does not")
 
     def __init__(self, sensor: SensorConfig) -> None:
         super().__init__(sensor)

@@ -44,6 +44,8 @@ class SlideBacklash(Effect):
     #: creeping by 214 ppm an hour over a 7-minute campaign was claimed as 2.9 um of play, validation study seed
     #: 2029 case 60): the play must show beside a drift in time.
     drift_leaves_it = True
+    reveal_beside_drift = ("sweep up and down twice over (up, down, up, down): a drift between the sweeps grows with "
+                           "the time between them, the play between the directions does not")
 
     def __init__(self, sensor: SensorConfig) -> None:
         super().__init__(sensor)
