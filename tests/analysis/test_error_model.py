@@ -81,6 +81,21 @@ def test_a_glitch_the_rules_miss_carries_no_evidence_under_the_heavy_tailed_loss
     assert gain(robust=True) < MIN_CHI2_GAIN / 5
 
 
+def test_a_glitch_where_a_hot_run_begins_is_excluded_and_raises_no_alarm(study_campaign):
+    """Validation study seed 2030 case 172 (two frequencies, up and down, target and coil heated; truth: glitches
+    only): a 2.6 % glitch on the second reading of the repeat pair where the hot run begins (the slide arriving from
+    above: a series of two readings) is excluded, and the faithful lab's tau(x) explains the rest; before, it bent
+    the baseline by 2600 ppm at 20 mm and the diagnosis said "outside the library" (a false alarm)."""
+    data = study_campaign(2030, 172)
+    result = run_diagnosis(data)
+    near = (data.x_mm == 20.0) & (data.freq_hz > 1000)  # the 15 kHz readings at 20 mm, the glitch among them
+    glitch = int(np.argmax(np.where(near, np.abs(data.ls_h / np.median(data.ls_h[near]) - 1), 0.0)))
+    assert abs(data.ls_h[glitch] / np.median(data.ls_h[near]) - 1) > 0.02
+    assert glitch in [o.row for o in result.outliers], result.outliers
+    assert "outside the library" not in result.explanation, result.explanation
+    assert result.final.rmse_ppm <= FAILING_RATIO * result.noise_ppm, result.explanation
+
+
 def test_readings_of_one_visit_sharing_a_position_error_have_a_design_effect(faithful_sweep_with):
     """Two readings at each of two frequencies per move: four readings share each move's position error."""
     shared = fit(faithful_sweep_with(1, repeatability_um=5.0), KNOWN)
