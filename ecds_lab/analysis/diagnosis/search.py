@@ -702,8 +702,9 @@ def _in_time_alone(fitted: FitResult, data: Measurements) -> FitResult:
     for alternative in ({}, *effect.alternative_starts):
         start = {k: v for k, v in alternative.items() if k not in form}
         starts.setdefault(tuple(sorted(start.items())), start)
-    fits = [fit_model(fitted.model, data, start={**fitted.values, **start, **form}, fixed=fixed, multistart=False,
-                      screening=True) for start in starts.values()]
+    fits = forked.each(lambda start: fit_model(fitted.model, data, start={**fitted.values, **start, **form},
+                                               fixed=fixed, multistart=False, screening=True),
+                       list(starts.values()), shared=referenced(data, fitted.model))
     return min(fits, key=lambda fit: fit.rms_ppm)
 
 
@@ -711,17 +712,19 @@ def _beside_drift(candidate: Candidate, base: FitResult, data: Measurements, mod
                   ) -> tuple[FitResult, FitResult] | None:
     """The current model (``base``) refitted to ``data`` beside a straight-line drift of every reading in time
     (``nuisance.linear_drift_effect``), and that model with ``candidate``'s effect too, from its values; None when the
-    readings span no time, or beside the nuisance smooth (``_beside_smooth``), which takes a slow drift already."""
+    readings span no time, or beside the nuisance smooth (``_beside_smooth``), which takes a slow drift already. The
+    two fits are worked side by side (``forked.each``)."""
     drift = linear_drift_effect(data)
     effects = [effect.name for effect in base.model.effects]
     if drift is None or NUISANCE in effects:
         return None
     beside = _Space(models.sensor, models.registry.with_effects(drift), models.released)
-    drifting = fit_model(beside.model([*effects, NUISANCE]), data, start=base.values, multistart=False,
-                         screening=True)
     own = {p.name: candidate.fit.values[p.name] for p in candidate.effect_object.parameters()}
-    with_it = fit_model(beside.model([*effects, NUISANCE, candidate.effect]), data,
-                        start={**drifting.values, **own}, multistart=False, screening=True)
+    models_and_starts = [(beside.model([*effects, NUISANCE]), dict(base.values)),
+                         (beside.model([*effects, NUISANCE, candidate.effect]), {**base.values, **own})]
+    drifting, with_it = forked.each(lambda task: fit_model(task[0], data, start=task[1], multistart=False,
+                                                           screening=True),
+                                    models_and_starts, shared=beside.shared(data))
     return drifting, with_it
 
 
