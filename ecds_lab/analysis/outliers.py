@@ -81,10 +81,10 @@ def find_glitches(data: Measurements, residuals_ppm: np.ndarray, noise_ppm: floa
     if not len(r) or not (sigma > 0).all():
         return np.zeros(len(r), bool)
     groups = reading_groups(data)
-    deviation = glitch_deviation(data, r, sigma, groups)
+    positions = _PositionGroups.of(data)
+    deviation = glitch_deviation(data, r, sigma, groups, positions)
     suspect = np.abs(deviation) > THRESHOLD
     neighbours = _time_neighbours(data, groups)
-    positions = _PositionGroups.of(data)
     out = np.zeros(len(r), bool)
     for i in np.flatnonzero(suspect).tolist():
         out[i] = not _in_structure(data, deviation, neighbours, i, positions.rows_like(i))
@@ -92,20 +92,22 @@ def find_glitches(data: Measurements, residuals_ppm: np.ndarray, noise_ppm: floa
 
 
 def glitch_deviation(data: Measurements, residuals_ppm: np.ndarray, sigma: np.ndarray,
-                     groups: list[np.ndarray] | None = None) -> np.ndarray:
+                     groups: list[np.ndarray] | None = None, positions: _PositionGroups | None = None) -> np.ndarray:
     """Each reading's deviation (sigmas) from the running median of its series. The running median repeats a
     run's end values, so the first and last reading are instead judged against the median of the END_SPAN
     readings next to them, and only beyond END_THRESHOLD and when no repeated reading of the same point among
     them deviates alike (a turning point may bend the residual, and its repeats with it; a reading a thousand
-    sigmas off the three after it, the first of a campaign say, is still a glitch). ``groups``: the series
-    (``noise.reading_groups``) when the caller has them already."""
+    sigmas off the three after it, the first of a campaign say, is still a glitch); a reading of a series too short
+    for either, against its state elsewhere (``_judge_short_series``). ``groups``: the series
+    (``noise.reading_groups``) and ``positions`` (``_PositionGroups``) when the caller has them already."""
     r = np.asarray(residuals_ppm, float)
     groups = groups if groups is not None else reading_groups(data)
     deviation = (r - smooth_residual(data, r, groups=groups)) / sigma
     x = np.where(np.isfinite(data.x_commanded_m), data.x_commanded_m, np.inf)
     short = [rows for rows in groups if len(rows) <= END_SPAN]
     if short:
-        _judge_short_series(data, r, sigma, np.concatenate(short), deviation)
+        _judge_short_series(data, r, sigma, np.concatenate(short), deviation,
+                            positions if positions is not None else _PositionGroups.of(data))
     for rows in groups:
         if len(rows) <= END_SPAN:
             continue
@@ -121,14 +123,14 @@ def glitch_deviation(data: Measurements, residuals_ppm: np.ndarray, sigma: np.nd
 
 
 def _judge_short_series(data: Measurements, r: np.ndarray, sigma: np.ndarray, rows: np.ndarray,
-                        deviation: np.ndarray) -> None:
+                        deviation: np.ndarray, states: _PositionGroups) -> None:
     """Readings of series too short for a running median (``rows``: a repeat pair where a hot run begins, the slide
     arriving from above) judged against the median of the readings of their state (frequency, direction, commanded
     distance) at the same coil and target temperatures (within SAME_TEMPERATURE_K) elsewhere, at least two of them,
     and only beyond END_THRESHOLD, as a run's ends are: within the pair a glitch cannot be told from its twin
     (validation study seed 2030 case 172: a 2.6 % glitch there was never a suspect, bent the fit by 2600 ppm at
-    20 mm and became a false alarm "outside the library"). Sets ``deviation`` of those beyond it."""
-    states = _PositionGroups.of(data)
+    20 mm and became a false alarm "outside the library"). Sets ``deviation`` of those beyond it; ``states``: the
+    rows of each state of the slide (``_PositionGroups``)."""
     for i in rows.tolist():
         like = states.rows_like(i)
         like = like[(like != i) & (data.freq_hz[like] == data.freq_hz[i])
