@@ -15,7 +15,9 @@ steady, or a heater ramping: ``phase_classes``), each found
    residual (structure the model leaves), so structure cannot inflate the estimate the way
    successive differences do, and the MAD keeps single glitches from inflating it either. Each of
    these readings is its own visit of the slide, so its scatter also holds the positioning share:
-   that share is taken out (it is counted once, as positioning).
+   that share is taken out (it is counted once, as positioning). Asked to (``beside_sweeps``, as the
+   diagnosis judges its final residual), what every sweep over the same positions shares is taken out
+   before the smooth (``_off_profile``): a bump in x a few positions wide is no noise of the bridge.
 
 A class with few readings is shrunk toward the pooled figure (``SHRINK_READINGS``), so a class of a
 handful of readings cannot claim a noise of its own by chance. Structure a smooth cannot follow still
@@ -367,14 +369,60 @@ def _operators(window: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return projection[window // 2][::-1].copy(), projection[: window // 2], projection[window - window // 2:]
 
 
-def _smooth_remainders(data: Measurements, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _smooth_remainders(data: Measurements, r: np.ndarray, beside_sweeps: bool = False
+                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The residual about a local quadratic smooth of itself along each run of like readings long enough
-    for one (``NOISE_WINDOW``), and the rows they belong to."""
+    for one (``NOISE_WINDOW``), the rows they belong to, and each remainder's degrees of freedom (as a share of
+    a whole reading's); with ``beside_sweeps``, what the sweeps over the same positions share is taken out first
+    (``_off_profile``)."""
     usable = [rows for rows in reading_groups(data) if len(rows) >= NOISE_WINDOW]
+    centred, weight = r, np.ones(len(r))
+    if beside_sweeps:
+        usable, centred, weight = _off_profile(data, r, usable)
     if not usable:
-        return np.zeros(0), np.zeros(0, int)
-    u = np.concatenate([r[rows] - local_quadratic(r[rows], NOISE_WINDOW) for rows in usable])
-    return u, np.concatenate(usable)
+        return np.zeros(0), np.zeros(0, int), np.zeros(0)
+    u = np.concatenate([centred[rows] - local_quadratic(centred[rows], NOISE_WINDOW) for rows in usable])
+    rows = np.concatenate(usable)
+    return u, rows, weight[rows]
+
+
+def _off_profile(data: Measurements, r: np.ndarray, runs: list[np.ndarray]
+                 ) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
+    """The runs and the residual less what the sweeps over the same positions share. Among runs facing the target
+    at one frequency in one direction, a commanded distance read in k >= 2 of them (m readings) loses their mean,
+    scaled by sqrt(m / (m - 1)) so pure noise keeps its size, and each of those readings counts as (m - 1) / m of
+    one; a run keeps only such readings, if NOISE_WINDOW of them and most of it remain (else it is left whole).
+    Structure that lives in x alone (a bump where the coil passes a bracket, a lead screw's period) is the same in
+    every sweep and is no noise of the bridge; a smooth cannot follow a bump a few positions wide, so without this
+    it counted as noise and hid itself. What differs between the sweeps (the temperatures' effects) is slow along x
+    and left to the smooth."""
+    centred, weight = r.copy(), np.ones(len(r))
+    sweeps: dict[tuple[float, float], list[int]] = {}
+    for number, rows in enumerate(runs):
+        if not data.in_air[rows].any() and np.isfinite(data.x_commanded_m[rows]).all():
+            sweeps.setdefault((float(data.freq_hz[rows[0]]), float(data.direction[rows[0]])), []).append(number)
+    out = list(runs)
+    for members in sweeps.values():
+        if len(members) < 2:
+            continue
+        lengths = [len(runs[n]) for n in members]
+        rows = np.concatenate([runs[n] for n in members])
+        run = np.repeat(np.arange(len(members)), lengths)
+        _, at = np.unique(np.round(data.x_commanded_m[rows], 7), return_inverse=True)
+        readings = np.bincount(at).astype(float)
+        distinct = np.unique(at * len(members) + run) // len(members)  # one entry per (position, run)
+        shared = np.bincount(distinct, minlength=len(readings)) >= 2
+        mean = np.bincount(at, weights=r[rows]) / readings
+        m = readings[at]
+        keep = shared[at]
+        centred[rows[keep]] = (r[rows] - mean[at])[keep] * np.sqrt(m[keep] / (m[keep] - 1.0))
+        weight[rows[keep]] = (m[keep] - 1.0) / m[keep]
+        for n, kept_here in zip(members, np.split(keep, np.cumsum(lengths)[:-1]), strict=True):
+            if len(runs[n]) > kept_here.sum() >= max(NOISE_WINDOW, len(runs[n]) / 2):
+                out[n] = runs[n][kept_here]
+            elif not kept_here.all():  # too little of it is shared: left whole, as it was
+                centred[runs[n]], weight[runs[n]] = r[runs[n]], 1.0
+    return out, centred, weight
 
 
 def _smoothed_sigma(u: np.ndarray, shared_ppm: np.ndarray) -> float:
@@ -402,6 +450,7 @@ class _Samples:
     pair_rows: np.ndarray
     remainders: np.ndarray
     remainder_rows: np.ndarray
+    remainder_weights: np.ndarray
 
     def sigma(self, rows: np.ndarray, shared_ppm: np.ndarray, min_pairs: int, min_readings: int
               ) -> tuple[float, int, str, float]:
@@ -439,11 +488,12 @@ class _Samples:
 
     def _smoothed(self, rows: np.ndarray, shared_ppm: np.ndarray, min_readings: int
                   ) -> tuple[float, int, str, float]:
-        chosen = self.remainder_rows[rows[self.remainder_rows]]
+        selected = rows[self.remainder_rows]
+        chosen = self.remainder_rows[selected]
         if len(chosen) >= min_readings:
-            u = self.remainders[rows[self.remainder_rows]]
+            u = self.remainders[selected]
             return (_smoothed_sigma(u, shared_ppm[chosen]), len(chosen), SMOOTHED,
-                    remainder_dof_per_reading() * len(chosen))
+                    remainder_dof_per_reading() * float(self.remainder_weights[selected].sum()))
         return math.nan, int(rows.sum()), "", 0.0
 
 
@@ -476,14 +526,16 @@ def remainder_dof_per_reading(window: int = NOISE_WINDOW) -> float:
 
 
 def estimate_noise(data: Measurements, residuals_ppm: np.ndarray,
-                   relative_sensitivity_per_m: np.ndarray | None = None) -> NoiseEstimate:
+                   relative_sensitivity_per_m: np.ndarray | None = None, *, beside_sweeps: bool = False
+                   ) -> NoiseEstimate:
     """Noise of each reading (ppm of L) from model residuals (see the module docstring): the reading noise
     per phase class, the positioning scatter (with the model's d ln L / dx per reading,
     ``relative_sensitivity_per_m``, from revisits and the declared figure), the design effect of visits,
     and warnings. ``residuals_ppm`` are model residuals, so slow changes the model already explains do not
-    count as noise either way."""
+    count as noise either way. ``beside_sweeps``: the figures found about a smooth leave out what every sweep over
+    the same positions shares (``_off_profile``), as a final model's residual is judged."""
     r = np.asarray(residuals_ppm, float)
-    samples = _Samples(*_repeat_pairs(data, r), *_smooth_remainders(data, r))
+    samples = _Samples(*_repeat_pairs(data, r), *_smooth_remainders(data, r, beside_sweeps))
     room = room_temperature_c(data)
     keys = phase_classes(data, room)
     table = SensitivityTable() if relative_sensitivity_per_m is None else \

@@ -52,6 +52,39 @@ def test_glitches_do_not_inflate_the_estimate():
     assert estimate_noise(data, residual).ppm == pytest.approx(20.0, rel=0.2)
 
 
+def sweeps_with_a_bump(count: int, sigma_ppm: float, bump_ppm: float, seed: int = 5
+                       ) -> tuple[Measurements, np.ndarray]:
+    """``count`` sweeps up over 16 positions (20-100 mm), ten minutes apart, each with a bump of 15 mm full width at
+    52 mm (what a bracket beside the slide leaves) and a slope of its own (what differs between sweeps at other
+    temperatures), and white noise."""
+    rng = np.random.default_rng(seed)
+    x = np.tile(np.linspace(0.02, 0.1, 16), count)
+    sweep = np.repeat(np.arange(count), 16)
+    t = sweep * 1200.0 + np.tile(np.arange(16) * 5.0, count)
+    bump = bump_ppm * np.exp(-0.5 * ((x - 0.052) / (0.015 / 2.355)) ** 2)
+    residual = bump + 300.0 * sweep * (x - 0.06) + rng.normal(0, sigma_ppm, len(x))
+    data = Measurements(time_s=t, x_m=x, freq_hz=np.full(len(x), 15000.0), t_coil_c=np.full(len(x), 22.0),
+                        t_target_c=np.full(len(x), 22.0), ls_h=np.full(len(x), 0.05), rs_ohm=np.full(len(x), 100.0))
+    return data, residual
+
+
+def test_a_bump_every_sweep_shares_is_no_noise_beside_the_sweeps():
+    """A smooth over seven positions cannot follow a bump two or three positions wide, so about a smooth alone the bump
+    counts as noise; beside the other sweeps over the same positions it does not, while what differs between the
+    sweeps (a slope each) is still followed by the smooth."""
+    data, residual = sweeps_with_a_bump(8, sigma_ppm=15.0, bump_ppm=200.0)
+    alone = estimate_noise(data, residual)
+    beside = estimate_noise(data, residual, beside_sweeps=True)
+    assert alone.ppm > 1.3 * 15.0
+    assert beside.ppm == pytest.approx(15.0, rel=0.3)  # 45 readings' worth: the estimate's own scatter is ~15 %
+    assert beside.classes[0].dof < alone.classes[0].dof  # the profile took one reading's worth per position
+
+
+def test_beside_the_sweeps_pure_noise_keeps_its_size():
+    data, residual = sweeps_with_a_bump(8, sigma_ppm=15.0, bump_ppm=0.0)
+    assert estimate_noise(data, residual, beside_sweeps=True).ppm == pytest.approx(15.0, rel=0.3)
+
+
 def with_repeatability(data: Measurements, sigma_m: np.ndarray | float) -> Measurements:
     return dataclasses.replace(data, slide_repeatability_m=np.broadcast_to(sigma_m, (len(data),)).copy())
 
