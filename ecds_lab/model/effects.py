@@ -149,8 +149,8 @@ class Effect:
         return {}
 
     def signature(self, data: Measurements, values: Mapping[str, float]) -> tuple[float, dict[str, float]] | None:
-        """ln of the quantity that shows the effect's own course on ``data`` (a drying's rate where the coil is
-        hottest) and its derivatives by parameter, or None where the key parameters say it all. A claim needs
+        """ln of the quantity that shows the effect's own course on ``data`` (a drying's rate where the former
+        dried) and its derivatives by parameter, or None where the key parameters say it all. A claim needs
         it determined to better than its own value (standard error of the ln below 1): else the data show only
         that the effect's terms help, in whatever course its other parameters can bend to."""
         return None

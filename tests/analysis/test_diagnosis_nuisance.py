@@ -55,15 +55,29 @@ def test_a_lead_screw_is_found_beside_a_reabsorption(study_campaign):
     """Validation study seed 2026 case 63: a lead screw (17.8 um over 9.9 mm) and the former re-absorbing humidity
     while the coil cools (outside the library). The baseline leaves 1567 ppm against 23 ppm noise, living in time and
     the coil's temperature; judged against that residual the lead screw gained 0.7 noise variances and was missed.
-    Beside a smooth in those variables it passes every check and is claimed, and the residual is still said to lie
-    outside the library, in time or the coil's temperature."""
+    With the drying judged where it dries, the drying and tau(x) are claimed first and the screw passes in the
+    search; the re-absorption's misfit left in every hot sweep it acts on is structure far beyond half its gain,
+    but the screw acts by the slide's state alone and keeps clear evidence in the final model beside a smooth that
+    takes the misfit, so it is no part of it (``search._holds_beside``; it was set aside as partial). The residual
+    is still said to lie outside the library, in time or the coil's temperature. (The drying, an effect of time and
+    temperature, is not asked beside the smooth and stays a part.)"""
     result = run_diagnosis(study_campaign(2026, 63))
-    assert "slide_lead_screw" in result.claimed
+    assert "slide_lead_screw" in result.claimed, result.explanation
     step = next(s for s in result.steps[1:] if s.effects[-1] == "slide_lead_screw")
-    assert step.beside and set(step.beside) <= {"time_s", "t_coil_c"}
+    assert step.leaves_structure is None and not step.beside
     assert "outside the library" in result.explanation
     assert {a.variable for a in result.associations[:2]} & {"time_s", "t_coil_c", "coil_rate_k_per_min"}
     assert set(result.claimed) <= {"slide_lead_screw", "tau_displacement", "thermal_lag"}
+
+
+def test_an_effect_of_time_or_temperature_that_took_part_of_a_drift_is_not_asked_beside_a_smooth(study_campaign):
+    """Validation study seed 2026 case 20 (the bridge's gain drifting, glitches; nothing of the library): a drying
+    and a conductivity change each take a part of the drift and keep clear evidence beside the smooth in time, whose
+    splines are too coarse for their courses. Only an effect of the slide's states is asked there
+    (``search._in_states_alone``): these stay parts of what the library does not describe."""
+    result = run_diagnosis(study_campaign(2026, 20))
+    assert not {"parasitic_capacitance", "target_tau_temperature"} & set(result.claimed), result.explanation
+    assert "outside the library" in result.explanation, result.explanation
 
 
 def test_an_expansion_is_found_beside_a_gain_drift(study_campaign):
@@ -81,9 +95,9 @@ def test_a_gain_made_in_one_stretch_at_the_sweeps_cost_is_not_claimed_beside_the
     only. Beside the smooth in time, a backlash of 38 um passed every check on a gain of 50 noise variances made by
     the readings at one place while the coil heated (+357), paid for by every sweep (-102, -36, -65, -50): what
     noise costs a true effect there is a few standard deviations. Now it is not claimed, and the residual is
-    outside the library, in time."""
+    outside the library, in time. (The moist former's drying is claimed, judged where it dries.)"""
     result = run_diagnosis(study_campaign(2027, 157))
-    assert "slide_backlash" not in result.claimed and not result.claimed
+    assert "slide_backlash" not in result.claimed and set(result.claimed) <= {"parasitic_capacitance"}
     assert result.verdict == "missing_effect"
     assert result.associations[0].variable == "time_s"
 
@@ -92,8 +106,11 @@ def test_a_gain_made_on_readings_the_effect_does_not_move_is_not_claimed_beside_
     """Validation study seed 2027, case 29: a bending, a pickup of the heater current and a re-absorption, coil
     heated. Beside the smooth in time a backlash of 26 um passed every check on a gain of 62 noise variances, of
     which the sweeps, the only readings a backlash moves, gave 6: the rest was the baseline and the smooth refitted
-    beside it on the readings taken at one place while the coil heated. Now it is not claimed, and neither is
-    tau(x) there (15 of 39)."""
+    beside it on the readings taken at one place while the coil heated. Now it is not claimed, and nothing is
+    claimed beside the smooth (tau(x) was, on 15 of 39). (The moist former's drying, tau(x) and the winding's lag,
+    all true there, are claimed in the search itself, the drying judged where it dries.)"""
     result = run_diagnosis(study_campaign(2027, 29))
-    assert not result.claimed
+    assert "slide_backlash" not in result.claimed, result.explanation
+    assert set(result.claimed) <= {"parasitic_capacitance", "tau_displacement", "thermal_lag"}, result.explanation
+    assert not any(step.beside for step in result.steps), result.explanation
     assert result.verdict == "missing_effect"

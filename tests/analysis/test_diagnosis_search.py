@@ -18,6 +18,7 @@ from ecds_lab.analysis.diagnosis import run_diagnosis, search
 from ecds_lab.analysis.diagnosis.advice import Design
 from ecds_lab.analysis.diagnosis.checks import at_bound
 from ecds_lab.data.measurements import Measurements
+from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.model.library.parasitic_capacitance import ParasiticCapacitance
 from ecds_lab.model.library.slide_backlash import SlideBacklash
 from ecds_lab.simulators import campaign
@@ -126,7 +127,18 @@ def test_advice_never_asks_for_what_the_campaign_already_holds(field_lab):
 
 
 # -- a round on the same model and readings reuses the fits made for it ------------------------------------------
-def test_a_round_weighing_the_same_model_again_reuses_its_fits_and_answers_alike(campaign_with, monkeypatch):
+@pytest.fixture
+def drying_judged_where_hottest(monkeypatch):
+    """The drying's course judged by its rate where the coil is hottest, as the library did before it judged it
+    where the former dries (``ParasiticCapacitance.drying_temperature``): a subsample of a hundred readings leaves
+    that rate open, which these tests of the search's handling of an open course need (where the former dries,
+    30 readings of the drying campaign determine it already)."""
+    monkeypatch.setattr(ParasiticCapacitance, "drying_temperature",
+                        lambda self, data, values: float(data.t_coil_c.max()))
+
+
+def test_a_round_weighing_the_same_model_again_reuses_its_fits_and_answers_alike(campaign_with, monkeypatch,
+                                                                              drying_judged_where_hottest):
     """The drying campaign screened at 100 readings: a claim fails its checks on every reading and is dropped,
     which leaves the model as it was, and the round after it weighs the same candidates on the same readings.
     Reusing the fits made for it (``_RoundWork``) gives the answer a round from scratch gives, with fewer fits."""
@@ -188,8 +200,10 @@ def test_candidates_set_aside_as_partial_do_not_keep_the_search_going(monkeypatc
     assert not {"thermal_lag", "former_expansion", "parasitic_capacitance"} & set(result.claimed), result.explanation
 
 
-def test_a_course_a_small_screen_leaves_open_is_judged_again_on_a_larger_one(campaign_with, monkeypatch):
-    # 80 of the campaign's 904 readings leave the drying's course open; 640 determine it, as all of them do
+def test_a_course_a_small_screen_leaves_open_is_judged_again_on_a_larger_one(campaign_with, monkeypatch,
+                                                                           drying_judged_where_hottest):
+    # 80 of the campaign's 904 readings leave the drying's rate where the coil is hottest open; 640 determine it, as
+    # all of them do
     data = campaign_with("parasitic_capacitance")
     assert run_diagnosis(data).claimed[:1] == ["parasitic_capacitance"]
     screened = run_diagnosis(data, screen_rows=80)
@@ -216,6 +230,18 @@ def test_a_drying_faster_hot_than_cold_is_claimed_and_one_at_one_pace_is_not(cam
     assert drift.verdict == "missing_effect" and "outside the library" in drift.explanation, drift.explanation
     assert "time_s" in [a.variable for a in drift.associations[:2]], drift.explanation
     assert ParasiticCapacitance.reveal_beside_drift in drift.suggested_measurements
+
+
+def test_a_former_dry_before_the_hottest_hold_shows_its_drying_where_it_dried(study_campaign):
+    """Validation study seed 2030 case 166 (the moist former, coil held at 40, 80 and 120 C, one sweep cold and one
+    hot): the former is dry before the coil reaches 80 C, so its drying rate at 120 C is open (a factor 4.9e16) while
+    the rate where it dried is known. The drying is judged there (``ParasiticCapacitance.drying_temperature``) and
+    claimed; it was missed."""
+    result = run_diagnosis(study_campaign(2030, 166))
+    assert "parasitic_capacitance" in result.claimed, result.explanation
+    drying = next(s for s in result.steps[1:] if s.effects[-1] == "parasitic_capacitance")
+    effect = ParasiticCapacitance(SensorConfig())
+    assert effect.drying_temperature(result.data, drying.fit.values) < 70.0 < float(result.data.t_coil_c.max())
 
 
 def test_a_difference_between_the_directions_that_a_drift_leaves_as_well_is_no_backlash(field_lab, study_campaign):
@@ -423,7 +449,8 @@ def test_on_a_campaign_many_times_the_largest_screen_a_polish_is_taken_there_fir
     assert search._polished(model, data, start).rms_ppm == direct.rms_ppm and sizes == [len(data)]
 
 
-def test_a_course_a_subsample_leaves_open_is_told_from_a_claim_that_fails_otherwise(campaign_with):
+def test_a_course_a_subsample_leaves_open_is_told_from_a_claim_that_fails_otherwise(campaign_with,
+                                                                                   drying_judged_where_hottest):
     # 80 of the drying campaign's 904 readings: clear evidence, a plausible size, the course open
     data = search.screened(campaign_with("parasitic_capacitance"), 80)
     space = search._Space(search.SensorConfig(), search.library())

@@ -114,7 +114,8 @@ def test_a_bump_in_every_sweep_is_not_taken_for_noise(seed):
     design = Design(frequencies_hz=(500.0, 15000.0), directions=("forward",), positions=16, fine_steps=False,
                     target_setpoints_c=(), coil_setpoints_c=(40.0, 80.0, 120.0), repeats=1)
     bracket = {"enabled": True, "position_mm": 50.7, "radius_mm": 3.3, "radial_mm": 75.0 + 3.3 + 0.65}
-    result = run_diagnosis(measure(Case(0, seed, design, ("metal_object",), {"imperfections": {"metal_object": bracket}})))
+    case = Case(0, seed, design, ("metal_object",), {"imperfections": {"metal_object": bracket}})
+    result = run_diagnosis(measure(case))
     assert "outside the library" in result.explanation, result.explanation
     assert "x_mm" in leading(result), (leading(result), result.explanation)
     assert set(result.claimed) <= FAITHFUL, result.explanation
@@ -142,7 +143,7 @@ def test_a_tilt_is_read_as_the_bending_it_looks_like(field_config):
 @pytest.mark.parametrize("coil_setpoints_c", [COIL_SETPOINTS_C, BOTH_SIDES_C])
 def test_a_cooling_hysteresis_is_not_claimed_as_drying(field_config, coil_setpoints_c):
     """The former's expansion lagging by a dead band on cooling leaves the cooling path off the heating one, as drying
-    would; but the data leave the drying's course open (its rate where the coil is hottest unknown by orders of
+    would; but the data leave the drying's course open (its rate where the fitted former dries unknown by orders of
     magnitude), so parasitic_capacitance is not claimed (before: claimed, fitted 53 fF, a false claim). Heated from
     below only (60, 100 C), where the design cannot show the hysteresis, and back at 60 C from above, where it can."""
     size, parts, _, present = CASES["expansion_hysteresis"]

@@ -53,6 +53,7 @@ from ecds_lab.analysis.diagnosis.checks import (
     check_in_time,
     check_stretches,
     check_where_it_acts,
+    clear_evidence,
     evidence_rank,
     score_candidate,
     signature_spread,
@@ -103,6 +104,9 @@ LARGEST_SCREEN = 20_000
 #: An effect leaving at least this share of its own chi-square gain as structure where it acts, with the residual
 #: outside the library, explained only part of something else (``_mark_partial``).
 PARTIAL_SHARE = 0.5
+#: An effect acts by the slide's state alone when its action differs within each state by at most this share of its
+#: size there (``_in_states_alone``).
+STATE_SHARE = 0.25
 #: The final residual drifts in time when time is among its first this many associations (as the study judges
 #: where a residual lives); then each claim is asked what it adds beside a slow drift (``_mark_drift``).
 DRIFT_ASSOCIATIONS = 2
@@ -259,7 +263,7 @@ def _run_diagnosis(data: Measurements, effects: Sequence[str], sensor: SensorCon
     if not limits and outside_library(final, noise, structure, associations):
         # what each claim left is weighed against its gain, both in the noise the search measured the gain in
         acting = _where_each_acts(steps, clean, searched)
-        _mark_partial(steps, clean, searched, acting)
+        _mark_partial(steps, clean, searched, acting, _smooth_beside(screen, clean, associations, space))
         if any(a.variable == "time_s" for a in associations[:DRIFT_ASSOCIATIONS]):
             _mark_drift(steps, clean, searched, acting)
         partial += [[step.effects[-1]] for step in steps[1:]
@@ -325,12 +329,11 @@ def _beside_smooth(screen: Measurements, clean: Measurements, steps: list[Step],
     appended to ``steps`` (``Step.beside``), then the rest are judged again. True when any was claimed. ``names``
     loses the effects claimed. Not on a screened campaign (a subsample): a claim there would need confirming on
     every reading beside the nuisance, which this does not do yet."""
+    beside = _smooth_beside(screen, clean, associations, space)
+    if beside is None:
+        return False
     variables = [a.variable for a in associations[:SMOOTH_ASSOCIATIONS]
                  if a.variable in SMOOTHABLE and a.significance > STRUCTURE_SIGNIFICANCE]
-    smooth = smooth_effect(clean, variables) if variables and screen is clean else None
-    if smooth is None:
-        return False
-    beside = _Space(space.sensor, space.registry.with_effects(smooth), space.released)
     full_scale = steps[-1].full_scale_mm
     added = False
     while names and len(steps) <= max_steps:
@@ -370,7 +373,8 @@ def _where_each_acts(steps: list[Step], data: Measurements, noise: NoiseEstimate
     return [np.abs((prediction / previous - 1) * 1e6) >= threshold for previous, prediction in pairwise(predictions)]
 
 
-def _mark_partial(steps: list[Step], data: Measurements, noise: NoiseEstimate, acting: list[np.ndarray]) -> None:
+def _mark_partial(steps: list[Step], data: Measurements, noise: NoiseEstimate, acting: list[np.ndarray],
+                  beside: _Space | None = None) -> None:
     """With a residual outside the library left at the end, an effect claimed on the way that leaves structure
     beyond chance where it acts (the readings whose prediction it moved by SIGNATURE_SHARE of the noise), at
     least PARTIAL_SHARE of what it took (its chi-square gain), only took a part of what the library does not
@@ -378,14 +382,77 @@ def _mark_partial(steps: list[Step], data: Measurements, noise: NoiseEstimate, a
     that took nearly all of what lives where it acts (moisture drying written another way) stays claimed.
     Structure the same states show where the effect does not act is not the effect's to leave
     (``beyond_idle_states``): a metal object's bump in x, cold and hot alike, is no part a bending missed.
+    Nor is structure a flexible nuisance takes beside it (``beside``: the space with ``nuisance.smooth_effect`` in
+    the residual's leading variables, ``_smooth_beside``): an effect of the slide's states alone (``_in_states_alone``:
+    a lead screw, a backlash, tau(x)) that keeps clear evidence in the final model beside that nuisance is no part of
+    what the nuisance holds (validation study seed 2026 case 63: a lead screw's period in x beside a re-absorption's
+    misfit in time, in every hot sweep it acts on). An effect of time or temperature is not asked: the nuisance's
+    splines are too coarse for its course (seed 2026 case 20: a drying and a conductivity change that took parts of
+    a drift of the bridge's gain kept their evidence beside the smooth in time).
     Tie representatives stay as they are. ``acting``: where each step's effect acts (``_where_each_acts``)."""
     final = steps[-1].fit.residuals_ppm
+    with_nuisance: list[FitResult] = []
     for (before, step), acts in zip(pairwise(steps), acting, strict=True):
         if step.stands_for or step.beside:
             continue
         left = residual_structure(data, beyond_idle_states(data, final, acts), noise, rows=acts)
         if left.beyond(STRUCTURE_SIGNIFICANCE) and left.excess_chi2 > PARTIAL_SHARE * step.added_from(before).chi2_gain:
+            name = step.effects[-1]
+            if beside is not None and _in_states_alone(name, steps[-1], data, noise) and \
+                    _holds_beside(name, steps[-1], beside, data, noise, with_nuisance):
+                continue
             step.leaves_structure = left.significance
+
+
+def _smooth_beside(screen: Measurements, clean: Measurements, associations: Sequence[Association], space: _Space
+                   ) -> _Space | None:
+    """The search's space with the flexible nuisance that takes a residual outside the library (``nuisance.
+    smooth_effect`` in the variables of its first SMOOTH_ASSOCIATIONS associations beyond chance), as
+    ``_beside_smooth`` judges candidates beside it; None where there is none, or on a screened campaign."""
+    variables = [a.variable for a in associations[:SMOOTH_ASSOCIATIONS]
+                 if a.variable in SMOOTHABLE and a.significance > STRUCTURE_SIGNIFICANCE]
+    smooth = smooth_effect(clean, variables) if variables and screen is clean else None
+    return None if smooth is None else _Space(space.sensor, space.registry.with_effects(smooth), space.released)
+
+
+def _in_states_alone(name: str, final: Step, data: Measurements, noise: NoiseEstimate) -> bool:
+    """Whether the claimed effect ``name`` acts in the final model as a function of the slide's state alone
+    (frequency, direction, commanded distance): its action there (ppm: the prediction against the same with its size
+    parameters zero, as ``checks.gain_where_it_acts`` weighs it) differs within no state by more than SIGNATURE_SHARE
+    of the state's smallest noise or STATE_SHARE of its largest size there: it does not change with time or the
+    temperatures, but for the few percent the sensitivity it shows through does (a lead screw's -245 ppm at 20 mm is
+    -268 ppm with the coil at 120 C)."""
+    fit = final.fit
+    effect = next(e for e in fit.model.effects if e.name == name)
+    absent = {**fit.values, **{n: 0.0 for n in effect.size_names()}, **effect.absent_form}
+    with np.errstate(all="ignore"):
+        action = (fit.model.predict(data, fit.values) / fit.model.predict(data, absent) - 1.0) * 1e6
+    if not np.isfinite(action).all():  # no prediction without it (a lag of zero time constant): its action unknown
+        return False
+    state = _measuring_states(data)
+    count = state.max() + 1
+    low, high, size, sigma = np.full(count, np.inf), np.full(count, -np.inf), np.zeros(count), np.full(count, np.inf)
+    np.minimum.at(low, state, action)
+    np.maximum.at(high, state, action)
+    np.maximum.at(size, state, np.abs(action))
+    np.minimum.at(sigma, state, noise.sigma_ppm(data))
+    return bool(np.all(high - low <= np.maximum(SIGNATURE_SHARE * sigma, STATE_SHARE * size)))
+
+
+def _holds_beside(name: str, final: Step, beside: _Space, data: Measurements, noise: NoiseEstimate,
+                  with_nuisance: list[FitResult]) -> bool:
+    """Whether the claimed effect ``name`` keeps clear evidence (``checks.clear_evidence``) in the final model beside
+    the nuisance of ``beside``: that model fitted with the nuisance (made once, kept in ``with_nuisance``) against
+    the same without ``name``."""
+    if not with_nuisance:
+        with_nuisance.append(fit_model(beside.model([*final.effects, NUISANCE]), data, start=final.fit.values,
+                                       multistart=False, screening=True))
+    full = with_nuisance[0]
+    model = beside.model([*(e for e in final.effects if e != name), NUISANCE])
+    names = {p.name for p in model.parameters()}
+    without = fit_model(model, data, start={k: v for k, v in full.values.items() if k in names}, multistart=False,
+                        screening=True)
+    return clear_evidence(score_candidate(name, full, without, noise, data, len(data)))
 
 
 def beyond_idle_states(data: Measurements, residual: np.ndarray, acts: np.ndarray) -> np.ndarray:

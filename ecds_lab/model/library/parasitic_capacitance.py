@@ -42,6 +42,10 @@ from ecds_lab.model.tangents import InputTangents, Tangent, plus
 _MOISTURE_PARAMETERS = ("drying_rate", "drying_onset", "drying_width", "drying_order", "bound_share", "sorption_width")
 
 
+#: A moisture falling by less than this over a campaign (as a share of the start's) shows no drying temperature.
+FALL_SEEN = 1e-3
+
+
 def _moisture_key(p: Mapping[str, float]) -> tuple[float, ...]:
     """The values of the parameters the moisture m(t) depends on."""
     return tuple(p[name] for name in _MOISTURE_PARAMETERS)
@@ -113,17 +117,29 @@ class ParasiticCapacitance(Effect):
         return {}
 
     def signature(self, data: Measurements, values: Mapping[str, float]) -> tuple[float, dict[str, float]]:
-        """ln of the drying rate at the campaign's hottest coil temperature: drying is seen when the data tell how
-        fast the former dries there. Onset and rate alone may each be open (an Arrhenius-like rise far below the
-        onset fixes only their combination); a course the data leave wholly open (a step at a cooling
-        hysteresis, say) is not drying."""
-        hottest = float(np.max(data.t_coil_c))
+        """ln of the drying rate at the coil temperature where the fitted former did its drying
+        (``drying_temperature``): drying is seen when the data tell how fast the former dries where it dries.
+        Onset and rate alone may each be open (an Arrhenius-like rise far below the onset fixes only their
+        combination; a former dry before the hottest hold leaves the rate there open); a course the data leave
+        wholly open (a step at a cooling hysteresis, say) is not drying."""
+        at = self.drying_temperature(data, values)
         width = values["drying_width"]
-        u = (hottest - values["drying_onset"]) / width
+        u = (at - values["drying_onset"]) / width
         share = float(expit(u))
         ln_rate = math.log(values["drying_rate"]) + math.log(max(share, 1e-300))
         return ln_rate, {"drying_rate": 1.0 / values["drying_rate"], "drying_onset": -(1.0 - share) / width,
                          "drying_width": -(1.0 - share) * u / width}
+
+    def drying_temperature(self, data: Measurements, values: Mapping[str, float]) -> float:
+        """The coil temperature (C) at which the former's moisture fell, its fall along each recording weighting the
+        temperature it fell at; the hottest reading's where it hardly falls."""
+        hottest = float(np.max(data.t_coil_c))
+        line = self._line(data)
+        moisture = self.moisture(data, values)[line.order]
+        fall = np.where(line.restart, 0.0, np.maximum(-np.diff(moisture), 0.0))
+        if not fall.sum() > FALL_SEEN:
+            return hottest
+        return float(np.sum(fall * 0.5 * (line.temp_c[1:] + line.temp_c[:-1])) / fall.sum())
 
     def moisture(self, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
         """m(t) per recording: the drying rate and the equilibrium at the mean temperature of each interval."""
