@@ -407,7 +407,9 @@ def test_a_claim_refitted_into_a_poor_valley_is_refitted_from_its_own_starts(cam
     assert not confirmed.passes and not search._course_open(confirmed)  # no evidence: no open course either
     sizes = _fitted_sizes(monkeypatch)
     refitted = search._from_own_starts(data, stuck)
-    assert sizes == [min(largest_screen, len(data))] * len(model.effects[-1].alternative_starts) + [len(data)]
+    walked_first = [largest_screen] if len(data) > search.PRE_POLISH_GROWTH * largest_screen else []  # _polished
+    assert sizes == [min(largest_screen, len(data))] * len(model.effects[-1].alternative_starts) + walked_first \
+        + [len(data)]
     assert refitted.rms_ppm < 0.1 * stuck.rms_ppm
     assert search._confirmed("parasitic_capacitance", refitted, base, base.noise, data).passes
     if largest_screen >= len(data):  # a refit already in the best valley its starts reach is kept as it is
@@ -431,7 +433,7 @@ def _fitted_sizes(monkeypatch) -> list[int]:
 
 
 def test_on_a_campaign_many_times_the_largest_screen_a_polish_is_taken_there_first(campaign_with, monkeypatch):
-    # 904 readings, more than SCREEN_GROWTH times a largest screen of 100: a claim's solution on 60 readings is
+    # 904 readings, more than PRE_POLISH_GROWTH times a largest screen of 100: a claim's solution on 60 readings is
     # polished on 100 first, then on every reading, and ends where polishing every reading at once ends
     data = campaign_with("parasitic_capacitance")
     monkeypatch.setattr(search, "LARGEST_SCREEN", 100)
@@ -445,7 +447,7 @@ def test_on_a_campaign_many_times_the_largest_screen_a_polish_is_taken_there_fir
     assert laddered.rms_ppm == pytest.approx(direct.rms_ppm, rel=1e-3)
     # on fewer readings than that the polish is taken on every reading at once, as before
     sizes.clear()
-    monkeypatch.setattr(search, "LARGEST_SCREEN", len(data) // search.SCREEN_GROWTH + 1)
+    monkeypatch.setattr(search, "LARGEST_SCREEN", len(data) // search.PRE_POLISH_GROWTH + 1)
     assert search._polished(model, data, start).rms_ppm == direct.rms_ppm and sizes == [len(data)]
 
 

@@ -101,6 +101,8 @@ MAX_OUTLIER_ROUNDS = 3
 #: of a week's log has a handful of a 2,500-reading subsample's readings, and thousands of the campaign's.
 SCREEN_GROWTH = 8
 LARGEST_SCREEN = 20_000
+#: A polish of every reading on a campaign more than this many times LARGEST_SCREEN walks there first (``_polished``).
+PRE_POLISH_GROWTH = 2
 #: An effect leaving at least this share of its own chi-square gain as structure where it acts, with the residual
 #: outside the library, explained only part of something else (``_mark_partial``).
 PARTIAL_SHARE = 0.5
@@ -1060,10 +1062,11 @@ def _full_fit(clean: Measurements, candidate: Candidate, noise_ppm: float | None
 def _polished(model: SensorModel, clean: Measurements, start: Mapping[str, float], noise_ppm: float | None = None
               ) -> FitResult:
     """``model`` polished on every reading from ``start`` (its solution on a subsample); on a campaign more than
-    SCREEN_GROWTH times the largest screen, polished on that screen first: a walk from a 2,500-reading valley is
-    dozens of evaluations, each a second at 10^6 readings. With ``noise_ppm`` (the search's reading noise) a polish
-    stops at a step that gains a negligible chi-square (``fitting.NEGLIGIBLE_CHI2``)."""
-    if len(clean) > SCREEN_GROWTH * LARGEST_SCREEN:
+    PRE_POLISH_GROWTH times the largest screen, polished on that screen first: a walk from a 2,500-reading valley is
+    dozens of evaluations, each a second at 10^6 readings (at 10^5: 7-15 of them on every reading, 0.2 s each).
+    With ``noise_ppm`` (the search's reading noise) a polish stops at a step that gains a negligible chi-square
+    (``fitting.NEGLIGIBLE_CHI2``)."""
+    if len(clean) > PRE_POLISH_GROWTH * LARGEST_SCREEN:
         start = fit_model(model, screened(clean, LARGEST_SCREEN), start=start, multistart=False, screening=True,
                           polish=True, noise_ppm=noise_ppm).values
     return fit_model(model, clean, start=start, multistart=False, screening=True, polish=True, noise_ppm=noise_ppm)
