@@ -359,14 +359,20 @@ def huber_residuals(r: np.ndarray, scale: float) -> np.ndarray:
 
 
 def _noise(model: SensorModel, data: Measurements, values: Mapping[str, float], residuals: np.ndarray,
-           terms: _ErrorTerms = _ErrorTerms()) -> NoiseEstimate:
+           terms: _ErrorTerms = _ErrorTerms(), beside_sweeps: bool = False) -> NoiseEstimate:
     """The noise of a solution's readings (its parameter ``values`` and residuals as solved): reading noise from
     its (unweighted) residuals, and the slide's positioning scatter through the fitted model's sensitivity where
-    the coil faces the target."""
+    the coil faces the target; ``beside_sweeps`` as for ``estimate_noise``."""
     sensitivity = None
     if np.isfinite(data.x_m).any():
         sensitivity = model.relative_sensitivity(data, values)
-    return estimate_noise(data, terms.plain(residuals), sensitivity)
+    return estimate_noise(data, terms.plain(residuals), sensitivity, beside_sweeps=beside_sweeps)
+
+
+def noise_of(result: FitResult, data: Measurements, *, beside_sweeps: bool = False) -> NoiseEstimate:
+    """The noise of ``result``'s readings ``data`` estimated anew from its residuals (``_noise``), with
+    ``estimate_noise``'s ``beside_sweeps``."""
+    return _noise(result.model, data, result.values, result.residuals_ppm, beside_sweeps=beside_sweeps)
 
 
 def _repeat_noise(data: Measurements, solved: tuple[Any, Scaling]) -> float | None:

@@ -13,6 +13,7 @@ from ecds_lab.analysis.fitting import FitResult, combination_stderr
 from ecds_lab.analysis.grouping import stretch_labels
 from ecds_lab.analysis.noise import NoiseEstimate
 from ecds_lab.data.measurements import Measurements
+from ecds_lab.model.effects import Effect
 
 #: BIC gain (negative) on the effect's signature readings that counts as clear evidence.
 DECISIVE_DELTA_BIC = -10.0
@@ -107,17 +108,21 @@ def check_stretches(candidate: Candidate, base: FitResult, noise: NoiseEstimate,
                                   f"{-limit:.1f}): its gain is made elsewhere, on structure it does not describe")
 
 
+def effect_action(fit: FitResult, effect: Effect, data: Measurements) -> np.ndarray:
+    """What ``effect`` does in ``fit`` (ppm per reading): the prediction against the same with the effect absent (its
+    size parameters zero, ``Effect.size_parameters``, or its ``absent_form``), everything else held; not finite where
+    the model predicts nothing without it."""
+    absent = {**fit.values, **{name: 0.0 for name in effect.size_names()}, **effect.absent_form}
+    with np.errstate(all="ignore"):
+        return (fit.model.predict(data, fit.values) / fit.model.predict(data, absent) - 1.0) * 1e6
+
+
 def gain_where_it_acts(candidate: Candidate, base: FitResult, noise: NoiseEstimate, data: Measurements) -> float:
     """The candidate's chi-square gain (noise variances, design effect applied) on the readings its own action
     moves by SIGNATURE_SHARE of their noise: its fit against the same fit with the effect absent (its size
     parameters zero, ``Effect.size_parameters``, or its ``absent_form``), everything else held. A gain elsewhere
     is the rest of the model refitted beside it (a backlash moves no reading taken without a direction)."""
-    effect = candidate.effect_object
-    size = effect.size_names()
-    absent = {**candidate.fit.values, **{name: 0.0 for name in size}, **effect.absent_form}
-    model = candidate.fit.model
-    with np.errstate(all="ignore"):
-        action = (model.predict(data, candidate.fit.values) / model.predict(data, absent) - 1.0) * 1e6
+    action = effect_action(candidate.fit, candidate.effect_object, data)
     acts = np.abs(whitened(np.nan_to_num(action), data, noise)) >= SIGNATURE_SHARE * noise.ppm
     rb, rc = _in_noise_units(base, data, noise)[acts], _in_noise_units(candidate.fit, data, noise)[acts]
     return float(rb @ rb - rc @ rc) / max(noise.design_effect, 1.0)

@@ -54,6 +54,7 @@ from ecds_lab.analysis.diagnosis.checks import (
     check_stretches,
     check_where_it_acts,
     clear_evidence,
+    effect_action,
     evidence_rank,
     score_candidate,
     signature_spread,
@@ -75,8 +76,8 @@ from ecds_lab.analysis.diagnosis.nuisance import SMOOTHABLE, linear_drift_effect
 from ecds_lab.analysis.diagnosis.result import Candidate, Diagnosis, Step
 from ecds_lab.analysis.diagnosis.structure import ResidualStructure, residual_structure
 from ecds_lab.analysis.diagnosis.verdict import ADEQUATE_RATIO, STRUCTURE_SIGNIFICANCE, outside_library, verdict_of
-from ecds_lab.analysis.fitting import FitResult, evaluated, fit_model, referenced
-from ecds_lab.analysis.noise import NoiseEstimate, estimate_noise, refreshed
+from ecds_lab.analysis.fitting import FitResult, evaluated, fit_model, noise_of, referenced
+from ecds_lab.analysis.noise import NoiseEstimate, refreshed
 from ecds_lab.analysis.outliers import Outlier, describe, find_glitches
 from ecds_lab.analysis.per_readings import per_readings
 from ecds_lab.analysis.subsample import screened
@@ -315,8 +316,7 @@ def _judging_noise(fit: FitResult, clean: Measurements) -> NoiseEstimate:
     out of the noise). The search keeps the start model's noise, about a smooth alone: with the profile taken out,
     the baseline's misfit at close range stood 45-170 sigmas from a sweep's turning points and the glitch rule
     excluded five real readings."""
-    sensitivity = fit.model.relative_sensitivity(clean, fit.values) if np.isfinite(clean.x_m).any() else None
-    return estimate_noise(clean, fit.residuals_ppm, sensitivity, beside_sweeps=True)
+    return noise_of(fit, clean, beside_sweeps=True)
 
 
 def _beside_smooth(screen: Measurements, clean: Measurements, steps: list[Step], names: list[str], space: _Space,
@@ -335,8 +335,7 @@ def _beside_smooth(screen: Measurements, clean: Measurements, steps: list[Step],
     beside = _smooth_beside(screen, clean, associations, space)
     if beside is None:
         return False
-    variables = [a.variable for a in associations[:SMOOTH_ASSOCIATIONS]
-                 if a.variable in SMOOTHABLE and a.significance > STRUCTURE_SIGNIFICANCE]
+    variables = _smoothed_variables(associations)
     full_scale = steps[-1].full_scale_mm
     added = False
     while names and len(steps) <= max_steps:
@@ -394,17 +393,26 @@ def _mark_partial(steps: list[Step], data: Measurements, noise: NoiseEstimate, a
     a drift of the bridge's gain kept their evidence beside the smooth in time).
     Tie representatives stay as they are. ``acting``: where each step's effect acts (``_where_each_acts``)."""
     final = steps[-1].fit.residuals_ppm
-    with_nuisance: list[FitResult] = []
+    with_nuisance = functools.cache(lambda: fit_model(beside.model([*steps[-1].effects, NUISANCE]), data,
+                                                      start=steps[-1].fit.values, multistart=False, screening=True)
+                                    ) if beside is not None else None
     for (before, step), acts in zip(pairwise(steps), acting, strict=True):
         if step.stands_for or step.beside:
             continue
         left = residual_structure(data, beyond_idle_states(data, final, acts), noise, rows=acts)
         if left.beyond(STRUCTURE_SIGNIFICANCE) and left.excess_chi2 > PARTIAL_SHARE * step.added_from(before).chi2_gain:
             name = step.effects[-1]
-            if beside is not None and _in_states_alone(name, steps[-1], data, noise) and \
-                    _holds_beside(name, steps[-1], beside, data, noise, with_nuisance):
+            if beside is not None and with_nuisance is not None and _in_states_alone(name, steps[-1], data, noise) \
+                    and _holds_beside(name, steps[-1], beside, data, noise, with_nuisance()):
                 continue
             step.leaves_structure = left.significance
+
+
+def _smoothed_variables(associations: Sequence[Association]) -> list[str]:
+    """The variables the nuisance smooth of a residual outside the library runs in: those of its first
+    SMOOTH_ASSOCIATIONS associations that a smooth can take, beyond chance."""
+    return [a.variable for a in associations[:SMOOTH_ASSOCIATIONS]
+            if a.variable in SMOOTHABLE and a.significance > STRUCTURE_SIGNIFICANCE]
 
 
 def _smooth_beside(screen: Measurements, clean: Measurements, associations: Sequence[Association], space: _Space
@@ -412,8 +420,7 @@ def _smooth_beside(screen: Measurements, clean: Measurements, associations: Sequ
     """The search's space with the flexible nuisance that takes a residual outside the library (``nuisance.
     smooth_effect`` in the variables of its first SMOOTH_ASSOCIATIONS associations beyond chance), as
     ``_beside_smooth`` judges candidates beside it; None where there is none, or on a screened campaign."""
-    variables = [a.variable for a in associations[:SMOOTH_ASSOCIATIONS]
-                 if a.variable in SMOOTHABLE and a.significance > STRUCTURE_SIGNIFICANCE]
+    variables = _smoothed_variables(associations)
     smooth = smooth_effect(clean, variables) if variables and screen is clean else None
     return None if smooth is None else _Space(space.sensor, space.registry.with_effects(smooth), space.released)
 
@@ -421,15 +428,12 @@ def _smooth_beside(screen: Measurements, clean: Measurements, associations: Sequ
 def _in_states_alone(name: str, final: Step, data: Measurements, noise: NoiseEstimate) -> bool:
     """Whether the claimed effect ``name`` acts in the final model as a function of the slide's state alone
     (frequency, direction, commanded distance): its action there (ppm: the prediction against the same with its size
-    parameters zero, as ``checks.gain_where_it_acts`` weighs it) differs within no state by more than SIGNATURE_SHARE
+    parameters zero, ``checks.effect_action``) differs within no state by more than SIGNATURE_SHARE
     of the state's smallest noise or STATE_SHARE of its largest size there: it does not change with time or the
     temperatures, but for the few percent the sensitivity it shows through does (a lead screw's -245 ppm at 20 mm is
     -268 ppm with the coil at 120 C)."""
     fit = final.fit
-    effect = next(e for e in fit.model.effects if e.name == name)
-    absent = {**fit.values, **{n: 0.0 for n in effect.size_names()}, **effect.absent_form}
-    with np.errstate(all="ignore"):
-        action = (fit.model.predict(data, fit.values) / fit.model.predict(data, absent) - 1.0) * 1e6
+    action = effect_action(fit, next(e for e in fit.model.effects if e.name == name), data)
     if not np.isfinite(action).all():  # no prediction without it (a lag of zero time constant): its action unknown
         return False
     state = _measuring_states(data)
@@ -443,14 +447,9 @@ def _in_states_alone(name: str, final: Step, data: Measurements, noise: NoiseEst
 
 
 def _holds_beside(name: str, final: Step, beside: _Space, data: Measurements, noise: NoiseEstimate,
-                  with_nuisance: list[FitResult]) -> bool:
+                  full: FitResult) -> bool:
     """Whether the claimed effect ``name`` keeps clear evidence (``checks.clear_evidence``) in the final model beside
-    the nuisance of ``beside``: that model fitted with the nuisance (made once, kept in ``with_nuisance``) against
-    the same without ``name``."""
-    if not with_nuisance:
-        with_nuisance.append(fit_model(beside.model([*final.effects, NUISANCE]), data, start=final.fit.values,
-                                       multistart=False, screening=True))
-    full = with_nuisance[0]
+    the nuisance of ``beside``: that model fitted with the nuisance (``full``) against the same without ``name``."""
     model = beside.model([*(e for e in final.effects if e != name), NUISANCE])
     names = {p.name for p in model.parameters()}
     without = fit_model(model, data, start={k: v for k, v in full.values.items() if k in names}, multistart=False,
