@@ -70,6 +70,19 @@ def test_a_lead_screw_is_found_beside_a_reabsorption(study_campaign):
     assert set(result.claimed) <= {"slide_lead_screw", "tau_displacement", "thermal_lag"}
 
 
+def test_a_campaign_judged_on_a_screen_keeps_the_claims_all_its_readings_make(study_campaign):
+    """The same campaign (seed 2026 case 63, 1004 readings) with its search screened on 250 of them, as a week's log
+    is on 2,500: all its readings claim tau(x) and the lead screw (the test above). Screened, every claim was set
+    aside as a part of what the library does not describe: the gains, made on the screen, were weighed against the
+    structure left on all 1004 readings, and the nuisance beside which a lead screw holds was not fitted on a
+    screened campaign. Now the gain is counted over every reading (``search._gain_on``) and the nuisance fitted on
+    the screen: the same claims."""
+    result = run_diagnosis(study_campaign(2026, 63), screen_rows=250)
+    assert {"slide_lead_screw", "tau_displacement"} <= set(result.claimed), result.explanation
+    assert set(result.claimed) <= {"slide_lead_screw", "tau_displacement", "thermal_lag"}, result.explanation
+    assert "outside the library" in result.explanation
+
+
 def test_an_effect_of_time_or_temperature_that_took_part_of_a_drift_is_not_asked_beside_a_smooth(study_campaign):
     """Validation study seed 2026 case 20 (the bridge's gain drifting, glitches; nothing of the library): a drying
     and a conductivity change each take a part of the drift and keep clear evidence beside the smooth in time, whose
