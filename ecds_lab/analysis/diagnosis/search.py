@@ -80,6 +80,7 @@ from ecds_lab.analysis.fitting import FitResult, evaluated, fit_model, noise_of,
 from ecds_lab.analysis.noise import NoiseEstimate, refreshed
 from ecds_lab.analysis.outliers import Outlier, describe, find_glitches
 from ecds_lab.analysis.per_readings import per_readings
+from ecds_lab.analysis.quantities import AT_BOUND, UNDETERMINED, parameter_status
 from ecds_lab.analysis.subsample import screened
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.data.row_labels import row_labels
@@ -411,10 +412,11 @@ def _mark_partial(steps: list[Step], data: Measurements, noise: NoiseEstimate, a
     if asked and beside is not None:
         fitted_on = data if judged_on is None else judged_on
         # fits from the final model's solution, near the answer: a polish (``fit_model``), stopped at a negligible step
+        held_where = _settled_only(steps[-1].fit)
         with_nuisance = fit_model(beside.model([*steps[-1].effects, NUISANCE]), fitted_on, start=steps[-1].fit.values,
-                                  multistart=False, screening=True, polish=True, noise_ppm=noise.ppm)
-        holds = forked.each(lambda name: _holds_beside(name, steps[-1], beside, fitted_on, noise, with_nuisance),
-                            asked)
+                                  fixed=held_where, multistart=False, screening=True, polish=True, noise_ppm=noise.ppm)
+        holds = forked.each(lambda name: _holds_beside(name, steps[-1], beside, fitted_on, noise, with_nuisance,
+                                                       held_where), asked)
         held = {name for name, kept in zip(asked, holds, strict=True) if kept}
     for step, significance in flagged:
         if step.effects[-1] not in held:
@@ -466,14 +468,24 @@ def _in_states_alone(name: str, final: Step, data: Measurements, noise: NoiseEst
     return bool(np.all(high - low <= np.maximum(SIGNATURE_SHARE * sigma, STATE_SHARE * size)))
 
 
+def _settled_only(fit: FitResult) -> dict[str, float]:
+    """The parameters ``fit`` leaves undetermined or on a bound, at their values: a fit from its solution holds them
+    there (a drying's sorption width with a standard error of 1e15 K, on its bound: the solver crept along it for
+    the whole of its budget, 3 s a fit on 2,500 readings)."""
+    return {name: fit.values[name] for name in fit.free_names
+            if parameter_status(fit, name).label in (AT_BOUND, UNDETERMINED)}
+
+
 def _holds_beside(name: str, final: Step, beside: _Space, data: Measurements, noise: NoiseEstimate,
-                  full: FitResult) -> bool:
+                  full: FitResult, held: Mapping[str, float] | None = None) -> bool:
     """Whether the claimed effect ``name`` keeps clear evidence (``checks.clear_evidence``) in the final model beside
-    the nuisance of ``beside``: that model fitted with the nuisance (``full``) against the same without ``name``."""
+    the nuisance of ``beside``: that model fitted with the nuisance (``full``) against the same without ``name``, with
+    the parameters ``full`` held (``held``, ``_settled_only``) held there too."""
     model = beside.model([*(e for e in final.effects if e != name), NUISANCE])
     names = {p.name for p in model.parameters()}
-    without = fit_model(model, data, start={k: v for k, v in full.values.items() if k in names}, multistart=False,
-                        screening=True, polish=True, noise_ppm=noise.ppm)
+    without = fit_model(model, data, start={k: v for k, v in full.values.items() if k in names},
+                        fixed={k: v for k, v in (held or {}).items() if k in names}, multistart=False, screening=True,
+                        polish=True, noise_ppm=noise.ppm)
     return clear_evidence(score_candidate(name, full, without, noise, data, len(data)))
 
 
