@@ -50,6 +50,10 @@ class SensorModel:
     def effect_names(self) -> list[str]:
         return [e.name for e in self.effects]
 
+    def effect(self, name: str) -> Effect:
+        """The model's effect named ``name``."""
+        return next(e for e in self.effects if e.name == name)
+
     def parameters(self) -> list[Parameter]:
         """Every parameter with its default start, bounds and unit: baseline first, then each effect's (a shared
         parameter, ``Effect.shared_parameters``, once: as the first effect declaring it gives it)."""

@@ -55,7 +55,7 @@ class Candidate:
 
     @property
     def effect_object(self) -> Effect:
-        return next(e for e in self.fit.model.effects if e.name == self.effect)
+        return self.fit.model.effect(self.effect)
 
     def effect_params(self) -> dict[str, Any]:
         own = {p.name for p in self.effect_object.parameters()}

@@ -377,7 +377,7 @@ def _where_each_acts(steps: list[Step], data: Measurements, noise: NoiseEstimate
 
 
 def _mark_partial(steps: list[Step], data: Measurements, noise: NoiseEstimate, acting: list[np.ndarray],
-                  beside: _Space | None = None, judged_on: Measurements | None = None) -> None:
+                  beside: _Space | None, judged_on: Measurements) -> None:
     """With a residual outside the library left at the end, an effect claimed on the way that leaves structure
     beyond chance where it acts (the readings whose prediction it moved by SIGNATURE_SHARE of the noise), at
     least PARTIAL_SHARE of what it took (its chi-square gain, counted over ``data``'s readings: ``_gain_on``),
@@ -406,16 +406,15 @@ def _mark_partial(steps: list[Step], data: Measurements, noise: NoiseEstimate, a
         gain = _gain_on(data, step.added_from(before))
         if left.beyond(STRUCTURE_SIGNIFICANCE) and left.excess_chi2 > PARTIAL_SHARE * gain:
             flagged.append((step, left.significance))
-    asked = [step.effects[-1] for step, _ in flagged
-             if beside is not None and _in_states_alone(step.effects[-1], steps[-1], data, noise)]
+    asked = [] if beside is None else [step.effects[-1] for step, _ in flagged
+                                       if _in_states_alone(step.effects[-1], steps[-1], data, noise)]
     held: set[str] = set()
     if asked and beside is not None:
-        fitted_on = data if judged_on is None else judged_on
         # fits from the final model's solution, near the answer: a polish (``fit_model``), stopped at a negligible step
         held_where = _settled_only(steps[-1].fit)
-        with_nuisance = fit_model(beside.model([*steps[-1].effects, NUISANCE]), fitted_on, start=steps[-1].fit.values,
+        with_nuisance = fit_model(beside.model([*steps[-1].effects, NUISANCE]), judged_on, start=steps[-1].fit.values,
                                   fixed=held_where, multistart=False, screening=True, polish=True, noise_ppm=noise.ppm)
-        holds = forked.each(lambda name: _holds_beside(name, steps[-1], beside, fitted_on, noise, with_nuisance,
+        holds = forked.each(lambda name: _holds_beside(name, steps[-1], beside, judged_on, noise, with_nuisance,
                                                        held_where), asked)
         held = {name for name, kept in zip(asked, holds, strict=True) if kept}
     for step, significance in flagged:
@@ -455,7 +454,7 @@ def _in_states_alone(name: str, final: Step, data: Measurements, noise: NoiseEst
     temperatures, but for the few percent the sensitivity it shows through does (a lead screw's -245 ppm at 20 mm is
     -268 ppm with the coil at 120 C)."""
     fit = final.fit
-    action = effect_action(fit, next(e for e in fit.model.effects if e.name == name), data)
+    action = effect_action(fit, fit.model.effect(name), data)
     if not np.isfinite(action).all():  # no prediction without it (a lag of zero time constant): its action unknown
         return False
     state = _measuring_states(data)
@@ -477,14 +476,14 @@ def _settled_only(fit: FitResult) -> dict[str, float]:
 
 
 def _holds_beside(name: str, final: Step, beside: _Space, data: Measurements, noise: NoiseEstimate,
-                  full: FitResult, held: Mapping[str, float] | None = None) -> bool:
+                  full: FitResult, held: Mapping[str, float]) -> bool:
     """Whether the claimed effect ``name`` keeps clear evidence (``checks.clear_evidence``) in the final model beside
-    the nuisance of ``beside``: that model fitted with the nuisance (``full``) against the same without ``name``, with
-    the parameters ``full`` held (``held``, ``_settled_only``) held there too."""
+    the nuisance of ``beside``: that model fitted with the nuisance (``full``) against the same without ``name``,
+    with the parameters ``full`` held (``held``: ``_settled_only``) at the same values."""
     model = beside.model([*(e for e in final.effects if e != name), NUISANCE])
     names = {p.name for p in model.parameters()}
     without = fit_model(model, data, start={k: v for k, v in full.values.items() if k in names},
-                        fixed={k: v for k, v in (held or {}).items() if k in names}, multistart=False, screening=True,
+                        fixed={k: v for k, v in held.items() if k in names}, multistart=False, screening=True,
                         polish=True, noise_ppm=noise.ppm)
     return clear_evidence(score_candidate(name, full, without, noise, data, len(data)))
 
