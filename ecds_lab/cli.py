@@ -182,9 +182,8 @@ def _cmd_fit(args: argparse.Namespace) -> int:
 
     registry = _load_user_effects(args.effects_from)
     opened = open_campaign(args.data, args.sensor)
-    with forked.allowed():  # a tall Jacobian's blocks factored on every CPU (analysis.tall_svd)
-        summary = {"sensor": opened.sensor_summary(),
-                   **fit_summary(opened.data, _effects(args.effects), opened.sensor, registry)}
+    summary = {"sensor": opened.sensor_summary(),
+               **fit_summary(opened.data, _effects(args.effects), opened.sensor, registry)}
     _print(summary, opened.sensor_note, args.json, format_fit_summary)
     return 0
 

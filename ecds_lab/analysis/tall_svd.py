@@ -14,8 +14,9 @@ column. Each is LAPACK's geqrf called with its minimal workspace, so that it tak
 reflections (geqr2): for a matrix this thin, LAPACK's blocked variant (what ``scipy.linalg.qr`` asks for, with the
 optimal workspace) spends more on forming its block reflectors than it saves. For 100,000 x 26 on one thread:
 15 ms, against 35 ms through ``scipy.linalg.qr`` by blocks of 4,096 and 76 ms by one factorisation. It is as
-stable as Householder QR, and the solution agrees to rounding. Where the caller allows more CPUs
-(``forked.allowed``: the command line), the blocks are factored on as many threads, each exactly as on one.
+stable as Householder QR, and the solution agrees to rounding. The blocks are factored one after another: on threads
+(as this module once did where the command line allows two CPUs) they took longer at every size, 1.5x at 100,000 x 28
+and 2x at 10^6 rows on this project's 2-core machine, and 4x at 2,500 rows, where starting the threads is most of it.
 
 ``tall_svd()`` puts this SVD in place of scipy's inside the trust-region solver for the body of the ``with`` (nested
 and concurrent use are fine: the solver's own SVD is back once the last user leaves); matrices shorter than
@@ -26,15 +27,12 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Iterator
-from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
 from typing import Any
 
 import numpy as np
 import scipy.linalg
 from scipy.linalg import lapack
-
-from ecds_lab import forked
 
 try:  # scipy's solver module: where its trust-region steps look their ``svd`` up
     from scipy.optimize._lsq import trf as _trf
@@ -43,10 +41,11 @@ except ImportError:  # pragma: no cover - a scipy laid out otherwise keeps its o
 #: The SVD the solver had (restored when the last user leaves).
 _solver_svd = getattr(_trf, "svd", None)
 
-#: Matrices with fewer rows keep scipy's SVD: through QR a 2,500-row subsample's Jacobian took 0.5 ms instead of
-#: 1.1 ms, but the validation study's campaigns (all shorter) then changed their answers on rounding, case 108 of
-#: seed 2026 to a wrong claim.
-TALL_ROWS = 4000
+#: Matrices with fewer rows keep scipy's SVD. Through QR a 2,500-row subsample's Jacobian takes 0.5 ms instead of
+#: 1.1 ms (a screened campaign's search fits thousands), but the validation study's campaigns changed their answers
+#: on rounding when theirs went through it too (case 108 of seed 2026 to a wrong claim), and the largest of them has
+#: 1,596 readings: below this, its answers are as they were.
+TALL_ROWS = 2000
 
 _scipy_svd = scipy.linalg.svd
 _lock = threading.Lock()
@@ -131,15 +130,7 @@ def _blocked_qr(a: np.ndarray) -> tuple[list[tuple[int, _Reflectors]], _Reflecto
         starts.pop()
     ends = [*starts[1:], n]
 
-    def factored(start: int, end: int) -> _Reflectors:
-        return _householder_qr(a[start:end])
-
-    threads = min(forked.workers(), len(starts))
-    if threads > 1:  # LAPACK lets go of the GIL: the blocks are factored side by side, each as alone
-        with ThreadPoolExecutor(threads) as pool:
-            factors = list(pool.map(factored, starts, ends))
-    else:
-        factors = [factored(start, end) for start, end in zip(starts, ends, strict=True)]
+    factors = [_householder_qr(a[start:end]) for start, end in zip(starts, ends, strict=True)]
     blocks = list(zip(starts, factors, strict=True))
     if len(factors) == 1:
         return blocks, None, _upper(factors)

@@ -295,6 +295,7 @@ class _Tried:
     """What a fake fit returns: its values and an RMS that falls with ``a`` and ``b``."""
 
     values: dict[str, float]
+    model: object = None
 
     @property
     def rms_ppm(self) -> float:
@@ -344,12 +345,54 @@ def test_a_repolish_whose_first_starts_were_tried_beside_the_refit_ends_where_it
     # taken as they are; the starts behind the winner are then tried again from it, as without them
     tried, claimed = fake_repolish
     start = _Tried({"a": 0.0, "b": 0.0})
-    first = [search._tried(claimed.model, "data", start, alternative)
-             for alternative in search._alternatives(claimed.model, 2)]
+    first = [search._tried(claimed.model, "data", start, task) for task in search._restart_tasks(claimed.model, 2)]
     tried.clear()
     best = search._best_start(start, "data", 2, claimed, first)
     assert best.values == {"a": 3.0, "b": 5.0}
     assert {"a": 1.0, "b": 0.0} not in tried and tried[0] == {"a": 3.0, "b": 0.0}  # behind a=1's win, from it
+
+
+class _StartsInC:
+    """An effect with more starts than a repolish refits with the model free: they are scouted."""
+
+    alternative_starts = ({"c": 1.0}, {"c": 4.0}, {"c": 2.0})
+
+    @staticmethod
+    def parameters():
+        return [types.SimpleNamespace(name="c")]
+
+
+@dataclasses.dataclass
+class _TriedInC(_Tried):
+    @property
+    def rms_ppm(self) -> float:
+        return 100.0 - self.values.get("c", 0.0)
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_a_repolish_scouts_an_effect_with_many_starts_and_refits_the_best_scouts_with_the_model_free(workers,
+                                                                                                     monkeypatch):
+    # c=1, 4 and 2 scouted with c alone free (the rest held where the best fit left it); the best two scouts (c=4,
+    # c=2) refitted with the model free; c=4 wins, and c=2, behind it, is scouted again from it. The worst scout is
+    # never refitted.
+    made: list[tuple[dict[str, float], dict[str, float] | None]] = []
+
+    def fake_fit(model, data, *, start, fixed=None, **_):
+        made.append((dict(start), None if fixed is None else dict(fixed)))
+        return _TriedInC(dict(start), model)
+
+    monkeypatch.setattr(search, "fit_model", fake_fit)
+    model = types.SimpleNamespace(effects=[_StartsInC(), _Claimed()])
+    start = _TriedInC({"a": 0.5, "c": 0.0}, model)
+    with forked.allowed(workers):
+        best = search._best_start(start, "data", 1, start)
+    assert best.values["c"] == 4.0
+    if workers == 1:  # fitted here, so seen here
+        scouts = [(fit_start, fixed) for fit_start, fixed in made if fixed is not None]
+        assert [fit_start["c"] for fit_start, _ in scouts] == [1.0, 4.0, 2.0, 2.0]
+        assert all(fixed == {"a": 0.5} for _, fixed in scouts)  # only the effect's own parameter free
+        refitted = [fit_start["c"] for fit_start, fixed in made if fixed is None]
+        assert 1.0 not in refitted and refitted[:2] == [4.0, 2.0]
 
 
 # -- the robust start on a campaign larger than its reweighting's subsample ---------------------------------------

@@ -6,7 +6,6 @@ import pytest
 import scipy.linalg
 from scipy.optimize import least_squares
 
-from ecds_lab import forked
 from ecds_lab.analysis import tall_svd
 
 
@@ -58,15 +57,3 @@ def test_a_matrix_with_a_nan_is_refused_as_by_scipys_svd():
     a[10, 1] = np.nan
     with pytest.raises(ValueError):
         tall_svd.thin_svd(a, full_matrices=False)
-
-
-def test_blocks_factored_on_two_threads_give_exactly_what_one_gives():
-    rng = np.random.default_rng(5)
-    rows = 5 * tall_svd.BLOCK_ROWS + 17
-    a, f = rng.normal(size=(rows, 9)) * np.logspace(0, 4, 9), rng.normal(size=rows)
-    alone = tall_svd.thin_svd(a, full_matrices=False)
-    with forked.allowed(2):
-        side_by_side = tall_svd.thin_svd(a, full_matrices=False)
-    for one, two in zip(alone[1:], side_by_side[1:], strict=True):
-        np.testing.assert_array_equal(one, two)
-    np.testing.assert_array_equal(alone[0].T.dot(f), side_by_side[0].T.dot(f))

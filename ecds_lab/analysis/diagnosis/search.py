@@ -967,7 +967,7 @@ def _full_fit_beside_starts(clean: Measurements, candidate: Candidate, earlier: 
         return _full_fit(clean, candidate, noise_ppm), None
     model = candidate.fit.model
     on_screen = fit_model(model, screen, start=candidate.fit.values, multistart=False, screening=True)
-    first = _alternatives(model, earlier) if forked.workers() > 1 else []
+    first = _restart_tasks(model, earlier) if forked.workers() > 1 else []
     refit, tried = forked.each_beside(lambda: _full_fit(clean, candidate, noise_ppm),
                                       functools.partial(_tried, model, screen, on_screen), first,
                                       shared=referenced(screen, model))
@@ -1006,36 +1006,81 @@ def _held(repolished: FitResult, checked: FitResult, name: str, current: FitResu
     return checked
 
 
-def _alternatives(model: SensorModel, earlier: int) -> list[dict[str, float]]:
-    """The alternative starts of the ``earlier`` effects before the last of ``model``, in order."""
-    return [dict(alternative) for effect in model.effects[-1 - earlier:-1] for alternative in effect.alternative_starts]
+#: One alternative start of a repolish (``_restart_tasks``): the parameters its scout frees (None: tried with the
+#: whole model free) and the start's values.
+_Restart = tuple[frozenset[str] | None, dict[str, float]]
 
 
-def _tried(model: SensorModel, data: Measurements, base: FitResult, alternative: dict[str, float]) -> FitResult:
-    """``model`` fitted to ``data`` from ``base``'s solution with ``alternative``'s values in place."""
-    return fit_model(model, data, start={**base.values, **alternative}, multistart=False, screening=True)
+def _restart_tasks(model: SensorModel, earlier: int) -> list[_Restart]:
+    """The alternative starts of the ``earlier`` effects before the last of ``model``, in order; those of an effect
+    with more than SCOUTS_REFITTED of them scouted (``_tried``) with its own parameters free, as ``_refined`` scouts a
+    candidate's: a drying's five shapes and a lead screw's six leads, each tried with the whole model free beside
+    every claim after them, were a sixth of a 10^5-reading campaign's diagnosis (5 to 7 s), and won nothing."""
+    tasks: list[_Restart] = []
+    for effect in model.effects[-1 - earlier:-1]:
+        starts = effect.alternative_starts
+        own = frozenset(p.name for p in effect.parameters()) if len(starts) > SCOUTS_REFITTED else None
+        tasks += [(own, dict(alternative)) for alternative in starts]
+    return tasks
+
+
+def _tried(model: SensorModel, data: Measurements, base: FitResult, task: _Restart) -> FitResult:
+    """``model`` fitted to ``data`` from ``base``'s solution with the start of ``task`` in place: with the whole
+    model free, or as a scout with only its parameters free and the rest held at ``base``'s solution."""
+    own, alternative = task
+    held = None if own is None else {name: value for name, value in base.values.items() if name not in own}
+    return fit_model(model, data, start={**base.values, **alternative}, fixed=held, multistart=False, screening=True)
+
+
+def _outcomes(model: SensorModel, data: Measurements, best: FitResult, batch: list[_Restart],
+              first: list[FitResult] | None) -> list[FitResult | None]:
+    """Each start of ``batch`` fitted with the whole model free from ``best``'s solution, or None: a scouted start
+    whose scout is not among the best SCOUTS_REFITTED of its effect's (those are refitted with the model free from
+    the scout's solution). ``first``: the batch's fits already made (``_full_fit_beside_starts``)."""
+    shared = referenced(data, model)
+    made = first if first is not None else forked.each(functools.partial(_tried, model, data, best), batch,
+                                                       shared=shared)
+    scouted: dict[frozenset[str], list[int]] = {}
+    for i, (own, _) in enumerate(batch):
+        if own is not None:
+            scouted.setdefault(own, []).append(i)
+    refitted = [i for rows in scouted.values() for i in sorted(rows, key=lambda i: made[i].rms_ppm)[:SCOUTS_REFITTED]]
+    refits = forked.each(lambda i: _tried(model, data, best, (None, made[i].values)), refitted, shared=shared)
+    full: list[FitResult | None] = [fit if own is None else None for (own, _), fit in zip(batch, made, strict=True)]
+    for i, fit in zip(refitted, refits, strict=True):
+        full[i] = fit
+    return full
 
 
 def _best_start(best: FitResult, data: Measurements, earlier: int, claimed: FitResult,
                 first: list[FitResult] | None = None) -> FitResult:
     """``best`` or the best fit of its model on ``data`` from the alternative starts of the ``earlier`` effects
-    before the last of ``claimed``'s model, each from the best so far (better by 0.1 % of the RMS to count).
+    before the last of ``claimed``'s model (``_restart_tasks``), each from the best so far (better by 0.1 % of the
+    RMS to count).
 
     With processes to share them (``forked``), the starts are tried at once from the best so far, and after one that
-    wins those behind it are tried again from it (a win is rare); in one process, one after another. ``first``: the
-    fits from every start at once from ``best``, made already (``_full_fit_beside_starts``)."""
-    pending = _alternatives(claimed.model, earlier)
+    wins those behind it are tried again from it (a win is rare); in one process, each effect's starts in turn.
+    ``first``: the first fits of every start at once from ``best``, made already (``_full_fit_beside_starts``)."""
+    pending = _restart_tasks(claimed.model, earlier)
     while pending:
-        at_once = len(pending) if forked.workers() > 1 or first is not None else 1
+        at_once = len(pending) if forked.workers() > 1 or first is not None else _first_effect(pending)
         batch, pending = pending[:at_once], pending[at_once:]
-        trials = first if first is not None else forked.each(functools.partial(_tried, claimed.model, data, best),
-                                                             batch, shared=referenced(data, claimed.model))
+        trials = _outcomes(claimed.model, data, best, batch, first)
         first = None
-        won = next((i for i, trial in enumerate(trials) if trial.rms_ppm < best.rms_ppm * (1 - 1e-3)), None)
+        won = next(((i, trial) for i, trial in enumerate(trials)
+                    if trial is not None and trial.rms_ppm < best.rms_ppm * (1 - 1e-3)), None)
         if won is not None:
-            best = trials[won]
-            pending = batch[won + 1:] + pending
+            best = won[1]
+            pending = batch[won[0] + 1:] + pending
     return best
+
+
+def _first_effect(pending: list[_Restart]) -> int:
+    """How many of ``pending`` are the first effect's scouted starts (all of them), or 1 for a start tried alone."""
+    own = pending[0][0]
+    if own is None:
+        return 1
+    return next((i for i, (other, _) in enumerate(pending) if other != own), len(pending))
 
 
 def _confirmed(name: str, refit: FitResult, current: FitResult, noise: NoiseEstimate, clean: Measurements
