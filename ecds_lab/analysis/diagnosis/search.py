@@ -1110,14 +1110,11 @@ def _from_own_starts(clean: Measurements, refit: FitResult, noise_ppm: float | N
     model = refit.model
     if not model.effects[-1].alternative_starts:
         return refit
-    own = {p.name for p in model.effects[-1].parameters()}
-    held = {name: value for name, value in refit.values.items() if name not in own}
+    own = frozenset(p.name for p in model.effects[-1].parameters())
     sample = screened(clean, LARGEST_SCREEN)
-
-    def scout(start: Mapping[str, float]) -> FitResult:
-        return fit_model(model, sample, start={**refit.values, **start}, fixed=held, multistart=False, screening=True)
-
-    scouts = forked.each(scout, list(model.effects[-1].alternative_starts), shared=referenced(sample, model))
+    scouts = forked.each(functools.partial(_tried, model, sample, refit),
+                         [(own, dict(start)) for start in model.effects[-1].alternative_starts],
+                         shared=referenced(sample, model))
     if sample is not clean:  # each scout's valley as every reading sees it
         scouts = [evaluated(fit, clean) for fit in scouts]
     best = min(scouts, key=lambda fit: fit.rms_ppm)
