@@ -1,19 +1,18 @@
-"""Independent pieces of one computation on every CPU, by worker processes forked for them.
+"""Independent pieces of one computation on every CPU: this process and worker processes forked beside it.
 
 A diagnosis fits many models that do not depend on each other: the candidates of a round, the folds of a held-out
 error, the alternative starts of a refinement or a repolish. ``each(work, items)`` runs ``work`` over ``items`` in
-processes forked for the call, which inherit ``work`` and everything it closes over (nothing is sent to them but an
-index); only the results come back, and the objects the caller names ``shared`` come back as the caller's own
-objects, not as copies (a result that refers to the data it was fitted on refers to the caller's data). A result
-that cannot be pickled (it refers to a class made at run time that is not shared) is worked again by the caller,
-and so is every item when a worker dies (killed, out of memory) rather than failing.
+this process and in processes forked for the call (one fewer than the CPUs allowed), which inherit ``work`` and
+everything it closes over (nothing is sent to them); each process takes the next item nobody has taken. Only the
+workers' results come back, and the objects the caller names ``shared`` come back as the caller's own objects, not
+as copies (a result that refers to the data it was fitted on refers to the caller's data). A result that cannot be
+pickled (it refers to a class made at run time that is not shared) is worked again by the caller, and so is every
+item a worker took when a worker dies (killed, out of memory) rather than failing.
 
 Nothing is forked unless the caller allows it (``allowed``: the command line allows the CPUs this process may use;
 a library call, a test or a Dask worker stays in its own process), where ``fork`` is not available, inside a worker,
 or for fewer than two items: ``each`` is then a plain loop. The results are the same either way: each piece is
-computed by the same code from the same inputs, and they come back in the items' order. What is allowed also sets
-how many threads factor a tall Jacobian's blocks (``analysis.tall_svd``).
-"""
+computed by the same code from the same inputs, and they come back in the items' order."""
 
 from __future__ import annotations
 
@@ -39,11 +38,13 @@ _allowed = 1
 
 @dataclass
 class _Job:
-    """What the forked workers inherit: the work, its items, and the objects that go back as references."""
+    """What the forked workers inherit: the work, its items, the objects that go back as references, and the count of
+    items taken."""
 
     work: Callable[[Any], Any]
     items: Sequence[Any]
     shared: dict[int, object]
+    share: _Share
 
 
 _job: _Job | None = None
@@ -80,8 +81,8 @@ def allowed(workers: int | None = None) -> Iterator[None]:
 
 
 def each(work: Callable[[T], R], items: Iterable[T], shared: Iterable[object] = ()) -> list[R]:
-    """``[work(item) for item in items]``, on up to the allowed number of forked processes; a result's references
-    to an object in ``shared`` are to that very object."""
+    """``[work(item) for item in items]``, shared between this process and up to the allowed number of processes
+    less one forked for it; a result's references to an object in ``shared`` are to that very object."""
     return each_beside(None, work, items, shared)[1]
 
 
@@ -89,37 +90,69 @@ def each_beside(here: Callable[[], S] | None, work: Callable[[T], R], items: Ite
                 shared: Iterable[object] = ()) -> tuple[S | None, list[R]]:  # None: no ``here``
     """``here()`` in this process while the forked workers work ``items`` as in ``each``: a long piece that has no
     use for a worker's result beside short ones that do not need its own (a claim's refit on every reading beside a
-    repolish's starts on a subsample). In one process: ``here()`` first, then the items."""
+    repolish's starts on a subsample); then this process takes its share of the items left. In one process:
+    ``here()`` first, then the items.
+
+    Every process takes the next item not yet taken (``_Share``), this one among them, so none waits while items
+    are left: with the items handed out in advance, two workers left a CPU idle for a fifth of a 10^5-reading
+    diagnosis, a long item ending each set (docs/diagnosis.md)."""
     global _job
     items = list(items)
-    workers = min(_allowed, len(items))
-    if workers < 2 or not can_fork():
+    workers = min(_allowed - 1, len(items) - 1)
+    if workers < 1 or not can_fork():
         done = here() if here is not None else None
         return done, [work(item) for item in items]
     kept = {id(obj): obj for obj in shared}
-    _job = _Job(work, items, kept)
-    payloads: list[bytes | None] = [None] * len(items)
+    share = _Share(len(items))
+    _job = _Job(work, items, kept, share)
+    futures = []
     pool = None
     done = None
+    local: dict[int, R] = {}
+    payloads: dict[int, bytes | None] = {}
     try:
         try:
             pool = worker_pool(workers)
-            results = pool.map(_run, range(len(items)))  # every item is submitted at once
+            futures = [pool.submit(_run_share) for _ in range(workers)]
         except (OSError, BrokenProcessPool):  # no processes to be had, or one died: the items are worked here
-            results = None
+            futures = []
         finally:
             _job = None
         done = here() if here is not None else None
-        if results is not None:
-            try:
-                payloads = list(results)
-            except BrokenProcessPool:  # a worker died (killed, out of memory): the items are worked here
-                pass
+        with allowed(1):  # what an item forks of its own it works here, as a worker would
+            while (index := share.take()) is not None:
+                local[index] = work(items[index])
+        try:
+            for future in futures:
+                payloads.update(future.result())
+        except BrokenProcessPool:  # a worker died (killed, out of memory): the items it took are worked here
+            payloads.clear()
     finally:
         if pool is not None:
             stop(pool)
-    return done, [work(item) if payload is None else _Loader(io.BytesIO(payload), kept).load()
-                  for item, payload in zip(items, payloads, strict=True)]
+    results = []
+    for i, item in enumerate(items):
+        payload = payloads.get(i)
+        results.append(local[i] if i in local else work(item) if payload is None
+                       else _Loader(io.BytesIO(payload), kept).load())
+    return done, results
+
+
+class _Share:
+    """The items of one call not yet taken, in order, counted in memory the forked workers share with this process."""
+
+    def __init__(self, count: int) -> None:
+        self.count = count
+        self.next = multiprocessing.get_context("fork").Value("i", 0)
+
+    def take(self) -> int | None:
+        """The next item's index, now taken, or None when every item is taken."""
+        with self.next.get_lock():
+            index = self.next.value
+            if index >= self.count:
+                return None
+            self.next.value = index + 1
+        return index
 
 
 def worker_pool(workers: int) -> ProcessPoolExecutor:
@@ -146,17 +179,21 @@ def _become_worker() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
-def _run(index: int) -> bytes | None:
-    """The item's result, pickled; None when it cannot be (an instance of a class made at run time and not shared):
-    the parent then works the item itself."""
+def _run_share(*_: object) -> dict[int, bytes | None]:
+    """The items this worker took while any were left (``_Share``), each result pickled; None for one that cannot be
+    (an instance of a class made at run time and not shared): the parent then works that item itself."""
     assert _job is not None, "a worker inherits its job from the fork"
-    result = _job.work(_job.items[index])
-    out = io.BytesIO()
-    try:
-        _Dumper(out, _job.shared).dump(result)
-    except (pickle.PicklingError, AttributeError, TypeError):
-        return None
-    return out.getvalue()
+    results: dict[int, bytes | None] = {}
+    while (index := _job.share.take()) is not None:
+        result = _job.work(_job.items[index])
+        out = io.BytesIO()
+        try:
+            _Dumper(out, _job.shared).dump(result)
+        except (pickle.PicklingError, AttributeError, TypeError):
+            results[index] = None
+            continue
+        results[index] = out.getvalue()
+    return results
 
 
 class _Dumper(pickle.Pickler):

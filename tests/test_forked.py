@@ -1,5 +1,5 @@
-"""``forked.each``: the same results as a loop, in order, from other processes only when allowed; ``each_beside``: a
-piece worked here meanwhile."""
+"""``forked.each``: the same results as a loop, in order, shared with other processes only when allowed;
+``each_beside``: a piece worked here meanwhile."""
 
 from __future__ import annotations
 
@@ -23,11 +23,29 @@ def test_without_leave_the_work_stays_in_this_process():
                                                                          (3, os.getpid())]
 
 
-def test_allowed_the_items_are_worked_elsewhere_and_come_back_in_order():
+def slowly(item: int) -> tuple[int, int]:
+    """The item squared and the process that worked it, after a pause that lets every process take items."""
+    time.sleep(0.05)
+    return item * item, os.getpid()
+
+
+def test_allowed_the_items_are_shared_with_a_worker_and_come_back_in_order():
     with forked.allowed(2):
-        results = forked.each(lambda item: (item * item, os.getpid()), range(7))
-    assert [square for square, _ in results] == [i * i for i in range(7)]
-    assert os.getpid() not in {pid for _, pid in results}
+        results = forked.each(slowly, range(12))
+    assert [square for square, _ in results] == [i * i for i in range(12)]
+    assert len({pid for _, pid in results}) == 2  # this process and one worker: two CPUs
+    assert os.getpid() in {pid for _, pid in results}
+
+
+def test_each_process_takes_the_next_item_so_a_long_one_holds_up_nobody():
+    """One long item: the other process works every short one meanwhile, instead of the half it was handed."""
+    def work(item: int) -> int:
+        time.sleep(1.0 if item == 0 else 0.05)
+        return os.getpid()
+
+    with forked.allowed(2):
+        workers = forked.each(work, range(9))
+    assert workers[1:] == [workers[1]] * 8 and workers[0] != workers[1]
 
 
 def test_one_item_is_worked_here_even_when_allowed():
@@ -38,25 +56,30 @@ def test_one_item_is_worked_here_even_when_allowed():
 def test_allowed_restores_what_was_allowed_before():
     with forked.allowed(2):
         with forked.allowed(1):
-            assert forked.each(lambda item: os.getpid(), [1, 2]) == [os.getpid()] * 2
-        assert os.getpid() not in forked.each(lambda item: os.getpid(), [1, 2])
-    assert forked.each(lambda item: os.getpid(), [1, 2]) == [os.getpid()] * 2
+            assert forked.each(slowly, range(6)) == [(i * i, os.getpid()) for i in range(6)]
+        assert len({pid for _, pid in forked.each(slowly, range(6))}) == 2
+    assert forked.each(slowly, range(6)) == [(i * i, os.getpid()) for i in range(6)]
 
 
-def test_a_shared_object_comes_back_as_itself_others_as_copies():
+def test_a_shared_object_comes_back_as_itself_others_from_a_worker_as_copies():
     data, other = Shared(), Shared()
     with forked.allowed(2):
-        results = forked.each(lambda item: {"data": data, "other": other, "new": Shared(), "none": None},
-                              [1, 2], shared=(data,))
+        results = forked.each(lambda item: {"data": data, "other": other, "new": Shared(), "none": None,
+                                            "by": slowly(item)[1]}, range(6), shared=(data,))
     assert all(result["data"] is data for result in results)
-    assert all(result["other"] is not other and isinstance(result["other"], Shared) for result in results)
+    from_workers = [result for result in results if result["by"] != os.getpid()]
+    assert from_workers and all(result["other"] is not other and isinstance(result["other"], Shared)
+                                for result in from_workers)
+    assert all(result["other"] is other for result in results if result["by"] == os.getpid())
     assert all(result["none"] is None for result in results)
 
 
-def test_a_worker_works_alone():
+def test_a_worker_works_alone_and_so_does_this_process_on_its_share():
     with forked.allowed(2):
-        results = forked.each(lambda item: (os.getpid(), forked.each(lambda inner: os.getpid(), [1, 2])), [1, 2])
+        results = forked.each(lambda item: (slowly(item)[1], forked.each(lambda inner: os.getpid(), [1, 2])),
+                              range(6))
     assert all(inner == [worker, worker] for worker, inner in results)
+    assert len({worker for worker, _ in results}) == 2
 
 
 def test_a_failure_in_a_worker_is_raised_here():
@@ -81,12 +104,18 @@ def test_when_a_worker_dies_the_items_are_worked_here():
         assert forked.each(work, [0, 1, 2]) == [(0, True), (1, True), (2, True)]
 
 
-def test_beside_the_workers_a_piece_is_worked_here_meanwhile():
+def test_beside_the_workers_a_piece_is_worked_here_meanwhile_then_its_share_of_the_items():
+    def long_piece() -> int:
+        time.sleep(0.5)
+        return os.getpid()
+
     with forked.allowed(2):
-        here, results = forked.each_beside(lambda: os.getpid(), lambda item: (item, os.getpid()), range(4))
+        here, results = forked.each_beside(long_piece, slowly, range(12))
     assert here == os.getpid()
-    assert [item for item, _ in results] == [0, 1, 2, 3]
-    assert os.getpid() not in {pid for _, pid in results}
+    assert [square for square, _ in results] == [i * i for i in range(12)]
+    workers = [pid for _, pid in results]
+    assert workers[0] != os.getpid()  # taken by the worker while the piece was worked here
+    assert os.getpid() in workers[1:]  # what was left once it was done is shared
 
 
 def test_in_one_process_the_piece_beside_comes_first_then_the_items():

@@ -191,7 +191,8 @@ def fit(data: Measurements, effects: Sequence[str | Effect] = (), sensor: Sensor
 def fit_model(model: SensorModel, data: Measurements, *, start: Mapping[str, float] | None = None,
               fixed: Mapping[str, float] | None = None, multistart: bool | None = None,
               rows: np.ndarray | None = None, screening: bool = False, noise: NoiseEstimate | None = None,
-              robust: bool = False, polish: bool = False, noise_ppm: float | None = None) -> FitResult:
+              robust: bool = False, polish: bool = False, noise_ppm: float | None = None,
+              budget: int | None = None) -> FitResult:
     """Fit a model: parameters the data cannot determine and those in ``fixed`` are held constant.
 
     ``start`` overrides start values; ``multistart`` None tries more starts only when needed.
@@ -205,6 +206,8 @@ def fit_model(model: SensorModel, data: Measurements, *, start: Mapping[str, flo
     so the solver's first trust region is not confined by a parameter starting on its bound (``_solve``); with
     ``screening``, it stops after ``_POLISH_BUDGET`` evaluations per parameter, and with ``noise_ppm`` (one reading's
     noise, ppm) at a step gaining less than ``NEGLIGIBLE_CHI2`` in that noise's variance.
+    ``budget``: evaluations per free parameter and one the solver may take (default: 15 screening, 200 otherwise,
+    ``_POLISH_BUDGET`` polishing), for a fit that only ranks starts (a repolish's scout).
     """
     if len(data) == 0:
         raise ValueError("no measurements to fit")
@@ -222,7 +225,7 @@ def fit_model(model: SensorModel, data: Measurements, *, start: Mapping[str, flo
     given = set(reasons) | set(start or {})  # an extension the caller fixed or started is not nested
     simpler = {name: value for effect in model.effects if not given & set(effect.simpler_form)
                for name, value in effect.simpler_form.items()}
-    best, starts = _simpler_first(model, data, params, simpler, rows, screening, terms, polish, noise_ppm)
+    best, starts = _simpler_first(model, data, params, simpler, rows, screening, terms, polish, noise_ppm, budget)
     if multistart or (multistart is None and _needs_restart(best, _repeat_noise(fitted, best))):
         alternatives = _alternative_starts(model, data, params)
         if rows is None and terms.weights is None and len(data) > _SEARCH_ROWS:
@@ -448,8 +451,8 @@ def _jacobian_function(model: SensorModel, data: Measurements, scaling: Scaling,
 
 def _solve(model: SensorModel, data: Measurements, params: Sequence[Parameter],
            rows: np.ndarray | None = None, screening: bool = False,
-           terms: _ErrorTerms = _ErrorTerms(), polish: bool = False, noise_ppm: float | None = None
-           ) -> tuple[Any, Scaling]:
+           terms: _ErrorTerms = _ErrorTerms(), polish: bool = False, noise_ppm: float | None = None,
+           budget: int | None = None) -> tuple[Any, Scaling]:
     """One local least-squares fit from the parameters' current values (theta = 0); ``polish`` and ``noise_ppm`` as
     for ``fit_model``."""
     scaling = Scaling(params)
@@ -464,7 +467,8 @@ def _solve(model: SensorModel, data: Measurements, params: Sequence[Parameter],
     # an effect's defaults the larger first steps settled a drying in other valleys (validation study: fewer found).
     inside = np.minimum(_INSIDE_BOUND if polish else 1e-9, 0.25 * (upper - lower))
     theta0 = np.clip(np.zeros(len(scaling.names)), lower + inside, upper - inside)
-    tolerance, budget = (1e-8, _POLISH_BUDGET if polish else 15) if screening else (1e-12, 200)
+    tolerance, default_budget = (1e-8, _POLISH_BUDGET if polish else 15) if screening else (1e-12, 200)
+    budget = default_budget if budget is None else budget
     cost_tolerance = tolerance
     if polish and noise_ppm and screening:  # trf stops at a step gaining less than ftol x the cost before it
         first = residuals(theta0)
@@ -484,18 +488,18 @@ def _solve(model: SensorModel, data: Measurements, params: Sequence[Parameter],
 
 def _simpler_first(model: SensorModel, data: Measurements, params: Sequence[Parameter], simpler: Mapping[str, float],
                    rows: np.ndarray | None, screening: bool,
-                   terms: _ErrorTerms = _ErrorTerms(), polish: bool = False, noise_ppm: float | None = None
-                   ) -> tuple[tuple[Any, Scaling], int]:
+                   terms: _ErrorTerms = _ErrorTerms(), polish: bool = False, noise_ppm: float | None = None,
+                   budget: int | None = None) -> tuple[tuple[Any, Scaling], int]:
     """The local fit, nested where effects declare a simpler form (``Effect.simpler_form``): solved
     with those parameters held at it first, then with them free from their own start values and
     every other parameter at that solution; the better of the two (so never worse than the simpler
     law). Also the number of solves. ``polish`` and ``noise_ppm`` as for ``fit_model``."""
     if not simpler:
-        return _solve(model, data, params, rows, screening, terms, polish, noise_ppm), 1
-    first = _solve(model, data, update(params, fixed=simpler), rows, screening, terms, polish, noise_ppm)
+        return _solve(model, data, params, rows, screening, terms, polish, noise_ppm, budget), 1
+    first = _solve(model, data, update(params, fixed=simpler), rows, screening, terms, polish, noise_ppm, budget)
     result, scaling = first
     solution = {k: v for k, v in scaling.values(result.x).items() if k not in simpler}
-    second = _solve(model, data, update(params, values=solution), rows, screening, terms, polish, noise_ppm)
+    second = _solve(model, data, update(params, values=solution), rows, screening, terms, polish, noise_ppm, budget)
     return (second if second[0].cost <= result.cost else first), 2
 
 

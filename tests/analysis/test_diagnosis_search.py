@@ -376,9 +376,11 @@ def test_a_repolish_scouts_an_effect_with_many_starts_and_refits_the_best_scouts
     # c=2) refitted with the model free; c=4 wins, and c=2, behind it, is scouted again from it. The worst scout is
     # never refitted.
     made: list[tuple[dict[str, float], dict[str, float] | None]] = []
+    budgets: set[tuple[bool, int | None]] = set()
 
-    def fake_fit(model, data, *, start, fixed=None, **_):
+    def fake_fit(model, data, *, start, fixed=None, budget=None, **_):
         made.append((dict(start), None if fixed is None else dict(fixed)))
+        budgets.add((fixed is not None, budget))
         return _TriedInC(dict(start), model)
 
     monkeypatch.setattr(search, "fit_model", fake_fit)
@@ -393,6 +395,36 @@ def test_a_repolish_scouts_an_effect_with_many_starts_and_refits_the_best_scouts
         assert all(fixed == {"a": 0.5} for _, fixed in scouts)  # only the effect's own parameter free
         refitted = [fit_start["c"] for fit_start, fixed in made if fixed is None]
         assert 1.0 not in refitted and refitted[:2] == [4.0, 2.0]
+        # a scout only ranks: it stops at its budget; a refit with the model free takes the solver's own
+        assert budgets == {(True, search.REPOLISH_SCOUT_BUDGET), (False, None)}
+
+
+def test_after_a_claim_the_next_round_weighs_its_candidates_against_the_claim_refitted_on_the_screen_beside_it(
+        campaign_with, monkeypatch):
+    """On a screened campaign a claim's refit on the screen and its held-out error there are made beside its refit
+    on every reading (``_full_fit_beside_starts``): the next round takes both as they are, refitting no current
+    model on the screen but the baseline (``_refitted_on``) and cross-validating none of them again."""
+    data = campaign_with("target_bending", "slide_backlash")
+    refitted: list[object] = []
+    cross_validated: list[object] = []
+    real_refitted_on, real_cv_rmses = search._refitted_on, search.cv_rmses
+
+    def refitted_on(screen, fitted):
+        refitted.append(fitted)
+        return real_refitted_on(screen, fitted)
+
+    def cv_rmses(screen, fits, folds):
+        cross_validated.extend(fits)
+        return real_cv_rmses(screen, fits, folds)
+
+    monkeypatch.setattr(search, "_refitted_on", refitted_on)
+    monkeypatch.setattr(search, "cv_rmses", cv_rmses)
+    result = run_diagnosis(data, screen_rows=150)
+    claims = result.steps[1:]
+    assert claims and all(step.on_screen is not None for step in claims), result.explanation
+    assert refitted == [result.steps[0].fit]
+    assert not any(step.on_screen[1] is fit for step in claims for fit in cross_validated)
+    assert all(step.candidates for step in claims)  # each was the current model of a round
 
 
 # -- the robust start on a campaign larger than its reweighting's subsample ---------------------------------------

@@ -153,6 +153,17 @@ def test_a_screening_polish_stops_at_its_budget_of_evaluations(campaign, monkeyp
     assert polished.rms_ppm == pytest.approx(plain.rms_ppm, rel=1e-3)
 
 
+def test_a_fit_given_a_budget_stops_after_that_many_evaluations_per_parameter(campaign):
+    """``budget`` (a repolish's scout): evaluations per free parameter and one, where the same fit without it goes
+    on."""
+    model = SensorModel()
+    start = values_of(model.parameters()) | {"alpha": 3e-5, "p1": 0.02, "p2": 1.5}
+    bounded = fit_model(model, campaign, start=start, multistart=False, screening=True, budget=1)
+    plain = fit_model(model, campaign, start=start, multistart=False, screening=True)
+    assert bounded.nfev <= len(bounded.free_names) + 1 < plain.nfev, (bounded.nfev, plain.nfev)
+    assert plain.rms_ppm < bounded.rms_ppm
+
+
 def test_a_polish_told_the_noise_stops_at_a_step_that_gains_a_negligible_chi_square(campaign, monkeypatch):
     """Told the reading noise, a polish stops at the first step gaining less than ``NEGLIGIBLE_CHI2`` in its
     variance: never later than without it, and where it leaves the fit less than that is left to gain. Raised

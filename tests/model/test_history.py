@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ecds_lab.model.library.history import first_order_lag, relaxation
+from ecds_lab.model.library.history import first_order_lag, linear_recurrence, relaxation, relaxation_derivatives
 
 
 def stepwise_relaxation(time_s: np.ndarray, rate: np.ndarray, target: np.ndarray, start: float) -> np.ndarray:
@@ -56,3 +56,31 @@ def test_recurrences_over_the_same_decays_share_their_chunks_and_each_follows_it
     for target in targets:
         assert relaxation(time_s, rate, target, 1.0) == pytest.approx(
             stepwise_relaxation(time_s, rate, target, 1.0), abs=1e-10)
+
+
+def test_series_that_share_their_decays_are_integrated_together_each_as_alone():
+    rng = np.random.default_rng(5)
+    efolds = rng.uniform(0.0, 0.05, 4999)
+    series = rng.normal(size=(3, 4999))
+    together = linear_recurrence(efolds, series, 0.5)
+    assert together.shape == (3, 5000)
+    for row, b in zip(together, series, strict=True):
+        assert np.array_equal(row, linear_recurrence(efolds, b, 0.5))
+
+
+def test_the_derivatives_of_a_relaxation_are_those_of_its_recurrence():
+    """``relaxation_derivatives``, one row per parameter moving the rate or the target, against central differences
+    of ``relaxation`` itself, restarts included."""
+    rng = np.random.default_rng(6)
+    time_s = np.cumsum(rng.uniform(0.0, 60.0, 800))
+    restart = np.zeros(799, bool)
+    restart[400] = True
+    rate, target = rng.uniform(0.001, 0.02, 799), rng.uniform(0.0, 1.0, 799)
+    d_rate, d_target = rng.normal(size=(2, 799)) * [[0.005], [0.0]], rng.normal(size=(2, 799)) * [[0.0], [0.3]]
+    y = relaxation(time_s, rate, target, 1.0, restart=restart)
+    derivatives = relaxation_derivatives(time_s, rate, target, y, d_rate, d_target, restart)
+    h = 1e-4  # the recurrence is exact to ~1e-12, not to rounding: a smaller step differences that away
+    for row, (dr, dt) in enumerate(zip(d_rate, d_target, strict=True)):
+        ahead = relaxation(time_s, rate + h * dr, target + h * dt, 1.0, restart=restart)
+        behind = relaxation(time_s, rate - h * dr, target - h * dt, 1.0, restart=restart)
+        assert derivatives[row] == pytest.approx((ahead - behind) / (2 * h), rel=1e-5, abs=1e-8)

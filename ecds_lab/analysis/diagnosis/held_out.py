@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -112,19 +113,43 @@ def cv_rmse(data: Measurements, full: FitResult, folds: np.ndarray) -> float:
 
 def cv_rmses(data: Measurements, fits: Sequence[FitResult], folds: np.ndarray) -> list[float]:
     """``cv_rmse`` of each of ``fits``, the folds of all of them fitted side by side (``forked.each``)."""
-    held_in = [held_in_folds(full.model, full.values) for full in fits]
-    scored = folds != NEVER_HELD_OUT
-    keys = np.unique(folds[scored]).tolist()
+    held_out = HeldOutFits(data, fits, folds)
+    return held_out.rmses(forked.each(held_out.squares, held_out.tasks(), shared=held_out.shared()))
 
-    def held_out_squares(task: tuple[int, int]) -> float:
+
+@dataclass(frozen=True, eq=False)
+class HeldOutFits:
+    """The fits behind the held-out errors of ``fits`` on ``data``: one per model and fold, each independent of the
+    others (``tasks``, each worked by ``squares``), so that they can be worked beside other fits (``cv_rmses``, and a
+    claim's refit on every reading, ``search._full_fit_beside_starts``)."""
+
+    data: Measurements
+    fits: Sequence[FitResult]
+    folds: np.ndarray
+
+    def tasks(self) -> list[tuple[int, int]]:
+        """(which fit, which fold) of every fit to make."""
+        keys = np.unique(self.folds[self.folds != NEVER_HELD_OUT]).tolist()
+        return [(which, k) for which in range(len(self.fits)) for k in keys]
+
+    def squares(self, task: tuple[int, int]) -> float:
+        """The held-out sum of squares (ppm^2) of one fit's fold: fitted without it, the model still seeing the
+        whole history; a nuisance smooth's coefficients held where the fit on every reading left them."""
         which, k = task
-        full, held = fits[which], folds == k
-        trained = fit_model(full.model, data, start=full.values, fixed=held_in[which] or None, multistart=False,
+        full, held = self.fits[which], self.folds == k
+        fixed = held_in_folds(full.model, full.values)
+        trained = fit_model(full.model, self.data, start=full.values, fixed=fixed or None, multistart=False,
                             rows=~held, screening=True)
-        r = (data.ls_h[held] / trained.predict(data)[held] - 1) * 1e6
+        r = (self.data.ls_h[held] / trained.predict(self.data)[held] - 1) * 1e6
         return float(r @ r)
 
-    squares = forked.each(held_out_squares, [(which, k) for which in range(len(fits)) for k in keys],
-                          shared=[obj for full in fits for obj in referenced(data, full.model)])
-    count = max(int(scored.sum()), 1)
-    return [math.sqrt(sum(squares[which * len(keys):(which + 1) * len(keys)]) / count) for which in range(len(fits))]
+    def rmses(self, squares: Sequence[float]) -> list[float]:
+        """Each fit's held-out RMS (ppm) from the squares of its ``tasks``, in their order."""
+        count = max(int((self.folds != NEVER_HELD_OUT).sum()), 1)
+        per_fit = len(squares) // max(len(self.fits), 1)
+        return [math.sqrt(sum(squares[which * per_fit:(which + 1) * per_fit]) / count)
+                for which in range(len(self.fits))]
+
+    def shared(self) -> list[object]:
+        """What the fits refer to that a worker sends back as the caller's own (``fitting.referenced``)."""
+        return [obj for full in self.fits for obj in referenced(self.data, full.model)]

@@ -90,7 +90,8 @@ class Step:
     #: When the effect added was judged beside a flexible nuisance taking a residual outside the library
     #: (``search._beside_smooth``): the variables that nuisance was smooth in. Claimed.
     beside: list[str] = field(default_factory=list)
-    #: On a screened campaign, the screening subsample and this model refitted there (``search._refitted_on``):
+    #: On a screened campaign, the screening subsample and this model refitted there (the claim's refit there from
+    #: its candidate's solution, ``search._full_fit_beside_starts``, or from this fit's, ``search._refitted_on``):
     #: what its round's candidates were weighed against.
     on_screen: tuple[Measurements, FitResult] | None = None
 

@@ -63,7 +63,7 @@ from ecds_lab.analysis.diagnosis.checks import (
 )
 from ecds_lab.analysis.diagnosis.drift import gain_beside_drift
 from ecds_lab.analysis.diagnosis.explanation import explain
-from ecds_lab.analysis.diagnosis.held_out import SCREEN_ROWS, check_held_out, cv_rmses, folds_of
+from ecds_lab.analysis.diagnosis.held_out import SCREEN_ROWS, HeldOutFits, check_held_out, cv_rmses, folds_of
 from ecds_lab.analysis.diagnosis.identifiability import (
     ReleasedModel,
     absorbed,
@@ -90,6 +90,11 @@ from ecds_lab.model.sensor_model import SensorModel
 
 #: Alternative starts refitted with the whole model free, the best of their scouts (``_refined``).
 SCOUTS_REFITTED = 2
+#: Evaluations per free parameter (and one) a repolish's scout may take (``_tried``): it only ranks an earlier
+#: effect's starts, and the best two go on with the model free from where it stopped. Scouts still going after as
+#: many as a polish takes were crawling from shapes far from any valley (a drying of bound water only at 789 ppm
+#: beside 129 ppm): on the faithful 10^5-reading campaign they were half of every repolish's evaluations.
+REPOLISH_SCOUT_BUDGET = 4
 #: Once the leading candidate is at the noise, others are refitted from their alternative starts only
 #: when their chi-square gain is at least this share of the leader's (they might tie with it).
 TIE_REACH = 0.5
@@ -234,7 +239,8 @@ def _run_diagnosis(data: Measurements, effects: Sequence[str], sensor: SensorCon
             fresh = False
             continue
         earlier = len(current.effects) - len(effects)
-        refit, screen_start = _full_fit_beside_starts(clean, best, earlier, screen, noise.ppm)
+        refit, screen_start = _full_fit_beside_starts(clean, best, earlier, screen, folds, noise.ppm)
+        full = refit
         if screen is not clean:  # the claim must hold on every reading, not only on the screened ones
             confirmed = _confirmed(best.effect, refit, current.fit, noise, clean)
             if not confirmed.passes and _course_open(confirmed):
@@ -256,6 +262,9 @@ def _run_diagnosis(data: Measurements, effects: Sequence[str], sensor: SensorCon
         names = [n for n in names if n not in {c.effect for c in group}]
         # Screened on every reading, the claimed fit is the new current model: its held-out error is known.
         claimed_cv = best.cv_rmse_ppm if refit is best.fit else None
+        if screen_start is not None and refit is full:  # its refit on the screen, with its held-out error there
+            steps[-1].on_screen = (screen, screen_start.fit)
+            claimed_cv = screen_start.cv_rmse_ppm
         fresh = True
     searched = noise
     final = steps[-1]
@@ -847,10 +856,12 @@ def _unchecked(candidate: Candidate) -> Candidate:
 
 def _refitted_on(screen: Measurements, fitted: FitResult) -> FitResult:
     """The current model refitted on the screening subsample from its solution on every reading, its free
-    parameters as they were there. A candidate fitted on the subsample is weighed against this fit, not against the
-    solution on every reading evaluated there: that solution is not the subsample's best, and the gain of
-    refitting it there alone (chi-square 19.5, BIC -7.9 on the first round of the faithful 10^5-reading campaign,
-    against thresholds of 25 and -10) was counted as every candidate's evidence."""
+    parameters as they were there (where no refit there came with it: the baseline's, a repolish's winner's; a
+    claim's own is refitted there beside its refit on every reading, ``_full_fit_beside_starts``). A candidate
+    fitted on the subsample is weighed against this fit, not against the solution on every reading evaluated there:
+    that solution is not the subsample's best, and the gain of refitting it there alone (chi-square 19.5, BIC -7.9
+    on the first round of the faithful 10^5-reading campaign, against thresholds of 25 and -10) was counted as every
+    candidate's evidence."""
     held = {name: value for name, value in fitted.values.items() if name not in fitted.free_names}
     return fit_model(fitted.model, screen, start=fitted.values, fixed=held or None, multistart=False, screening=True)
 
@@ -948,31 +959,48 @@ def _refined(data: Measurements, candidates: Sequence[Candidate], base: FitResul
 
 @dataclass
 class _ScreenStart:
-    """Where a repolish on the screening subsample starts (``_repolished``): the subsample, the claimed model refitted
-    there from the candidate's own solution, and its first alternative starts already tried (None: not yet)."""
+    """The claimed model on the screening subsample: the subsample, the model refitted there from the candidate's own
+    solution (the next round's current model there, and where a repolish starts, ``_repolished``), and the
+    repolish's first alternative starts already tried (None: not yet)."""
 
     screen: Measurements
     fit: FitResult
     first: list[FitResult] | None
+    #: the fit's held-out error on the subsample (ppm; None: not cross-validated)
+    cv_rmse_ppm: float | None = None
 
 
 def _full_fit_beside_starts(clean: Measurements, candidate: Candidate, earlier: int, screen: Measurements,
-                            noise_ppm: float | None = None) -> tuple[FitResult, _ScreenStart | None]:
-    """The claim refitted on every reading (``_full_fit``) and, where a repolish will try the starts of the
-    ``earlier`` effects on the screening subsample (``_repolished``), its start there, refitted from the candidate's
-    own solution, not from the refit's: so, with processes to share them (``forked``), its first starts are tried on
-    the subsample while this process refits every reading (``forked.each_beside``). ``noise_ppm`` as for
-    ``_polished``."""
-    if earlier <= 0 or screen is clean:
+                            folds: np.ndarray | None, noise_ppm: float | None = None
+                            ) -> tuple[FitResult, _ScreenStart | None]:
+    """The claim refitted on every reading (``_full_fit``) and, on a screened campaign, the claimed model refitted
+    on the screening subsample from the candidate's own solution, not from the refit's (``_ScreenStart``): what the
+    next round weighs its candidates against, with its held-out error there (on ``folds``), and where a repolish
+    tries the starts of the ``earlier`` effects (``_repolished``). So, with processes to share them (``forked``),
+    those folds and starts are fitted on the subsample while this process refits every reading
+    (``forked.each_beside``): alone, the refit left a CPU idle for a second of every claim at 10^5 readings.
+    ``noise_ppm`` as for ``_polished``."""
+    if screen is clean:
         return _full_fit(clean, candidate, noise_ppm), None
     model = candidate.fit.model
     on_screen = fit_model(model, screen, start=candidate.fit.values, multistart=False, screening=True)
-    first = _restart_tasks(model, earlier) if forked.workers() > 1 else []
-    refit, tried = forked.each_beside(lambda: _full_fit(clean, candidate, noise_ppm),
-                                      functools.partial(_tried, model, screen, on_screen), first,
-                                      shared=referenced(screen, model))
+    starts = _restart_tasks(model, earlier) if forked.workers() > 1 else []
+    held_out = HeldOutFits(screen, [on_screen], folds) if folds is not None else None
+    fold_tasks = held_out.tasks() if held_out is not None else []
+
+    def fitted(task: tuple[str, Any]) -> Any:
+        kind, what = task
+        if kind == "fold":
+            assert held_out is not None
+            return held_out.squares(what)
+        return _tried(model, screen, on_screen, what, scout_budget=REPOLISH_SCOUT_BUDGET)
+
+    refit, done = forked.each_beside(lambda: _full_fit(clean, candidate, noise_ppm), fitted,
+                                     [("start", task) for task in starts] + [("fold", task) for task in fold_tasks],
+                                     shared=referenced(screen, model))
     assert refit is not None
-    return refit, _ScreenStart(screen, on_screen, tried if first else None)
+    cv = held_out.rmses(done[len(starts):])[0] if held_out is not None else None
+    return refit, _ScreenStart(screen, on_screen, done[:len(starts)] if starts else None, cv)
 
 
 def _repolished(fitted: FitResult, data: Measurements, earlier: int,
@@ -1024,12 +1052,15 @@ def _restart_tasks(model: SensorModel, earlier: int) -> list[_Restart]:
     return tasks
 
 
-def _tried(model: SensorModel, data: Measurements, base: FitResult, task: _Restart) -> FitResult:
+def _tried(model: SensorModel, data: Measurements, base: FitResult, task: _Restart,
+           scout_budget: int | None = None) -> FitResult:
     """``model`` fitted to ``data`` from ``base``'s solution with the start of ``task`` in place: with the whole
-    model free, or as a scout with only its parameters free and the rest held at ``base``'s solution."""
+    model free, or as a scout with only its parameters free and the rest held at ``base``'s solution, stopped after
+    ``scout_budget`` evaluations per parameter if given (``fit_model``'s ``budget``)."""
     own, alternative = task
     held = None if own is None else {name: value for name, value in base.values.items() if name not in own}
-    return fit_model(model, data, start={**base.values, **alternative}, fixed=held, multistart=False, screening=True)
+    return fit_model(model, data, start={**base.values, **alternative}, fixed=held, multistart=False, screening=True,
+                     budget=None if own is None else scout_budget)
 
 
 def _outcomes(model: SensorModel, data: Measurements, best: FitResult, batch: list[_Restart],
@@ -1038,8 +1069,8 @@ def _outcomes(model: SensorModel, data: Measurements, best: FitResult, batch: li
     whose scout is not among the best SCOUTS_REFITTED of its effect's (those are refitted with the model free from
     the scout's solution). ``first``: the batch's fits already made (``_full_fit_beside_starts``)."""
     shared = referenced(data, model)
-    made = first if first is not None else forked.each(functools.partial(_tried, model, data, best), batch,
-                                                       shared=shared)
+    made = first if first is not None else forked.each(
+        functools.partial(_tried, model, data, best, scout_budget=REPOLISH_SCOUT_BUDGET), batch, shared=shared)
     scouted: dict[frozenset[str], list[int]] = {}
     for i, (own, _) in enumerate(batch):
         if own is not None:

@@ -65,60 +65,71 @@ def relaxation(time_s: np.ndarray, rate_per_s: np.ndarray, target: np.ndarray, s
     return linear_recurrence(efolds, b, start)
 
 
-def relaxation_derivative(time_s: np.ndarray, rate_per_s: np.ndarray, target: np.ndarray, y: np.ndarray,
-                          d_rate: np.ndarray, d_target: np.ndarray, restart: np.ndarray | None = None) -> np.ndarray:
-    """The derivative of ``relaxation``'s y (given) along a parameter that changes the rate by ``d_rate`` and
-    the target by ``d_target`` per interval: dy1 = a dy0 + (da y0 + db), da = -a dt d_rate,
-    db = -da target + (1 - a) d_target, from dy = 0 at the first sample and after every restart."""
+def relaxation_derivatives(time_s: np.ndarray, rate_per_s: np.ndarray, target: np.ndarray, y: np.ndarray,
+                           d_rate: np.ndarray, d_target: np.ndarray, restart: np.ndarray | None = None) -> np.ndarray:
+    """The derivatives of ``relaxation``'s y (given) along parameters that change the rate by ``d_rate`` and the
+    target by ``d_target`` per interval (one row per parameter, m x len(time_s) - 1): dy1 = a dy0 + (da y0 + db),
+    da = -a dt d_rate, db = -da target + (1 - a) d_target, from dy = 0 at the first sample and after every restart.
+    One row per parameter (m x len(time_s)), integrated together: they share the decays and their chunks."""
     dt = np.maximum(np.diff(time_s), 0.0)
     efolds = np.asarray(rate_per_s, float) * dt
     a = np.exp(-efolds)
-    da = -a * dt * d_rate
-    inhomogeneous = da * y[:-1] - da * target + (1.0 - a) * d_target
+    da = -a * dt * np.asarray(d_rate, float)
+    inhomogeneous = da * y[:-1] - da * target + (1.0 - a) * np.asarray(d_target, float)
     if restart is not None and restart.any():
-        efolds[restart], inhomogeneous[restart] = _FORGET_EFOLDS, 0.0
+        efolds[restart], inhomogeneous[:, restart] = _FORGET_EFOLDS, 0.0
     return linear_recurrence(efolds, inhomogeneous, 0.0)
 
 
 def linear_recurrence(efolds: np.ndarray, b: np.ndarray, start: float) -> np.ndarray:
-    """y with y[0] = start and y[i+1] = exp(-efolds[i]) y[i] + b[i] (efolds >= 0), vectorised.
+    """y with y[0] = start and y[i+1] = exp(-efolds[i]) y[i] + b[i] (efolds >= 0), vectorised; ``b`` may hold
+    several series, one per row (m x len(efolds)), which share the decays: y then has one row per series.
 
     With L the running sum of -efolds, y_i = exp(L_i - L_s) (y_s + sum_(s<=j<i) b_j exp(L_s - L_(j+1)))
     from any earlier row s. The rows are cut into chunks of at most _CHUNK_ROWS rows spanning less
     than _BLOCK_EFOLDS (so no exp() overflows); the sums run within every chunk at once (one row of
     a 2-D array each, so every sum starts from an exact zero), and a recurrence of the same form carries y
     from chunk to chunk (solved the same way when there are many chunks, so no Python loop per chunk).
-    The chunks depend on ``efolds`` only (``_chunks``): a value and its derivatives share them.
+    The chunks depend on ``efolds`` only (``_chunks``): a value and its derivatives share them, and several series
+    are worked one after another (as one array, the gathers across it took twice as long at 10^5 rows).
     """
     b = np.asarray(b, float)
+    if b.ndim > 1:
+        return np.array([linear_recurrence(efolds, series, start) for series in b])
     c = _chunks(np.asarray(efolds, float))
-    entering = np.zeros((len(c.first), _CHUNK_ROWS))
-    entering[c.owner[1:], c.pos[1:]] = b * c.into_chunk
-    entering[:, 0] = 0.0  # a chunk's first row gets its value from the chunk before
-    within = np.cumsum(entering, axis=1)[c.owner, c.pos]
+    entering = np.zeros(len(c.first) * _CHUNK_ROWS)
+    entering[c.place[1:]] = b * c.into_chunk
+    entering[c.place[c.first]] = 0.0  # a chunk's first row gets its value from the chunk before
+    within = np.cumsum(entering.reshape(len(c.first), _CHUNK_ROWS), axis=1).reshape(-1)[c.place]
     carried, into = within[c.last], b[c.first[1:] - 1]
     # the heads are a recurrence of the same form, one row per chunk: solved alike when that makes it much shorter
     # (not where fast decays cut the rows into chunks of one or two)
     if _CHUNK_ROWS < len(c.first) <= c.n // 4:
         heads = linear_recurrence(c.chunk_efolds, c.decay * carried[:-1] + into, start)
     else:
-        heads_list = [float(start)]
-        for g, (d, k, i) in enumerate(zip(c.decay_list, carried.tolist(), into.tolist(), strict=False)):
-            heads_list.append(d * (heads_list[g] + k) + i)
-        heads = np.asarray(heads_list)
+        heads = _heads(c, carried, into, start)
     return c.out_of_chunk * (heads[c.owner] + within)
+
+
+def _heads(c: _Chunks, carried: np.ndarray, into: np.ndarray, start: float) -> np.ndarray:
+    """The value of one series at the head of every chunk, chunk after chunk (few chunks, or many short ones)."""
+    heads = [float(start)]
+    for g, (d, k, i) in enumerate(zip(c.decay_list, carried.tolist(), into.tolist(), strict=False)):
+        heads.append(d * (heads[g] + k) + i)
+    return np.asarray(heads)
 
 
 @dataclass(frozen=True)
 class _Chunks:
     """How ``linear_recurrence`` cuts its rows (``n`` of them), from the decays alone: each row's chunk (``owner``)
-    and place in it (``pos``), each chunk's first and last row, the factors into and out of a chunk's sums, and
-    the decay across each chunk."""
+    and place in it (``pos``; ``place`` in the chunks laid end to end), each chunk's first and last row, the factors
+    into and out of a chunk's sums, and the decay across each chunk."""
 
     n: int
     first: np.ndarray
     owner: np.ndarray
     pos: np.ndarray
+    place: np.ndarray
     last: np.ndarray
     into_chunk: np.ndarray
     out_of_chunk: np.ndarray
@@ -150,8 +161,8 @@ def _chunks(efolds: np.ndarray) -> _Chunks:
     ref = log_a[first][owner]
     chunk_efolds = log_a[first[:-1]] - log_a[first[1:]]
     decay = np.exp(-chunk_efolds)
-    chunks = _Chunks(n, first, owner, pos, np.append(first[1:] - 1, n - 1), np.exp(ref[1:] - log_a[1:]),
-                     np.exp(log_a - ref), chunk_efolds, decay, decay.tolist())
+    chunks = _Chunks(n, first, owner, pos, owner * _CHUNK_ROWS + pos, np.append(first[1:] - 1, n - 1),
+                     np.exp(ref[1:] - log_a[1:]), np.exp(log_a - ref), chunk_efolds, decay, decay.tolist())
     if len(_recent_chunks) >= _RECENT_CHUNKS:
         _recent_chunks.clear()
     _recent_chunks[key] = chunks

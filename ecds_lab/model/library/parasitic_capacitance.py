@@ -33,7 +33,7 @@ from scipy.special import expit
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.model.effects import Effect, Inputs, register
-from ecds_lab.model.library.history import relaxation, relaxation_derivative
+from ecds_lab.model.library.history import relaxation, relaxation_derivatives
 from ecds_lab.model.library.remembered import Remembered
 from ecds_lab.model.parameters import Parameter
 from ecds_lab.model.tangents import InputTangents, Tangent, plus
@@ -196,12 +196,14 @@ class ParasiticCapacitance(Effect):
         share = p["bound_share"]
         d_bound: dict[str, np.ndarray] = {}
         if share != 0:  # with no bound water (the simpler law) its derivatives count nothing: not computed
-            zero = np.zeros(len(mid))
             d_equilibrium = np.where(relative < 3.0, -equilibrium * relative / p["sorption_width"], 0.0)
-            d_bound = {name: relaxation_derivative(line.time_s, rate, equilibrium, bound, values, zero, line.restart)
-                       for name, values in d_rate.items()}
-            d_bound["sorption_width"] = relaxation_derivative(line.time_s, rate, equilibrium, bound, zero,
-                                                              d_equilibrium, line.restart)
+            # the rate's three parameters move the rate, the sorption width the equilibrium: one row each
+            along = [*d_rate, "sorption_width"]
+            moves_rate, moves_target = np.zeros((len(along), len(mid))), np.zeros((len(along), len(mid)))
+            moves_rate[:len(d_rate)] = list(d_rate.values())
+            moves_target[-1] = d_equilibrium
+            d_bound = dict(zip(along, relaxation_derivatives(line.time_s, rate, equilibrium, bound, moves_rate,
+                                                             moves_target, line.restart), strict=True))
         in_line = {name: (1.0 - share) * d_free.get(name, 0.0) + share * d_bound.get(name, 0.0)
                    for name in _MOISTURE_PARAMETERS if name != "bound_share"}
         in_line["bound_share"] = bound - free
