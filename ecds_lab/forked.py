@@ -21,6 +21,7 @@ import multiprocessing
 import os
 import pickle
 import signal
+import struct
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
@@ -99,7 +100,7 @@ def each_beside(here: Callable[[], S] | None, work: Callable[[T], R], items: Ite
     global _job
     items = list(items)
     workers = min(_allowed - 1, len(items) - 1)
-    if workers < 1 or not can_fork():
+    if workers < 1 or not can_fork() or len(items) > SHARED_ITEMS:
         done = here() if here is not None else None
         return done, [work(item) for item in items]
     kept = {id(obj): obj for obj in shared}
@@ -130,6 +131,7 @@ def each_beside(here: Callable[[], S] | None, work: Callable[[T], R], items: Ite
     finally:
         if pool is not None:
             stop(pool)
+        share.close()
     results = []
     for i, item in enumerate(items):
         payload = payloads.get(i)
@@ -138,21 +140,34 @@ def each_beside(here: Callable[[], S] | None, work: Callable[[T], R], items: Ite
     return done, results
 
 
+#: Most items one call shares out (``_Share``): their numbers, four bytes each, fill a pipe's 64 KiB; a larger set is
+#: worked in this process alone.
+SHARED_ITEMS = 16_384
+
+
 class _Share:
-    """The items of one call not yet taken, in order, counted in memory the forked workers share with this process."""
+    """The numbers of one call's items not yet taken, in order, in a pipe that this process and the workers forked
+    from it read: each read of four bytes takes the next. The kernel orders the reads, so a worker that dies
+    holds nothing up (a lock in shared memory would stay taken by a worker killed while holding it). Every number
+    is written before the workers are forked, so none of them holds the pipe open for writing: at the end, a read
+    finds nothing, and no process waits."""
 
     def __init__(self, count: int) -> None:
-        self.count = count
-        self.next = multiprocessing.get_context("fork").Value("i", 0)
+        read_end, write_end = os.pipe()
+        try:
+            os.write(write_end, struct.pack(f"={count}i", *range(count)))
+        finally:
+            os.close(write_end)
+        self.read_end = read_end
 
     def take(self) -> int | None:
-        """The next item's index, now taken, or None when every item is taken."""
-        with self.next.get_lock():
-            index = self.next.value
-            if index >= self.count:
-                return None
-            self.next.value = index + 1
-        return index
+        """The next item's number, now taken, or None when every item is taken."""
+        record = os.read(self.read_end, 4)
+        return struct.unpack("=i", record)[0] if len(record) == 4 else None
+
+    def close(self) -> None:
+        """This process's end of the pipe, closed (a worker's closes as it ends)."""
+        os.close(self.read_end)
 
 
 def worker_pool(workers: int) -> ProcessPoolExecutor:

@@ -137,3 +137,12 @@ def test_a_failure_of_the_piece_beside_ends_the_workers_and_is_raised_here():
     with forked.allowed(2), pytest.raises(KeyboardInterrupt):
         forked.each_beside(failing, slow, [1, 2])
     assert time.monotonic() - started < 10
+
+
+def test_a_set_larger_than_a_pipe_holds_numbers_for_is_worked_here(monkeypatch):
+    """Each item's number waits in a pipe, written before the workers are forked (``forked._Share``); a set with more
+    items than the pipe holds is worked in this process alone, rather than waiting on a full pipe."""
+    monkeypatch.setattr(forked, "SHARED_ITEMS", 3)
+    with forked.allowed(2):
+        assert forked.each(slowly, range(4)) == [(i * i, os.getpid()) for i in range(4)]
+        assert len({pid for _, pid in forked.each(slowly, range(3))}) == 2
