@@ -39,8 +39,8 @@ _allowed = 1
 
 @dataclass
 class _Job:
-    """What the forked workers inherit: the work, its items, the objects that go back as references, and the count of
-    items taken."""
+    """What the forked workers inherit: the work, its items, the objects that go back as references, and the pipe of
+    the numbers of the items not yet taken."""
 
     work: Callable[[Any], Any]
     items: Sequence[Any]
