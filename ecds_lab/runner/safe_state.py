@@ -13,7 +13,7 @@ import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 from types import FrameType
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from ecds_lab.errors import HeaterNotOff
 
@@ -70,12 +70,24 @@ def stop_signals_raise() -> Iterator[None]:
 
 @contextmanager
 def ctrl_c_deferred() -> Iterator[None]:
-    """Ignore Ctrl-C, SIGTERM and SIGHUP while the lab is made safe and the file closed (main thread only)."""
+    """Ignore Ctrl-C, SIGTERM and SIGHUP while the lab is made safe and the file closed (main thread only).
+
+    The handlers are set aside one at a time, and a stop signal whose handler runs meanwhile (one pending, or one
+    not yet ignored) is ignored as the ones after it: its exception could otherwise leave the handlers set aside
+    so far ignored for good and skip the body, which makes the lab safe (``runner.Runner``)."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    previous = {sig: signal.signal(sig, signal.SIG_IGN) for sig in _DEFERRED}
+    previous: dict[signal.Signals, Any] = {}  # each handler as it was, recorded before it is replaced
     try:
+        while True:
+            try:
+                for sig in _DEFERRED:
+                    previous.setdefault(sig, signal.getsignal(sig))
+                    signal.signal(sig, signal.SIG_IGN)
+                break
+            except (KeyboardInterrupt, StopSignal):  # a stop while they were set aside: ignored, as those after it
+                continue
         yield
     finally:
         for sig, handler in previous.items():

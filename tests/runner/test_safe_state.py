@@ -11,7 +11,9 @@ import pytest
 
 from ecds_lab.data.columns import INDEX, PLANNED_POINT
 from ecds_lab.drivers.hmp import HMP4040
+from ecds_lab.runner import safe_state
 from ecds_lab.runner.plan import build_plan
+from ecds_lab.runner.safe_state import StopSignal
 from ecds_lab.runner.session import load_experiment, run_experiment
 from ecds_lab.station import load_station_config
 from ecds_lab.storage.reader import read_run
@@ -137,3 +139,28 @@ def test_open_thermocouple_while_heating_fails_the_run_naming_the_channel(
     assert recorded.status == "failed" and f"channel {channel}" in recorded.metadata["error"]
     assert recorded.column("time_s").max() <= fired[0] + 60  # nothing measured long after the fault
     assert_heater_off(opened_stations[0], output)
+
+
+@pytest.mark.parametrize("landing", [KeyboardInterrupt, lambda: StopSignal(signal.SIGTERM)])
+def test_a_stop_landing_while_the_handlers_are_set_aside_neither_skips_making_safe_nor_leaves_them_ignored(
+        landing, monkeypatch):
+    """A stop signal's handler runs at any moment, also while ``ctrl_c_deferred`` sets the handlers aside one by one
+    (a SIGTERM still handled once SIGINT is ignored, or one pending): the body, which makes the lab safe, still
+    runs, and afterwards every handler is as it was, none ignored for good."""
+    before = {sig: signal.getsignal(sig) for sig in safe_state._DEFERRED}
+    real_signal = signal.signal
+    calls: list[int] = []
+
+    def set_with_a_stop_landing(signum, handler):
+        calls.append(signum)
+        if len(calls) == 2:  # the first handler is ignored already, as a stop's handler raises
+            raise landing()
+        return real_signal(signum, handler)
+
+    monkeypatch.setattr(safe_state.signal, "signal", set_with_a_stop_landing)
+    made_safe = []
+    with safe_state.ctrl_c_deferred():
+        made_safe.append({sig: signal.getsignal(sig) for sig in safe_state._DEFERRED})
+    monkeypatch.undo()
+    assert made_safe and all(handler is signal.SIG_IGN for handler in made_safe[0].values())
+    assert {sig: signal.getsignal(sig) for sig in safe_state._DEFERRED} == before
