@@ -55,43 +55,62 @@ def _raise_stop(signum: int, _frame: FrameType | None) -> None:
 
 
 @contextmanager
+def _handled_by(handler: Any, signals: tuple[signal.Signals, ...], *, ignore_stops: bool) -> Iterator[None]:
+    """``signals`` handled by ``handler`` for the body, and afterwards every handler as it was, whenever a stop signal
+    lands: each is recorded before it is replaced, all inside the ``try``. A stop whose handler runs while they are
+    replaced (one pending, or one not yet replaced) is ignored and the replacing goes on if ``ignore_stops``, else
+    raised once those replaced so far are restored; one landing while they are restored is raised once all are."""
+    previous: dict[signal.Signals, Any] = {}
+    try:
+        while True:
+            try:
+                for sig in signals:
+                    previous.setdefault(sig, signal.getsignal(sig))
+                    signal.signal(sig, handler)
+                break
+            except (KeyboardInterrupt, StopSignal):
+                if not ignore_stops:
+                    raise
+        yield
+    finally:
+        _restore(previous)
+
+
+def _restore(previous: dict[signal.Signals, Any]) -> None:
+    """Every handler in ``previous`` set again, also when a stop lands meanwhile; that stop is raised at the end."""
+    landed: BaseException | None = None
+    for sig, handler in previous.items():
+        while True:
+            try:
+                signal.signal(sig, handler)
+                break
+            except (KeyboardInterrupt, StopSignal) as stop:  # set again: setting a handler twice is harmless
+                landed = landed or stop
+    if landed is not None:
+        raise landed
+
+
+@contextmanager
 def stop_signals_raise() -> Iterator[None]:
     """While a run executes, SIGTERM and SIGHUP raise StopSignal (main thread only; elsewhere a no-op)."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    previous = {sig: signal.signal(sig, _raise_stop) for sig in STOP_SIGNALS}
-    try:
+    with _handled_by(_raise_stop, STOP_SIGNALS, ignore_stops=False):
         yield
-    finally:
-        for sig, handler in previous.items():
-            signal.signal(sig, handler)
 
 
 @contextmanager
 def ctrl_c_deferred() -> Iterator[None]:
     """Ignore Ctrl-C, SIGTERM and SIGHUP while the lab is made safe and the file closed (main thread only).
 
-    The handlers are set aside one at a time, and a stop signal whose handler runs meanwhile (one pending, or one
-    not yet ignored) is ignored as the ones after it: its exception could otherwise leave the handlers set aside
-    so far ignored for good and skip the body, which makes the lab safe (``runner.Runner``)."""
+    A stop signal whose handler runs while the handlers are set aside is ignored as the ones after it: its
+    exception could otherwise skip the body, which makes the lab safe (``runner.Runner``)."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    previous: dict[signal.Signals, Any] = {}  # each handler as it was, recorded before it is replaced
-    try:
-        while True:
-            try:
-                for sig in _DEFERRED:
-                    previous.setdefault(sig, signal.getsignal(sig))
-                    signal.signal(sig, signal.SIG_IGN)
-                break
-            except (KeyboardInterrupt, StopSignal):  # a stop while they were set aside: ignored, as those after it
-                continue
+    with _handled_by(signal.SIG_IGN, _DEFERRED, ignore_stops=True):
         yield
-    finally:
-        for sig, handler in previous.items():
-            signal.signal(sig, handler)
 
 
 def heater_outputs(station: Station) -> tuple[int, ...]:

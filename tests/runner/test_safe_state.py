@@ -164,3 +164,43 @@ def test_a_stop_landing_while_the_handlers_are_set_aside_neither_skips_making_sa
     monkeypatch.undo()
     assert made_safe and all(handler is signal.SIG_IGN for handler in made_safe[0].values())
     assert {sig: signal.getsignal(sig) for sig in safe_state._DEFERRED} == before
+
+
+def _signal_with_a_stop_landing_at(call: int, landing, monkeypatch) -> None:
+    """``signal.signal`` in safe_state, with a stop's handler running (raising) just before its ``call``-th use."""
+    real_signal = signal.signal
+    calls: list[int] = []
+
+    def set_with_a_stop_landing(signum, handler):
+        calls.append(signum)
+        if len(calls) == call:
+            raise landing()
+        return real_signal(signum, handler)
+
+    monkeypatch.setattr(safe_state.signal, "signal", set_with_a_stop_landing)
+
+
+def test_a_stop_landing_while_the_raising_handlers_are_installed_stops_before_the_run_and_leaves_none_behind(
+        monkeypatch):
+    """A stop while ``stop_signals_raise`` installs its handlers one by one is raised before the body (the run has
+    not started), and the handlers installed so far are taken away again."""
+    before = {sig: signal.getsignal(sig) for sig in safe_state.STOP_SIGNALS}
+    _signal_with_a_stop_landing_at(len(safe_state.STOP_SIGNALS), lambda: StopSignal(signal.SIGTERM), monkeypatch)
+    ran = []
+    with pytest.raises(StopSignal):
+        with safe_state.stop_signals_raise():
+            ran.append(True)
+    monkeypatch.undo()
+    assert not ran
+    assert {sig: signal.getsignal(sig) for sig in safe_state.STOP_SIGNALS} == before
+
+
+def test_a_stop_landing_while_the_handlers_are_restored_is_raised_once_all_are_restored(monkeypatch):
+    """A stop while ``stop_signals_raise`` restores the handlers after the run still reaches the caller, and no
+    raising handler is left installed for good."""
+    before = {sig: signal.getsignal(sig) for sig in safe_state.STOP_SIGNALS}
+    with pytest.raises(StopSignal):
+        with safe_state.stop_signals_raise():
+            _signal_with_a_stop_landing_at(1, lambda: StopSignal(signal.SIGTERM), monkeypatch)
+    monkeypatch.undo()
+    assert {sig: signal.getsignal(sig) for sig in safe_state.STOP_SIGNALS} == before
