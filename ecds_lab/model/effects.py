@@ -126,7 +126,8 @@ class Effect:
     tried_by_default: ClassVar[bool] = True
     #: Modules the effect's search hooks (``starts_from_residual``) import when first called rather than at the top of
     #: its module, which every command loads: a diagnosis imports them once before it forks its workers, each of which
-    #: would otherwise import them anew (scipy.signal: 0.65 s CPU a worker, five times a 10^5-reading diagnosis).
+    #: would otherwise import them anew (scipy.signal: 0.65 s CPU a worker, five times a 10^5-reading diagnosis, when
+    #: the lead screw's periodogram used it).
     modules_for_search: ClassVar[tuple[str, ...]] = ()
 
     def __init__(self, sensor: SensorConfig) -> None:

@@ -16,8 +16,8 @@ resolve at least the longest lead it declares (20 mm: runs of steps of 10 mm or 
 
 The lead is found over the whole declared range by a scan of the residual over leads: the current
 model's residual as a distance error, detrended by a cubic in x per direction and frequency, in a
-weighted Lomb-Scargle periodogram (``scipy.signal.lombscargle``) over leads from the shortest the
-positions resolve to 20 mm; the best peaks, with their sine and cosine parts, are the fit's starts
+weighted Lomb-Scargle periodogram (``periodogram``) over leads from the shortest the positions resolve
+to 20 mm; the best peaks, with their sine and cosine parts, are the fit's starts
 (``starts_from_residual``), then the fit refines them.
 """
 
@@ -68,7 +68,6 @@ class SlideLeadScrew(Effect):
     reveal_needs: ClassVar[dict[str, float]] = {"finest_step_mm": 0.5}
     #: The other common leads (the longest is the default start, which every testable campaign resolves).
     alternative_starts = tuple({"screw_lead": lead} for lead in COMMON_LEADS_M[:-1])
-    modules_for_search = ("scipy.signal",)  # its periodogram (``starts_from_residual``)
 
     def __init__(self, sensor: SensorConfig) -> None:
         super().__init__(sensor)
@@ -96,9 +95,6 @@ class SlideLeadScrew(Effect):
                              weights: np.ndarray) -> tuple[dict[str, float], ...]:
         """The best peaks of a weighted Lomb-Scargle periodogram of the residual distance error over the
         resolvable leads (see the module docstring), each with its sine and cosine parts."""
-        from scipy.signal import lombscargle  # here: importing scipy.signal costs every command that loads the
-        # library ~0.4 s CPU, and only the diagnosis needs the periodogram (``modules_for_search``)
-
         count, step = _positions(data)
         shortest = max(LEAD_RANGE_M[0], 1.02 * 2 * step)
         if count < MIN_POSITIONS or shortest >= LEAD_RANGE_M[1]:
@@ -110,8 +106,7 @@ class SlideLeadScrew(Effect):
             return ()
         power = np.zeros(len(leads))
         for x, y, w in groups:
-            power += float(np.sum(w * y**2)) * lombscargle(x, y, omega, weights=w, floating_mean=True,
-                                                           normalize=True)
+            power += periodogram(x, y, w, omega)
         peaks = [i for i in range(len(leads)) if power[i] >= power[max(i - 1, 0)] and power[i] >= power[min(i + 1,
                  len(leads) - 1)]]
         peaks.sort(key=lambda i: -power[i])
@@ -153,6 +148,29 @@ class SlideLeadScrew(Effect):
         d_lead = (p["screw_sin"] * cos - p["screw_cos"] * sin) * (-phase / p["screw_lead"])
         own = {"screw_sin": sin, "screw_cos": cos, "screw_lead": d_lead}
         return x_m + p["screw_sin"] * sin + p["screw_cos"] * cos, plus(dx, own)
+
+
+def periodogram(x: np.ndarray, y: np.ndarray, w: np.ndarray, omega: np.ndarray) -> np.ndarray:
+    """At each angular frequency of ``omega`` (rad/m), how much a sinusoid lowers the weighted sum of squares of
+    ``y`` about its weighted mean: the generalised (floating-mean, weighted) Lomb-Scargle periodogram of Zechmeister
+    and Kuerster (A&A 496, 577, 2009) before its normalisation by that sum, from the normal equations of the fit of
+    a cos(omega x) + b sin(omega x) + c, whose sums are taken per distinct position (each position's readings share
+    its sinusoid). It equals ``scipy.signal.lombscargle(..., weights=w, floating_mean=True, normalize=True)`` times
+    that sum; written here because importing scipy.signal (its docstrings are processed on import) cost every
+    diagnosis 0.5 s before its first fork, for this one scan."""
+    positions, index = np.unique(x, return_inverse=True)
+    w_at = np.bincount(index, weights=w)
+    wy_at = np.bincount(index, weights=w * y)
+    phase = np.outer(omega, positions)
+    c, s = np.cos(phase), np.sin(phase)
+    normal = np.empty((len(omega), 3, 3))
+    normal[:, 0, 0], normal[:, 1, 1], normal[:, 2, 2] = (c * c) @ w_at, (s * s) @ w_at, w_at.sum()
+    normal[:, 0, 1] = normal[:, 1, 0] = (c * s) @ w_at
+    normal[:, 0, 2] = normal[:, 2, 0] = c @ w_at
+    normal[:, 1, 2] = normal[:, 2, 1] = s @ w_at
+    right = np.column_stack([c @ wy_at, s @ wy_at, np.full(len(omega), wy_at.sum())])
+    explained = np.einsum("fi,fi->f", right, np.linalg.solve(normal, right[:, :, None])[:, :, 0])
+    return explained - wy_at.sum() ** 2 / w_at.sum()
 
 
 def _detrended(data: Measurements, shift_m: np.ndarray, weights: np.ndarray

@@ -10,7 +10,7 @@ import pytest
 
 from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.model.effects import library, make_effect
-from ecds_lab.model.library.slide_lead_screw import COMMON_LEADS_M, SlideLeadScrew
+from ecds_lab.model.library.slide_lead_screw import COMMON_LEADS_M, SlideLeadScrew, periodogram
 
 
 @pytest.fixture
@@ -82,3 +82,21 @@ def test_one_close_pair_among_coarser_steps_resolves_no_shorter_lead(screw, read
     assert np.ptp(screw.effective_distance(data.x_m, data, {**p, "screw_lead": 1.6e-3}) - data.x_m) > 15e-6
     starts = screw.starts_from_residual(data, np.sin(2 * np.pi * data.x_m / 3e-3) * 1e-5, np.ones(len(data)))
     assert starts and min(start["screw_lead"] for start in starts) >= 1.5e-3  # the scan starts at the shortest
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_the_periodogram_is_the_generalised_lomb_scargle_one_before_its_normalisation(seed):
+    """The scan's periodogram equals scipy's generalised Lomb-Scargle (weighted, floating mean, normalised) times the
+    weighted sum of squares about the mean, on repeated, unevenly weighted positions with an offset in the data."""
+    from scipy.signal import lombscargle
+
+    rng = np.random.default_rng(seed)
+    positions = np.round(np.sort(rng.uniform(20e-3, 100e-3, 60)), 6)
+    x = np.repeat(positions, rng.integers(1, 5, len(positions)))
+    y = 3e-6 * np.sin(2 * np.pi * x / 5e-3 + 0.3) + rng.normal(0.0, 2e-6, len(x)) + 1e-6
+    w = rng.uniform(0.1, 2.0, len(x))
+    omega = 2 * np.pi / np.geomspace(0.5e-3, 20e-3, 300)
+    about_mean = np.sum(w * y**2) - np.sum(w * y) ** 2 / np.sum(w)
+    expected = about_mean * lombscargle(x, y, omega, weights=w, floating_mean=True, normalize=True)
+    np.testing.assert_allclose(periodogram(x, y, w, omega), expected, rtol=1e-9, atol=1e-12 * expected.max())
+    assert omega[np.argmax(periodogram(x, y, w, omega))] == pytest.approx(2 * np.pi / 5e-3, rel=0.02)
