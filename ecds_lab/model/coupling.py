@@ -78,12 +78,20 @@ class Coupling:
         self.source = source
         self._interp = PchipInterpolator(self.x_m, self.k, extrapolate=False)
         self._derivative = self._interp.derivative()
+        self._last: tuple[np.ndarray, np.ndarray] | None = None
 
     def __call__(self, x_m: np.ndarray | float) -> np.ndarray:
-        """k at distance x (m); inf means the coil in air (k = 0)."""
+        """k at distance x (m); inf means the coil in air (k = 0). The last result is kept (read-only) for the same
+        distances: a solver's Jacobian asks for k where it just asked for the prediction."""
         x = np.asarray(x_m, float)
+        last = self._last
+        if last is not None and last[0].shape == x.shape and np.array_equal(last[0], x):
+            return last[1]
         out = self._interp(np.clip(x, self.x_m[0], None))
-        return np.where(np.isfinite(out), out, 0.0)
+        out = np.where(np.isfinite(out), out, 0.0)
+        out.flags.writeable = False
+        self._last = (x.copy(), out)
+        return out
 
     def derivative(self, x_m: np.ndarray | float) -> np.ndarray:
         x = np.asarray(x_m, float)

@@ -58,14 +58,25 @@ def test_recurrences_over_the_same_decays_share_their_chunks_and_each_follows_it
             stepwise_relaxation(time_s, rate, target, 1.0), abs=1e-10)
 
 
-def test_series_that_share_their_decays_are_integrated_together_each_as_alone():
+@pytest.mark.parametrize("largest_efolds", [0.05, 3.0])
+def test_series_that_share_their_decays_are_integrated_together_each_as_alone(largest_efolds):
+    """Several series solved at once (forward substitution) agree with each alone (chunked sums) and with the
+    recurrence stepped through in extended precision, restarts (a decay that forgets the past) included."""
     rng = np.random.default_rng(5)
-    efolds = rng.uniform(0.0, 0.05, 4999)
+    efolds = rng.uniform(0.0, largest_efolds, 4999)
+    efolds[2500] = 1e4
     series = rng.normal(size=(3, 4999))
     together = linear_recurrence(efolds, series, 0.5)
     assert together.shape == (3, 5000)
+    decay = np.exp(-efolds.astype(np.longdouble))
     for row, b in zip(together, series, strict=True):
-        assert np.array_equal(row, linear_recurrence(efolds, b, 0.5))
+        stepped = np.empty(5000, np.longdouble)
+        stepped[0] = 0.5
+        for i, (a, term) in enumerate(zip(decay, b.astype(np.longdouble), strict=True)):
+            stepped[i + 1] = a * stepped[i] + term
+        assert row == pytest.approx(stepped.astype(float), rel=1e-12, abs=1e-12)
+        # one series alone is summed in chunks: exact to about 1e-11 of its scale, not to rounding
+        assert row == pytest.approx(linear_recurrence(efolds, b, 0.5), rel=0, abs=1e-11 * np.abs(row).max())
 
 
 def test_the_derivatives_of_a_relaxation_are_those_of_its_recurrence():

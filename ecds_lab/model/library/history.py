@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.linalg import lapack
 
 #: Largest decay (in e-folds) handled in one vectorised block; keeps exp() far from overflow.
 _BLOCK_EFOLDS = 300.0
@@ -70,7 +71,7 @@ def relaxation_derivatives(time_s: np.ndarray, rate_per_s: np.ndarray, target: n
     """The derivatives of ``relaxation``'s y (given) along parameters that change the rate by ``d_rate`` and the
     target by ``d_target`` per interval (one row per parameter, m x len(time_s) - 1): dy1 = a dy0 + (da y0 + db),
     da = -a dt d_rate, db = -da target + (1 - a) d_target, from dy = 0 at the first sample and after every restart.
-    One row per parameter (m x len(time_s)), integrated together: they share the decays and their chunks."""
+    One row per parameter (m x len(time_s)), integrated together (``linear_recurrence``): they share the decays."""
     dt = np.maximum(np.diff(time_s), 0.0)
     efolds = np.asarray(rate_per_s, float) * dt
     a = np.exp(-efolds)
@@ -83,19 +84,19 @@ def relaxation_derivatives(time_s: np.ndarray, rate_per_s: np.ndarray, target: n
 
 def linear_recurrence(efolds: np.ndarray, b: np.ndarray, start: float) -> np.ndarray:
     """y with y[0] = start and y[i+1] = exp(-efolds[i]) y[i] + b[i] (efolds >= 0), vectorised; ``b`` may hold
-    several series, one per row (m x len(efolds)), which share the decays: y then has one row per series.
+    several series, one per row (m x len(efolds)), which share the decays: y then has one row per series, solved
+    together (``_together``).
 
     With L the running sum of -efolds, y_i = exp(L_i - L_s) (y_s + sum_(s<=j<i) b_j exp(L_s - L_(j+1)))
     from any earlier row s. The rows are cut into chunks of at most _CHUNK_ROWS rows spanning less
     than _BLOCK_EFOLDS (so no exp() overflows); the sums run within every chunk at once (one row of
     a 2-D array each, so every sum starts from an exact zero), and a recurrence of the same form carries y
     from chunk to chunk (solved the same way when there are many chunks, so no Python loop per chunk).
-    The chunks depend on ``efolds`` only (``_chunks``): a value and its derivatives share them, and several series
-    are worked one after another (as one array, the gathers across it took twice as long at 10^5 rows).
+    The chunks depend on ``efolds`` only (``_chunks``): a value and its derivatives share them.
     """
     b = np.asarray(b, float)
     if b.ndim > 1:
-        return np.array([linear_recurrence(efolds, series, start) for series in b])
+        return _together(np.asarray(efolds, float), b, start)
     c = _chunks(np.asarray(efolds, float))
     entering = np.zeros(len(c.first) * _CHUNK_ROWS)
     entering[c.place[1:]] = b * c.into_chunk
@@ -109,6 +110,26 @@ def linear_recurrence(efolds: np.ndarray, b: np.ndarray, start: float) -> np.nda
     else:
         heads = _heads(c, carried, into, start)
     return c.out_of_chunk * (heads[c.owner] + within)
+
+
+def _together(efolds: np.ndarray, b: np.ndarray, start: float) -> np.ndarray:
+    """``linear_recurrence`` of several series (rows of ``b``) at once, as the lower bidiagonal system it is
+    (y[i+1] - exp(-efolds[i]) y[i] = b[i], unit diagonal) solved by LAPACK's triangular band solver (dtbtrs): plain
+    forward substitution in compiled code, every series in one call, as exact as the chunked sums or more (a
+    relaxation's four derivatives at 2,500 readings: 0.1 ms instead of 0.36 ms as four chunked series; at 10^5,
+    4.3 ms instead of 8 ms; one series alone stays chunked: there the solver was no faster)."""
+    n = len(efolds) + 1
+    band = np.empty((2, n))
+    band[0] = 1.0
+    band[1, :-1] = -np.exp(-efolds)
+    band[1, -1] = 0.0
+    right = np.empty((n, len(b)), order="F")
+    right[0] = start
+    right[1:] = b.T
+    y, info = lapack.dtbtrs(band, right, uplo="L", diag="U", overwrite_b=1)
+    if info != 0:  # pragma: no cover - a unit diagonal is never singular
+        raise np.linalg.LinAlgError(f"dtbtrs failed (info {info})")
+    return np.ascontiguousarray(y.T)
 
 
 def _heads(c: _Chunks, carried: np.ndarray, into: np.ndarray, start: float) -> np.ndarray:

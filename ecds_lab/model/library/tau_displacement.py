@@ -47,6 +47,8 @@ class TauDisplacement(Effect):
     def __init__(self, sensor: SensorConfig) -> None:
         super().__init__(sensor)
         self._spline_of: Remembered[CubicSpline] = Remembered()
+        self._log_ratio_at: Remembered[np.ndarray] = Remembered()
+        self._basis_at: Remembered[np.ndarray] = Remembered()
 
     def parameters(self) -> list[Parameter]:
         return [Parameter(name, 0.0, -3.0, 3.0, "1", f"ln(tau_T / tau_T at 60 mm) at {name[6:]}", 0.05)
@@ -58,7 +60,7 @@ class TauDisplacement(Effect):
 
     def target_tau(self, tau_s: np.ndarray, inputs: Inputs, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
         x = np.clip(np.where(np.isfinite(inputs.x_m), inputs.x_m, KNOTS_M[3]), KNOTS_M[0], KNOTS_M[-1])
-        return tau_s * np.exp(self._spline(p)(x))
+        return tau_s * np.exp(self._log_ratio(p, x))
 
     def d_target_tau(self, tau_s: np.ndarray, dtau: Tangent, inputs: Inputs, d_inputs: InputTangents,
                      data: Measurements, p: Mapping[str, float]) -> tuple[np.ndarray, Tangent]:
@@ -66,14 +68,20 @@ class TauDisplacement(Effect):
         finite = np.isfinite(inputs.x_m)
         x = np.clip(np.where(finite, inputs.x_m, KNOTS_M[3]), KNOTS_M[0], KNOTS_M[-1])
         inside = finite & (inputs.x_m > KNOTS_M[0]) & (inputs.x_m < KNOTS_M[-1])
-        out = tau_s * np.exp(spline(x))
-        # the spline is linear in its knot values: d/d value_i is the spline through the unit vector e_i (_BASIS)
-        basis = _BASIS(x)
+        out = tau_s * np.exp(self._log_ratio(p, x))
+        # the spline is linear in its knot values: d/d value_i is the spline through the unit vector e_i (_BASIS),
+        # the same at the same distances (every step of a model whose distances no parameter moves)
+        basis = self._basis_at.get(None, x.tobytes(), lambda: _BASIS(x))
         own = {name: out * basis[:, index] for name, index in FREE_KNOTS.items()}
         slope = np.where(inside, out * spline(x, 1), 0.0)
         with np.errstate(invalid="ignore"):
             by_distance = {name: np.where(inside, slope * values, 0.0) for name, values in d_inputs.x_m.items()}
         return out, plus(scaled(dtau, out / tau_s), own, by_distance)
+
+    def _log_ratio(self, p: Mapping[str, float], x: np.ndarray) -> np.ndarray:
+        """ln(tau_T / tau_T at 60 mm) at the (clipped) distances ``x``: worked out once for the prediction and the
+        derivatives a solver asks for next at the same parameters and distances."""
+        return self._log_ratio_at.get(None, (_knot_values(p).tobytes(), x.tobytes()), lambda: self._spline(p)(x))
 
     def _spline(self, p: Mapping[str, float]) -> CubicSpline:
         """The natural cubic spline through the knot values of ``p``: built once for the value and the derivatives
