@@ -429,6 +429,10 @@ def _jacobian_function(model: SensorModel, data: Measurements, scaling: Scaling,
     def jacobian(theta: np.ndarray, *_: Any) -> np.ndarray:
         predicted, tangent = model.prediction_and_jacobian(data, scaling.values(theta), scaling.names)
         factor = (-1e6 * measured / predicted**2)[keep] * weight
+        if len(factor) <= _JACOBIAN_BLOCK:  # one block (a screen): every parameter at once, the same products
+            stacked = np.array([tangent.get(name, zero)[keep] for name in scaling.names]).reshape(-1, len(factor))
+            np.multiply(stacked, np.asarray(scaling.scale)[:, None] * factor, out=stacked)
+            return np.ascontiguousarray(stacked.T)
         # Filled by blocks of rows: each block parameter by parameter into contiguous rows of a small buffer that
         # stays in the processor's cache, then transposed into the result (C order: the solver's sums run as they
         # always have). Writing each column of the n x k result in place strides through memory (4x as long at
