@@ -46,9 +46,8 @@ class TauDisplacement(Effect):
 
     def __init__(self, sensor: SensorConfig) -> None:
         super().__init__(sensor)
-        self._spline_of: Remembered[CubicSpline] = Remembered()
-        self._log_ratio_at: Remembered[np.ndarray] = Remembered()
         self._basis_at: Remembered[np.ndarray] = Remembered()
+        self._slopes_at: Remembered[np.ndarray] = Remembered()
 
     def parameters(self) -> list[Parameter]:
         return [Parameter(name, 0.0, -3.0, 3.0, "1", f"ln(tau_T / tau_T at 60 mm) at {name[6:]}", 0.05)
@@ -60,38 +59,33 @@ class TauDisplacement(Effect):
 
     def target_tau(self, tau_s: np.ndarray, inputs: Inputs, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
         x = np.clip(np.where(np.isfinite(inputs.x_m), inputs.x_m, KNOTS_M[3]), KNOTS_M[0], KNOTS_M[-1])
-        return tau_s * np.exp(self._log_ratio(p, x))
+        return tau_s * np.exp(self._basis(x) @ _knot_values(p))
 
     def d_target_tau(self, tau_s: np.ndarray, dtau: Tangent, inputs: Inputs, d_inputs: InputTangents,
                      data: Measurements, p: Mapping[str, float]) -> tuple[np.ndarray, Tangent]:
-        spline = self._spline(p)
         finite = np.isfinite(inputs.x_m)
         x = np.clip(np.where(finite, inputs.x_m, KNOTS_M[3]), KNOTS_M[0], KNOTS_M[-1])
         inside = finite & (inputs.x_m > KNOTS_M[0]) & (inputs.x_m < KNOTS_M[-1])
-        out = tau_s * np.exp(self._log_ratio(p, x))
-        # the spline is linear in its knot values: d/d value_i is the spline through the unit vector e_i (_BASIS),
-        # the same at the same distances (every step of a model whose distances no parameter moves)
-        basis = self._basis_at.get(None, x.tobytes(), lambda: _BASIS(x))
+        knots, basis = _knot_values(p), self._basis(x)
+        out = tau_s * np.exp(basis @ knots)
+        # the spline is linear in its knot values: d/d value_i is the spline through the unit vector e_i
         own = {name: out * basis[:, index] for name, index in FREE_KNOTS.items()}
-        slope = np.where(inside, out * spline(x, 1), 0.0)
+        slopes = self._slopes_at.get(None, x.tobytes(), lambda: _BASIS(x, 1))
+        slope = np.where(inside, out * (slopes @ knots), 0.0)
         with np.errstate(invalid="ignore"):
             by_distance = {name: np.where(inside, slope * values, 0.0) for name, values in d_inputs.x_m.items()}
         return out, plus(scaled(dtau, out / tau_s), own, by_distance)
 
-    def _log_ratio(self, p: Mapping[str, float], x: np.ndarray) -> np.ndarray:
-        """ln(tau_T / tau_T at 60 mm) at the (clipped) distances ``x``: worked out once for the prediction and the
-        derivatives a solver asks for next at the same parameters and distances."""
-        return self._log_ratio_at.get(None, (_knot_values(p).tobytes(), x.tobytes()), lambda: self._spline(p)(x))
-
-    def _spline(self, p: Mapping[str, float]) -> CubicSpline:
-        """The natural cubic spline through the knot values of ``p``: built once for the value and the derivatives
-        a solver asks for at the same parameters (its construction was 5 % of a 10^5-reading diagnosis)."""
-        values = _knot_values(p)
-        return self._spline_of.get(None, values.tobytes(), lambda: CubicSpline(KNOTS_M, values, bc_type="natural"))
+    def _basis(self, x: np.ndarray) -> np.ndarray:
+        """The spline through each unit vector of knot values at the (clipped) distances ``x`` (rows x knots): the
+        spline through any knot values is this times them. Worked out once per distances: at every step of a model
+        whose distances no parameter moves, and for the prediction and then the derivatives at the same step (the
+        spline built anew for each step's knot values and evaluated was 6 % of a 10^5-reading diagnosis)."""
+        return self._basis_at.get(None, x.tobytes(), lambda: _BASIS(x))
 
 
-#: The natural cubic spline through each unit vector of knot values (one column per knot), built once: the
-#: derivatives of the spline with respect to its knot values (it is linear in them), not rebuilt per evaluation.
+#: The natural cubic spline through each unit vector of knot values (one column per knot), built once: the spline
+#: through any knot values is their sum weighted by these (it is linear in them), and so are its derivatives.
 _BASIS = CubicSpline(KNOTS_M, np.eye(len(KNOTS_M)), bc_type="natural")
 
 
