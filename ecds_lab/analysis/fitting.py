@@ -430,7 +430,8 @@ def _jacobian_function(model: SensorModel, data: Measurements, scaling: Scaling,
         predicted, tangent = model.prediction_and_jacobian(data, scaling.values(theta), scaling.names)
         factor = (-1e6 * measured / predicted**2)[keep] * weight
         if len(factor) <= _JACOBIAN_BLOCK:  # one block (a screen): every parameter at once, the same products
-            stacked = np.array([tangent.get(name, zero)[keep] for name in scaling.names]).reshape(-1, len(factor))
+            stacked = np.array([tangent.get(name, zero)[keep] for name in scaling.names]).reshape(
+                len(scaling.names), len(factor))
             np.multiply(stacked, np.asarray(scaling.scale)[:, None] * factor, out=stacked)
             return np.ascontiguousarray(stacked.T)
         # Filled by blocks of rows: each block parameter by parameter into contiguous rows of a small buffer that

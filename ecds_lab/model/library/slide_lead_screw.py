@@ -169,7 +169,11 @@ def periodogram(x: np.ndarray, y: np.ndarray, w: np.ndarray, omega: np.ndarray) 
     normal[:, 0, 2] = normal[:, 2, 0] = c @ w_at
     normal[:, 1, 2] = normal[:, 2, 1] = s @ w_at
     right = np.column_stack([c @ wy_at, s @ wy_at, np.full(len(omega), wy_at.sum())])
-    explained = np.einsum("fi,fi->f", right, np.linalg.solve(normal, right[:, :, None])[:, :, 0])
+    try:
+        solution = np.linalg.solve(normal, right[:, :, None])[:, :, 0]
+    except np.linalg.LinAlgError:  # every position at one phase of some lead: no sinusoid there beyond the mean
+        solution = (np.linalg.pinv(normal) @ right[:, :, None])[:, :, 0]
+    explained = np.einsum("fi,fi->f", right, solution)
     return explained - wy_at.sum() ** 2 / w_at.sum()
 
 

@@ -100,3 +100,12 @@ def test_the_periodogram_is_the_generalised_lomb_scargle_one_before_its_normalis
     expected = about_mean * lombscargle(x, y, omega, weights=w, floating_mean=True, normalize=True)
     np.testing.assert_allclose(periodogram(x, y, w, omega), expected, rtol=1e-9, atol=1e-12 * expected.max())
     assert omega[np.argmax(periodogram(x, y, w, omega))] == pytest.approx(2 * np.pi / 5e-3, rel=0.02)
+
+
+def test_a_lead_at_which_every_position_has_one_phase_explains_nothing_beyond_the_mean():
+    """Positions 2 mm apart all sit at one phase of a 2 mm (or 1 mm) lead: the sinusoid is the mean there, and the
+    periodogram says so (nothing explained) instead of failing on its singular normal equations."""
+    x = np.repeat(np.arange(20e-3, 40.1e-3, 2e-3), 2)
+    y = np.random.default_rng(4).normal(0.0, 1e-6, len(x))
+    power = periodogram(x, y, np.ones(len(x)), 2 * np.pi / np.array([2e-3, 1e-3, 7e-3]))
+    assert power[:2] == pytest.approx([0.0, 0.0], abs=1e-9 * np.sum(y**2)) and power[2] > 0
