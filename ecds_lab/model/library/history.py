@@ -119,6 +119,8 @@ def _together(efolds: np.ndarray, b: np.ndarray, start: float) -> np.ndarray:
     relaxation's four derivatives at 2,500 readings: 0.1 ms instead of 0.36 ms as four chunked series; at 10^5,
     4.3 ms instead of 8 ms; one series alone stays chunked: there the solver was no faster)."""
     n = len(efolds) + 1
+    if len(b) == 0:
+        return np.empty((0, n))
     band = np.empty((2, n))
     band[0] = 1.0
     band[1, :-1] = -np.exp(-efolds)
