@@ -71,7 +71,8 @@ def relaxation_derivatives(time_s: np.ndarray, rate_per_s: np.ndarray, target: n
     """The derivatives of ``relaxation``'s y (given) along parameters that change the rate by ``d_rate`` and the
     target by ``d_target`` per interval (one row per parameter, m x len(time_s) - 1): dy1 = a dy0 + (da y0 + db),
     da = -a dt d_rate, db = -da target + (1 - a) d_target, from dy = 0 at the first sample and after every restart.
-    One row per parameter (m x len(time_s)), integrated together (``linear_recurrence``): they share the decays."""
+    Returns one row per parameter (m x len(time_s)), all solved at once (``linear_recurrence``'s ``_together``): they
+    share the decays."""
     dt = np.maximum(np.diff(time_s), 0.0)
     efolds = np.asarray(rate_per_s, float) * dt
     a = np.exp(-efolds)
@@ -92,7 +93,8 @@ def linear_recurrence(efolds: np.ndarray, b: np.ndarray, start: float) -> np.nda
     than _BLOCK_EFOLDS (so no exp() overflows); the sums run within every chunk at once (one row of
     a 2-D array each, so every sum starts from an exact zero), and a recurrence of the same form carries y
     from chunk to chunk (solved the same way when there are many chunks, so no Python loop per chunk).
-    The chunks depend on ``efolds`` only (``_chunks``): a value and its derivatives share them.
+    The chunks depend on ``efolds`` only (``_chunks``): a value and a derivative integrated alone with the same decays
+    (a lag and its derivative in the time constant) share them.
     """
     b = np.asarray(b, float)
     if b.ndim > 1:
@@ -162,7 +164,7 @@ class _Chunks:
 
 
 #: The chunks cut lately, by the decays they were cut for (a model evaluation integrates one timeline with the same
-#: decays for a value and each of its derivatives; the heads' recurrence has decays of its own).
+#: decays for a value and a derivative, a lag's in its time constant; the heads' recurrence has decays of its own).
 _recent_chunks: dict[bytes, _Chunks] = {}
 _RECENT_CHUNKS = 4
 
