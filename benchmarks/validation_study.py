@@ -3,6 +3,7 @@ faithful simulated lab, each diagnosed on a Dask cluster, judged against its tru
 
     python benchmarks/validation_study.py --cases 200 --seed 2026 [--workers 2] [--scheduler ADDR] [--json out.json]
     python benchmarks/validation_study.py --cases 40 --scaling 1,2   # wall time against the number of workers
+    python benchmarks/validation_study.py --cases 60 --sensors paper,steel,thin_plate   # other plates too
 
 Prints the confident-wrong-claim rate, the false-alarm rate on null truths, the share of revealable
 campaigns diagnosed right (or honestly tied), detection per truth and the confusion table
@@ -29,9 +30,13 @@ def main() -> None:
     parser.add_argument("--scheduler", help="a Dask scheduler address instead of a local cluster")
     parser.add_argument("--scaling", help="comma-separated worker counts: time the same cases on each")
     parser.add_argument("--json", type=Path, help="write every case's judgement here")
+    parser.add_argument("--sensors", default="paper",
+                        help="comma-separated sensors the cases are drawn on (ecds_lab.study.cases.SENSORS; default "
+                             "the paper's prototype alone, the study the targets are stated for)")
     args = parser.parse_args()
+    sensors = tuple(args.sensors.split(","))
     if args.scaling:
-        cases = draw_cases(args.cases, args.seed)
+        cases = draw_cases(args.cases, args.seed, sensors)
         for workers in (int(w) for w in args.scaling.split(",")):
             start = time.perf_counter()
             judged = run_study(args.cases, args.seed, workers=workers, cases=cases)
@@ -40,7 +45,7 @@ def main() -> None:
                   f"(diagnoses {cpu:.1f} CPU s in all)", flush=True)
         return
     start = time.perf_counter()
-    judgements = run_study(args.cases, args.seed, scheduler=args.scheduler, workers=args.workers)
+    judgements = run_study(args.cases, args.seed, scheduler=args.scheduler, workers=args.workers, sensors=sensors)
     wall = time.perf_counter() - start
     print(format_study(judgements, args.seed))
     print(f"\nwall time {wall:.1f} s ({wall / max(len(judgements), 1):.2f} s per campaign)")

@@ -27,6 +27,9 @@ FORMER_EXPANSION_PER_K = {"gypsum": 25e-6, "fired_clay": 7.5e-6, "plastic": 70e-
 #: relative change of tau_T per kelvin (copper conductivity falls ~0.39 %/K).
 TARGET_TAU_S = {"copper": 100e-6, "steel": 3e-6}
 TARGET_TAU_TEMPCO_PER_K = {"copper": -0.0039, "steel": -0.0030}
+#: Resistivity at 20 C (Ohm m) of the non-magnetic target materials (textbook: copper 1.68e-8); a target not
+#: listed is magnetic (steel), whose screening depth is mu_r delta/2 (docs/physics.md, "A magnetic plate").
+NON_MAGNETIC_RESISTIVITY_OHM_M = {"copper": 1.68e-8}
 
 
 class CoilGeometry(BaseModel):

@@ -10,8 +10,11 @@ Stages (all arrays have one entry per data row, SI units):
 1. effective inputs: ``effective_distance(x_m, data: Measurements, p)``,
    ``winding_temperature(t_c, data: Measurements, p)``, ``target_temperature(t_c, data: Measurements, p)``
 2. target time constant: ``target_tau(tau_s, inputs, data: Measurements, p)``
-3. baseline ECM, Eq. (2)-(5), then ``series_inductance(l_h, inputs, data: Measurements, p)``: L of the series
-   branch, for anything else that couples to the coil (e.g. a metal object near the slide)
+3. the calibrated coupling squared, ``coupling_squared(k2, inputs, data: Measurements, p, coupling_hat)``: for a
+   target that does not screen like a perfect conductor seen at one distance (``coupling_hat(x_m)`` is Eq. (5) at
+   any distances, e.g. near the effective one); then the baseline ECM, Eq. (2)-(4), then
+   ``series_inductance(l_h, inputs, data: Measurements, p)``: L of the series branch, for anything else that
+   couples to the coil (e.g. a metal object near the slide)
 4. coil parasitics: ``coil_capacitance(c_f, inputs, data: Measurements, p)``,
    ``parallel_conductance(g_s, inputs, data: Measurements, p)``
 5. the bridge's apparent series inductance (no hook)
@@ -44,7 +47,7 @@ rest at that solution, and keep the better: the richer law never ends worse than
 from __future__ import annotations
 
 import logging
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -163,6 +166,17 @@ class Effect:
         start, the rest join the alternatives (e.g. a screw's lead from a periodogram). None by default."""
         return ()
 
+    @classmethod
+    def applies_to(cls, sensor: SensorConfig) -> bool:
+        """Whether the effect can act on this sensor at all (a magnetic plate's screening depth cannot on a copper
+        one): a diagnosis tries by default only the effects that can."""
+        return True
+
+    def changes_coupling(self) -> bool:
+        """Whether ``coupling_squared`` acts for this sensor (an effect may reshape k^2 on a magnetic plate only); the
+        model carries k^2's own tangent only where one does."""
+        return type(self).coupling_squared is not Effect.coupling_squared
+
     def identifies(self, data: Measurements) -> set[str]:
         """Baseline parameters this effect makes determinable in these data although the baseline
         alone would not (e.g. tau_T at one frequency once it changes with target temperature)."""
@@ -180,6 +194,10 @@ class Effect:
     def target_tau(self, tau_s: np.ndarray, inputs: Inputs, data: Measurements,
                    p: Mapping[str, float]) -> np.ndarray:
         return tau_s
+
+    def coupling_squared(self, k2: np.ndarray, inputs: Inputs, data: Measurements, p: Mapping[str, float],
+                         coupling_hat: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
+        return k2
 
     def series_inductance(self, l_h: np.ndarray, inputs: Inputs, data: Measurements,
                           p: Mapping[str, float]) -> np.ndarray:
@@ -228,6 +246,14 @@ class Effect:
                      data: Measurements, p: Mapping[str, float]) -> tuple[np.ndarray, Tangent]:
         return self._identity("target_tau", tau_s, dtau)
 
+    def d_coupling_squared(self, k2: np.ndarray, dk2: Tangent, inputs: Inputs, d_inputs: InputTangents,
+                           data: Measurements, p: Mapping[str, float],
+                           coupling_hat_tangent: Callable[[np.ndarray, Tangent], tuple[np.ndarray, Tangent]]
+                           ) -> tuple[np.ndarray, Tangent]:
+        """``coupling_squared`` and its tangent; ``coupling_hat_tangent(x_m, dx)`` gives Eq. (5) and its tangent at
+        any distances whose tangent is ``dx``."""
+        return self._identity("coupling_squared", k2, dk2)
+
     def d_series_inductance(self, l_h: np.ndarray, dl: Tangent, inputs: Inputs, d_inputs: InputTangents,
                             data: Measurements, p: Mapping[str, float]) -> tuple[np.ndarray, Tangent]:
         return self._identity("series_inductance", l_h, dl)
@@ -242,8 +268,8 @@ class Effect:
 
 
 #: The stage hooks an effect may override (each with its derivative hook ``d_<hook>``).
-HOOKS = ("effective_distance", "winding_temperature", "target_temperature", "target_tau", "series_inductance",
-         "coil_capacitance", "parallel_conductance")
+HOOKS = ("effective_distance", "winding_temperature", "target_temperature", "target_tau", "coupling_squared",
+         "series_inductance", "coil_capacitance", "parallel_conductance")
 
 
 def register(cls: type[Effect]) -> type[Effect]:

@@ -108,6 +108,9 @@ class SensorModel:
         d_coil = inputs.t_winding_c - sensor.reference_temperature_c
         l_coil = ecm.coil_inductance(p["L0"], p["alpha"], p["beta"], d_coil)
         k2 = self.coupling_hat(inputs.x_m, p) ** 2
+        for effect in self.effects:
+            if effect.changes_coupling():
+                k2 = effect.coupling_squared(k2, inputs, data, p, lambda x: self.coupling_hat(x, p))
         l_true = ecm.ecds_inductance(l_coil, k2, omega, tau)
         for effect in self.effects:
             l_true = effect.series_inductance(l_true, inputs, data, p)
@@ -179,12 +182,22 @@ class SensorModel:
         k_hat, dk_hat = self.coupling_hat_tangent(inputs.x_m, dx, p)
         dk_hat = only(dk_hat)
         k2 = k_hat**2
+        reshaping = [effect for effect in self.effects if effect.changes_coupling()]
+        reshaped = bool(reshaping)
+        if reshaped:  # k^2's tangent itself, for the effects that change it (else k^'s, with 2 k^ in its factors)
+            dk_hat = scaled(dk_hat, 2 * k_hat)
+            for effect in reshaping:
+                k2, dk_hat = effect.d_coupling_squared(k2, dk_hat, inputs, d_inputs, data, p,
+                                                       lambda x, d: self.coupling_hat_tangent(x, d, p))
+                dk_hat = only(dk_hat)
         wt2 = (omega * tau) ** 2
         f_t = wt2 / (1.0 + wt2)
         f_t_by_tau = 2 * omega**2 * tau / (1.0 + wt2) ** 2
         l_true = l_coil * (1.0 - k2 * f_t)
         # the factors of dL_true on dL_coil, dk^ and dtau (Eq. 2)
         l_by_l_coil, l_by_k, l_by_tau = 1.0 - k2 * f_t, -l_coil * f_t * 2 * k_hat, -l_coil * k2 * f_t_by_tau
+        if reshaped:
+            l_by_k = -l_coil * f_t
         hooked = any(type(effect).series_inductance is not Effect.series_inductance for effect in self.effects)
         if hooked:  # L_true's tangent itself, for the effects that change it
             dl_coil = plus(scaled(dtw, l_coil_by_t), own_l_coil)
@@ -214,7 +227,7 @@ class SensorModel:
         by_r, by_l = a.imag / omega, a.real
         jacobian: Tangent = {}
         by_l_coil = by_r * k2 * g
-        by_k = by_r * g * l_coil * 2 * k_hat
+        by_k = by_r * g * l_coil * 2 * k_hat if not reshaped else by_r * g * l_coil
         by_tau = by_r * k2 * l_coil * g_by_tau
         if hooked:
             add_to(jacobian, dl_true, by_l)

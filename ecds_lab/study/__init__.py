@@ -19,12 +19,12 @@ from ecds_lab.study.scoring import Judgement, judge
 def study_case(case: Case) -> Judgement:
     """Measure one case and judge its diagnosis (runs on a worker)."""
     from ecds_lab.analysis.diagnosis import diagnose
-    from ecds_lab.study.campaigns import measure
+    from ecds_lab.study.campaigns import lab_config, measure
 
     try:
         data = measure(case)
         began = time.process_time()
-        report = diagnose(data)
+        report = diagnose(data, sensor=lab_config(case).sensor)
     except (EcdsLabError, ValueError, ArithmeticError) as error:
         return judge(case, None, f"{type(error).__name__}: {error}")
     judgement = judge(case, report)
@@ -33,7 +33,8 @@ def study_case(case: Case) -> Judgement:
 
 
 def run_study(count: int, seed: int, *, scheduler: str | None = None, workers: int | None = None,
-              cases: Sequence[Case] | None = None) -> list[Judgement]:
-    """``count`` cases drawn from ``seed`` (or the given ones), each measured, diagnosed and judged, in order."""
-    return run_all(study_case, list(cases) if cases is not None else draw_cases(count, seed),
+              cases: Sequence[Case] | None = None, sensors: Sequence[str] = ("paper",)) -> list[Judgement]:
+    """``count`` cases drawn from ``seed`` on ``sensors`` (or the given ones), each measured, diagnosed and judged,
+    in order."""
+    return run_all(study_case, list(cases) if cases is not None else draw_cases(count, seed, sensors),
                    scheduler=scheduler, workers=workers)

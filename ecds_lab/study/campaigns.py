@@ -14,10 +14,11 @@ from typing import Any
 import numpy as np
 
 from ecds_lab.data.measurements import Measurements
+from ecds_lab.data.sensor import sensor_from
 from ecds_lab.simulators import campaign
 from ecds_lab.simulators.config import LabConfig
 from ecds_lab.simulators.lab import BOX_HEATER_OUTPUT, TARGET_HEATER_OUTPUT, SimulatedLab
-from ecds_lab.study.cases import Case, Design, merged
+from ecds_lab.study.cases import SENSORS, Case, Design, merged
 
 #: The faithful lab with every documented imperfection off (docs/simulated_lab.md); a truth switches its own on.
 QUIET_LAB: dict[str, Any] = {
@@ -32,8 +33,10 @@ HEATING_INTERVAL_S = 120.0
 
 
 def lab_config(case: Case) -> LabConfig:
-    """The faithful lab of ``case``: quiet, with the case's truth switched on."""
-    return LabConfig(physics="field", seed=case.seed, **merged(QUIET_LAB, case.blocks))
+    """The faithful lab of ``case``: its sensor, quiet, with the case's truth switched on."""
+    sensor = SENSORS[case.sensor]
+    return LabConfig(physics="field", seed=case.seed, sensor=sensor_from(f"study sensor {sensor.name}", sensor.sensor),
+                     **merged(merged(QUIET_LAB, sensor.lab), case.blocks))
 
 
 def positions_mm(design: Design) -> list[float]:

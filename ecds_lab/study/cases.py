@@ -10,7 +10,8 @@ at one frequency, and which campaign designs can reveal it at all.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import dataclasses
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -156,18 +157,47 @@ ALWAYS_TRUE: dict[str, Callable[[Design], bool]] = {
 
 
 @dataclass(frozen=True)
+class SensorKind:
+    """A sensor the study can measure: the simulated lab's geometry for it (docs/simulated_lab.md) and the sensor
+    description the analysis is given (the fields of a sensor YAML), as a user would write both."""
+
+    name: str
+    #: the station YAML's ``simulated: lab:`` change that builds it
+    lab: dict[str, Any] = field(default_factory=dict, hash=False)
+    #: its sensor YAML (the paper's prototype where empty)
+    sensor: dict[str, Any] = field(default_factory=dict, hash=False)
+    #: the frequencies it is measured at whatever the design asks (None: the design's)
+    frequencies_hz: tuple[float, ...] | None = None
+    #: library effects its physics makes true whatever the truth drawn
+    always_true: tuple[str, ...] = ()
+
+
+#: The sensors a study may draw (``--sensors``): the paper's prototype over its 5 mm copper plate (the default and
+#: the study's yardstick), the same coil over steel (measured at 15 kHz, as the paper measured it: at 500 Hz the
+#: plate's magnetisation and eddy currents nearly cancel, which no first-order law describes; its screening from a
+#: complex depth, ``magnetic_depth``, is true of every steel campaign), and over a copper sheet of 1 mm (a third of
+#: the skin depth at 500 Hz).
+SENSORS: dict[str, SensorKind] = {kind.name: kind for kind in (
+    SensorKind("paper"),
+    SensorKind("steel", sensor={"target": "steel"}, frequencies_hz=(HIGH_HZ,), always_true=("magnetic_depth",)),
+    SensorKind("thin_plate", lab={"plate": {"thickness_m": 1e-3}}),
+)}
+
+
+@dataclass(frozen=True)
 class Case:
-    """One campaign of the study: its number, seed, design and truth."""
+    """One campaign of the study: its number, seed, design, truth and sensor."""
 
     number: int
     seed: int
     design: Design
     truths: tuple[str, ...]
     blocks: dict[str, Any] = field(hash=False)
+    sensor: str = "paper"
 
     def to_json(self) -> dict[str, Any]:
         return {"case": self.number, "seed": self.seed, "design": self.design.to_json(),
-                "truths": list(self.truths), "lab": self.blocks}
+                "truths": list(self.truths), "lab": self.blocks, "sensor": self.sensor}
 
 
 def truth_kinds() -> dict[str, TruthKind]:
@@ -198,8 +228,12 @@ def merged(base: dict[str, Any], change: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-def draw_case(number: int, seed: int) -> Case:
-    """Case ``number`` of the study with ``seed``: none, one, two or three imperfections, a random design."""
+def draw_case(number: int, seed: int, sensors: Sequence[str] = ("paper",)) -> Case:
+    """Case ``number`` of the study with ``seed``: none, one, two or three imperfections, a random design, on one
+    of ``sensors`` (drawn apart: the truth and design of a case are the same whichever sensors may be drawn)."""
+    unknown = [name for name in sensors if name not in SENSORS]
+    if unknown or not sensors:
+        raise ValueError(f"unknown sensor(s) {', '.join(unknown) or '(none given)'}; known: {', '.join(SENSORS)}")
     rng = np.random.default_rng([seed, number])
     design = draw_design(rng)
     kinds = truth_kinds()
@@ -208,9 +242,12 @@ def draw_case(number: int, seed: int) -> Case:
     blocks: dict[str, Any] = {}
     for name in names:
         blocks = merged(blocks, kinds[name].block(rng))
-    return Case(number, int(rng.integers(2**31)), design, tuple(names), blocks)
+    sensor = SENSORS[sensors[int(np.random.default_rng([seed, number, 1]).integers(len(sensors)))]]
+    if sensor.frequencies_hz is not None:
+        design = dataclasses.replace(design, frequencies_hz=sensor.frequencies_hz)
+    return Case(number, int(rng.integers(2**31)), design, tuple(names), blocks, sensor.name)
 
 
-def draw_cases(count: int, seed: int) -> list[Case]:
+def draw_cases(count: int, seed: int, sensors: Sequence[str] = ("paper",)) -> list[Case]:
     """The study's ``count`` cases from one seed (case i is the same whatever the count)."""
-    return [draw_case(i, seed) for i in range(count)]
+    return [draw_case(i, seed, sensors) for i in range(count)]

@@ -1,7 +1,8 @@
 """Judging one diagnosis against its case's truth, and the study's tables.
 
 - A **confident wrong claim**: an effect claimed that no truth of the case names and that is not true of
-  the faithful lab anyway (``cases.ALWAYS_TRUE``).
+  the faithful lab anyway (``cases.ALWAYS_TRUE``) or of the case's sensor (``cases.SENSORS``: a steel plate's
+  ``magnetic_depth``).
 - A **false alarm** (null cases: no truth but noise): a wrong claim, or a residual said to lie outside the
   library (verdict ``missing_effect`` with nothing claimed).
 - **Right** (cases whose truth the design can reveal): every revealable library truth claimed or named
@@ -16,7 +17,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from ecds_lab.study.cases import ALWAYS_TRUE, Case, truth_kinds
+from ecds_lab.study.cases import ALWAYS_TRUE, SENSORS, Case, truth_kinds
 
 #: What the verdict of a case whose effects lie outside the library must say.
 OUTSIDE_WORDS = "outside the library"
@@ -62,6 +63,7 @@ def judge(case: Case, report: dict[str, Any] | None, error: str | None = None) -
     named = set(claimed) | {name for group in alternatives for name in group}
     allowed = {name for t in truths for name in (*t.expects, *t.tied_with)}
     allowed |= {name for name, holds in ALWAYS_TRUE.items() if holds(case.design)}
+    allowed |= set(SENSORS[case.sensor].always_true)
     judgement = Judgement(case, report["verdict"], claimed, alternatives,
                           wrong_claims=[name for name in claimed if name not in allowed],
                           revealable=[t.name for t in revealable])
@@ -156,7 +158,14 @@ def format_study(judgements: Sequence[Judgement], seed: int) -> str:
              f"false alarms on null truths: {figures.false_alarms} of {figures.null_cases} "
              f"({100 * figures.false_alarm_rate:.1f} %)",
              f"right (or honestly tied): {figures.right_cases} of {figures.judged_cases} revealable or null campaigns "
-             f"({100 * figures.right_rate:.1f} %)", "", "detection per truth (revealable by the design):"]
+             f"({100 * figures.right_rate:.1f} %)"]
+    sensors = sorted({j.case.sensor for j in judgements})
+    if len(sensors) > 1:
+        for sensor in sensors:
+            part = rates([j for j in judgements if j.case.sensor == sensor])
+            lines.append(f"  on {sensor}: {part.cases} campaigns, wrong claims {part.wrong_claim_cases}, false alarms "
+                         f"{part.false_alarms} of {part.null_cases}, right {part.right_cases} of {part.judged_cases}")
+    lines += ["", "detection per truth (revealable by the design):"]
     for name, row in detection_table(judgements).items():
         lines.append(f"  {name:<16} {row['found']:>4} of {row['revealable']:<4}")
     lines += ["", "confusion (truth -> what was said, count):"]

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import pytest
+
 from ecds_lab.study.cases import Design, draw_case, draw_cases, truth_kinds
 from ecds_lab.study.scoring import judge, rates
 
@@ -88,3 +90,32 @@ def test_noise_that_grows_with_the_heater_current_is_no_effect():
     j = judge(case_with(["heater_pickup"], ONE_FREQUENCY_HEATED),
               report("missing_effect", explanation="the residual lies outside the library"))
     assert j.null and j.false_alarm
+
+
+def test_a_case_drawn_among_sensors_keeps_its_truth_and_design():
+    """The sensor is drawn from a stream of its own: the default study (the paper's prototype alone) is unchanged, and
+    a steel case is measured at 15 kHz whatever its design asked."""
+    for number in range(20):
+        paper, mixed = draw_case(number, 7), draw_case(number, 7, ("paper", "steel"))
+        assert paper.sensor == "paper" and (mixed.truths, mixed.blocks, mixed.seed) == (paper.truths, paper.blocks,
+                                                                                         paper.seed)
+        if mixed.sensor == "steel":
+            assert mixed.design.frequencies_hz == (15000.0,)
+        else:
+            assert mixed.design == paper.design
+    assert {draw_case(n, 7, ("paper", "steel")).sensor for n in range(20)} == {"paper", "steel"}
+
+
+def test_an_unknown_sensor_is_named():
+    with pytest.raises(ValueError, match=r"unknown sensor.*granite.*known: paper"):
+        draw_case(0, 7, ("paper", "granite"))
+
+
+def test_a_steel_plates_magnetic_depth_is_true_of_steel_alone():
+    from ecds_lab.study.cases import Case
+
+    claimed = report("missing_effect", ["magnetic_depth"])
+    on_steel = judge(Case(0, 1, ONE_FREQUENCY_HEATED, (), {}, "steel"), claimed)
+    on_copper = judge(case_with([], ONE_FREQUENCY_HEATED), claimed)
+    assert on_steel.right and not on_steel.wrong_claims
+    assert on_copper.false_alarm and on_copper.wrong_claims == ["magnetic_depth"]

@@ -182,7 +182,8 @@ def _run_diagnosis(data: Measurements, effects: Sequence[str], sensor: SensorCon
     space = _Space(sensor or SensorConfig(), registry)
     clean, base, noise, outliers, released = _robust_fit(data, effects, space, screen_rows, fitted)
     space = _Space(space.sensor, registry, frozenset(released))
-    names = [n for n in (candidates if candidates is not None else default_candidates(registry)) if n not in effects]
+    names = [n for n in (candidates if candidates is not None else default_candidates(registry, space.sensor))
+             if n not in effects]
     for module in sorted({m for name in names for m in registry[name].modules_for_search}):
         importlib.import_module(module)  # once here, not in every worker forked for the candidates
     screen = screened(clean, screen_rows)
@@ -300,7 +301,7 @@ def diagnose(data: Measurements, effects: Sequence[str] = (), sensor: SensorConf
     (``diagnose --try``, e.g. plate_recession)."""
     candidates = None
     if also_try:
-        defaults = default_candidates(registry if registry is not None else library())
+        defaults = default_candidates(registry if registry is not None else library(), sensor)
         candidates = [*defaults, *(n for n in also_try if n not in defaults)]
     return run_diagnosis(data, effects, sensor, registry=registry, candidates=candidates).to_json()
 
@@ -665,10 +666,11 @@ def _released(fitted: FitResult, data: Measurements, effects: list[str], space: 
     return trial, kept
 
 
-def default_candidates(registry: EffectRegistry) -> list[str]:
+def default_candidates(registry: EffectRegistry, sensor: SensorConfig | None = None) -> list[str]:
     """The effects a diagnosis tries unless told which: those of ``registry`` tried by default
-    (``Effect.tried_by_default``)."""
-    return [n for n in registry if registry[n].tried_by_default]
+    (``Effect.tried_by_default``) that can act on ``sensor`` (``Effect.applies_to``; default: the paper's prototype)."""
+    sensor = sensor or SensorConfig()
+    return [n for n in registry if registry[n].tried_by_default and registry[n].applies_to(sensor)]
 
 
 def _absorbed_at_every_shape(model: SensorModel, data: Measurements, current: Mapping[str, float],

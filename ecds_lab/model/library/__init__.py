@@ -8,6 +8,7 @@ stage hooks). To add an effect: write a module like these, with its parameters
 from __future__ import annotations
 
 from ecds_lab.model.library.former_expansion import FormerExpansion
+from ecds_lab.model.library.magnetic_depth import MagneticDepth
 from ecds_lab.model.library.parasitic_capacitance import ParasiticCapacitance
 from ecds_lab.model.library.plate_recession import PlateRecession
 from ecds_lab.model.library.slide_backlash import SlideBacklash
@@ -18,4 +19,4 @@ from ecds_lab.model.library.tau_displacement import TauDisplacement
 from ecds_lab.model.library.thermal_lag import ThermalLag
 
 LIBRARY = (TargetTauTemperature, TauDisplacement, TargetBending, ParasiticCapacitance, ThermalLag, SlideBacklash,
-           FormerExpansion, SlideLeadScrew, PlateRecession)
+           FormerExpansion, SlideLeadScrew, PlateRecession, MagneticDepth)

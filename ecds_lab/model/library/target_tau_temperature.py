@@ -36,9 +36,14 @@ plate, a change of screening for a thin one), so it is a nuisance parameter: whe
 determine it poorly the diagnosis holds it where the fit left it. It starts thin (0.1 mm, both
 shares move with it there), with a sheet-like and a thick start as alternatives. With a bending
 as well, two frequencies give two temperature responses for three unknowns (tempco, thickness,
-bending): the data then cannot size the bending apart from the thickness. A magnetic target
-(steel, mu_r ~100-200 and itself changing with temperature) does not recede like this; there the
-effect is the tau_T change alone, as before.
+bending): the data then cannot size the bending apart from the thickness.
+
+A magnetic target (steel) screens from its complex depth D = mu_r delta/2 instead (``magnetic_depth``,
+docs/physics.md "A magnetic plate"), and D ~ sqrt(mu_r/sigma): as the conductivity falls (and steel's mu_r rises)
+with temperature, D(T) = D exp(-(a dT + b dT^2)/2), a change of set-back D(f) (D(T)/D - 1) and of the depth's
+curvature of k^2. That is the effect there; the ECM's tau_T, which describes no loop of a magnetic plate, is left
+alone. D is ``magnetic_depth``'s parameter (shared): the change alone trades D against a, so without that effect
+in the model D is held at the textbook steel's.
 """
 
 from __future__ import annotations
@@ -50,16 +55,22 @@ from typing import ClassVar
 import numpy as np
 
 from ecds_lab.data.measurements import Measurements
-from ecds_lab.data.sensor import SensorConfig
+from ecds_lab.data.sensor import NON_MAGNETIC_RESISTIVITY_OHM_M, SensorConfig
 from ecds_lab.model.effects import Effect, Inputs, register
+from ecds_lab.model.library.magnetic_depth import (
+    curvature,
+    curvature_and_tangent,
+    deepened,
+    depth_parameter,
+    is_magnetic,
+)
+from ecds_lab.model.library.magnetic_depth import per_frequency as depth_per_frequency
 from ecds_lab.model.parameters import Parameter
 from ecds_lab.model.tangents import InputTangents, Tangent, plus, scaled
 from ecds_lab.model.temperature_levels import curvature_unseen
 
 #: Vacuum permeability (H/m).
 MU_0 = 4e-7 * math.pi
-#: Resistivity at 20 C (Ohm m) of the non-magnetic target materials (textbook: copper 1.68e-8).
-NON_MAGNETIC_RESISTIVITY_OHM_M = {"copper": 1.68e-8}
 #: ``plate_recession``'s scale of the set-back over the material's: where that effect is in the model, the change
 #: of set-back with the conductivity is the same plate's and scales with it.
 RECESSION_SCALE = "recession_scale"
@@ -138,6 +149,8 @@ class TargetTauTemperature(Effect):
         super().__init__(sensor)
         if self.resistivity_ohm_m is not None and sensor.target_thickness_m is None:  # a thickness to search for
             self.alternative_starts = self.THICKNESS_STARTS  # type: ignore[misc]  # per sensor, not per class
+        if is_magnetic(sensor):  # its depth, ``magnetic_depth``'s where both are in the model
+            self.shared_parameters = ("magnetic_depth",)  # type: ignore[misc]
 
     @property
     def resistivity_ohm_m(self) -> float | None:
@@ -155,6 +168,8 @@ class TargetTauTemperature(Effect):
             out.append(Parameter("plate_thickness", known if known is not None else 0.1e-3, 1e-6, 50e-3, "m",
                                  "thickness of the target plate (sets how its skin recession changes with frequency)",
                                  1e-3))
+        elif is_magnetic(self.sensor):
+            out.append(depth_parameter(self.sensor))
         return out
 
     def unidentifiable(self, data: Measurements) -> dict[str, str]:
@@ -166,6 +181,8 @@ class TargetTauTemperature(Effect):
         fixed: dict[str, str] = {}
         if thickness and self.sensor.target_thickness_m is not None:
             fixed["plate_thickness"] = "given by the sensor description"
+        if is_magnetic(self.sensor):  # its change D (r - 1) trades D against the tempco; the curvature tells D
+            fixed["magnetic_depth"] = "the textbook steel's unless magnetic_depth (its curvature) is in the model"
         if span < 5.0:
             fixed.update(tau_tempco=f"target temperature span {span:.1f} K < 5 K", tau_tempco2="as tau_tempco")
             if thickness:
@@ -175,17 +192,6 @@ class TargetTauTemperature(Effect):
         if why is not None:
             fixed["tau_tempco2"] = why
         return fixed
-
-    def identifies(self, data: Measurements) -> set[str]:
-        """At one frequency tau_T is otherwise tied to the coupling gain; the curvature of f_T along a
-        temperature span of the target can tell it (the fit's standard error says how well). Not for a
-        non-magnetic target: there the skin recession carries the one frequency's change, and a free tau_T
-        would only trade the recession's share against the tau_T change's."""
-        if self.resistivity_ohm_m is not None:
-            return set()
-        finite = np.isfinite(data.x_m)
-        span = float(np.ptp(data.t_target_c[finite])) if finite.any() else 0.0
-        return {"tau_t"} if span >= 30.0 else set()
 
     @staticmethod
     def _log_tau_ratio(t_target_c: np.ndarray, reference_c: float, p: Mapping[str, float]) -> np.ndarray:
@@ -199,8 +205,41 @@ class TargetTauTemperature(Effect):
             return np.zeros(len(data))
         return -np.expm1(-2.0 * p["plate_thickness"] / skin_depth_m(rho, data.freq_hz))
 
+    def _depth_ratio(self, data: Measurements, p: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """A magnetic plate: its depth D(f) at 20 C, D(T)/D(20 C) = exp(-a dT/2 - b dT^2/2) (D ~ sigma^-1/2, the
+        conductivity ~ tau_T) and the target's rise dT."""
+        d_t = self._rise(data.t_target_c)
+        ratio = np.exp(-0.5 * self._log_tau_ratio(data.t_target_c, self.sensor.reference_temperature_c, p))
+        return p["magnetic_depth"] * depth_per_frequency(data.freq_hz), ratio, d_t
+
+    def changes_coupling(self) -> bool:
+        return is_magnetic(self.sensor)
+
+    def coupling_squared(self, k2: np.ndarray, inputs: Inputs, data: Measurements, p: Mapping[str, float],
+                         coupling_hat: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
+        """A magnetic plate's depth change: the curvature of its depth at D(T) in place of D(20 C)."""
+        if not is_magnetic(self.sensor):
+            return k2
+        depth, ratio, _ = self._depth_ratio(data, p)
+        return k2 - 0.5 * depth**2 * (ratio**2 - 1) * curvature(k2, inputs.x_m, coupling_hat)
+
+    def d_coupling_squared(self, k2: np.ndarray, dk2: Tangent, inputs: Inputs, d_inputs: InputTangents,
+                           data: Measurements, p: Mapping[str, float],
+                           coupling_hat_tangent: Callable[[np.ndarray, Tangent], tuple[np.ndarray, Tangent]]
+                           ) -> tuple[np.ndarray, Tangent]:
+        if not is_magnetic(self.sensor):
+            return k2, dk2
+        depth, ratio, d_t = self._depth_ratio(data, p)
+        per = depth_per_frequency(data.freq_hz)
+        bent, d_bent = curvature_and_tangent(k2, dk2, inputs.x_m, d_inputs.x_m, coupling_hat_tangent)
+        by_log_ratio = -0.5 * depth * ratio
+        d_hot = {"tau_tempco": by_log_ratio * d_t, "tau_tempco2": by_log_ratio * d_t**2, "magnetic_depth": per * ratio}
+        return deepened(k2, dk2, bent, d_bent, depth * ratio, depth, d_hot, {"magnetic_depth": per})
+
     def effective_distance(self, x_m: np.ndarray, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
         rho = self.resistivity_ohm_m
+        if is_magnetic(self.sensor):
+            return self.d_effective_distance(x_m, {}, data, p)[0]
         if rho is None:
             return x_m
         log_ratio = self._log_tau_ratio(data.t_target_c, self.sensor.reference_temperature_c, p)
@@ -211,6 +250,8 @@ class TargetTauTemperature(Effect):
 
     def target_tau(self, tau_s: np.ndarray, inputs: Inputs, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
         log_ratio = self._log_tau_ratio(inputs.t_target_c, self.sensor.reference_temperature_c, p)
+        if is_magnetic(self.sensor):  # its depth carries the change (the ECM's tau_T of steel is no loop's)
+            return tau_s
         if self.resistivity_ohm_m is not None:
             log_ratio = log_ratio * (1 - self._skin_share(data, p))
         return tau_s * np.exp(log_ratio)
@@ -228,6 +269,12 @@ class TargetTauTemperature(Effect):
     def d_effective_distance(self, x_m: np.ndarray, dx: Tangent, data: Measurements,
                              p: Mapping[str, float]) -> tuple[np.ndarray, Tangent]:
         rho = self.resistivity_ohm_m
+        if is_magnetic(self.sensor):  # the depth's set-back D(f) (D(T)/D(20 C) - 1)
+            depth, ratio, d_t = self._depth_ratio(data, p)
+            by_log_ratio = -0.5 * depth * ratio
+            return x_m + depth * (ratio - 1), plus(dx, {
+                "tau_tempco": by_log_ratio * d_t, "tau_tempco2": by_log_ratio * d_t**2,
+                "magnetic_depth": depth_per_frequency(data.freq_hz) * (ratio - 1)})
         if rho is None:
             return x_m, dx
         d_t = self._rise(data.t_target_c)
@@ -250,6 +297,8 @@ class TargetTauTemperature(Effect):
 
     def d_target_tau(self, tau_s: np.ndarray, dtau: Tangent, inputs: Inputs, d_inputs: InputTangents,
                      data: Measurements, p: Mapping[str, float]) -> tuple[np.ndarray, Tangent]:
+        if is_magnetic(self.sensor):
+            return tau_s, dtau
         d_t = self._rise(inputs.t_target_c)
         log_ratio = self._log_tau_ratio(inputs.t_target_c, self.sensor.reference_temperature_c, p)
         keep = 1.0 if self.resistivity_ohm_m is None else 1 - self._skin_share(data, p)
