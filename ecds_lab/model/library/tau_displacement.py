@@ -19,6 +19,7 @@ from scipy.interpolate import CubicSpline
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.model.effects import Effect, Inputs, register
+from ecds_lab.model.library.magnetic_depth import is_magnetic
 from ecds_lab.model.library.remembered import Remembered
 from ecds_lab.model.parameters import Parameter
 from ecds_lab.model.tangents import InputTangents, Tangent, plus, scaled
@@ -52,6 +53,12 @@ class TauDisplacement(Effect):
     def parameters(self) -> list[Parameter]:
         return [Parameter(name, 0.0, -3.0, 3.0, "1", f"ln(tau_T / tau_T at 60 mm) at {name[6:]}", 0.05)
                 for name in FREE_KNOTS]
+
+    @classmethod
+    def applies_to(cls, sensor: SensorConfig) -> bool:
+        """Not on a magnetic plate: its ECM tau_T describes no loop (it screens from a complex depth, whose
+        change with x is ``magnetic_depth``'s curvature), and a tau_T(x) there only bends the gain along x."""
+        return not is_magnetic(sensor)
 
     def unidentifiable(self, data: Measurements) -> dict[str, str]:
         positions = len(np.unique(np.round(data.x_m[np.isfinite(data.x_m)], 6)))
