@@ -180,16 +180,17 @@ class SensorModel:
         own_l_coil = only({"L0": shape, "alpha": p["L0"] * d_coil, "beta": p["L0"] * d_coil**2})
         l_coil_by_t = p["L0"] * (p["alpha"] + 2 * p["beta"] * d_coil)
         k_hat, dk_hat = self.coupling_hat_tangent(inputs.x_m, dx, p)
-        dk_hat = only(dk_hat)
         k2 = k_hat**2
+        # the coupling's tangent: k^'s (2 k^ then enters its factors), or k^2's itself where an effect reshapes k^2
+        d_coupling = only(dk_hat)
         reshaping = [effect for effect in self.effects if effect.changes_coupling()]
         reshaped = bool(reshaping)
-        if reshaped:  # k^2's tangent itself, for the effects that change it (else k^'s, with 2 k^ in its factors)
-            dk_hat = scaled(dk_hat, 2 * k_hat)
+        if reshaped:
+            d_coupling = scaled(d_coupling, 2 * k_hat)
             for effect in reshaping:
-                k2, dk_hat = effect.d_coupling_squared(k2, dk_hat, inputs, d_inputs, data, p,
-                                                       lambda x, d: self.coupling_hat_tangent(x, d, p))
-                dk_hat = only(dk_hat)
+                k2, d_coupling = effect.d_coupling_squared(k2, d_coupling, inputs, d_inputs, data, p,
+                                                           lambda x, d: self.coupling_hat_tangent(x, d, p))
+                d_coupling = only(d_coupling)
         wt2 = (omega * tau) ** 2
         f_t = wt2 / (1.0 + wt2)
         f_t_by_tau = 2 * omega**2 * tau / (1.0 + wt2) ** 2
@@ -201,7 +202,7 @@ class SensorModel:
         hooked = any(type(effect).series_inductance is not Effect.series_inductance for effect in self.effects)
         if hooked:  # L_true's tangent itself, for the effects that change it
             dl_coil = plus(scaled(dtw, l_coil_by_t), own_l_coil)
-            dl_true = plus(scaled(dl_coil, l_by_l_coil), scaled(dk_hat, l_by_k), scaled(dtau, l_by_tau))
+            dl_true = plus(scaled(dl_coil, l_by_l_coil), scaled(d_coupling, l_by_k), scaled(dtau, l_by_tau))
             for effect in self.effects:
                 l_true, dl_true = effect.d_series_inductance(l_true, dl_true, inputs, d_inputs, data, p)
                 dl_true = only(dl_true)
@@ -237,7 +238,7 @@ class SensorModel:
             by_tau = by_tau + by_l * l_by_tau
         add_to(jacobian, own_l_coil, by_l_coil)
         add_to(jacobian, dtw, by_l_coil * l_coil_by_t + by_r * sensor.resistance_ohm * sensor.resistance_tempco_per_k)
-        add_to(jacobian, dk_hat, by_k)
+        add_to(jacobian, d_coupling, by_k)
         add_to(jacobian, dtau, by_tau)
         add_to(jacobian, dcap, -z2.real)
         add_to(jacobian, dcond, -z2.imag / omega)

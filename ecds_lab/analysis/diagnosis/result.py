@@ -156,6 +156,9 @@ class Diagnosis:
     #: The noise the search judged every candidate's evidence against (found on the start model); ``noise`` is the
     #: one the final model is judged and reported with (``noise.refreshed``). None: the same as ``noise``.
     searched_noise: NoiseEstimate | None = None
+    #: At one frequency, where a smooth calibration curve in x takes the final residual's structure: the structure
+    #: left after it (the calibration's form, not physics shown to be outside the library); else None.
+    calibration_form: ResidualStructure | None = None
 
     @property
     def evidence_noise(self) -> NoiseEstimate:
@@ -230,6 +233,7 @@ class Diagnosis:
             "undetermined": list(self.undetermined),
             "released": dict(self.released),
             "residual_structure": self.structure.to_json() if self.structure is not None else None,
+            "calibration_form": self.calibration_form.to_json() if self.calibration_form is not None else None,
             "steps": [s.to_json(self.noise.ppm) for s in self.steps],
         }
 

@@ -67,6 +67,7 @@ from ecds_lab.analysis.diagnosis.held_out import SCREEN_ROWS, HeldOutFits, check
 from ecds_lab.analysis.diagnosis.identifiability import (
     ReleasedModel,
     absorbed,
+    beyond_calibration,
     calibration_space,
     releasable,
     start_values,
@@ -285,11 +286,14 @@ def _run_diagnosis(data: Measurements, effects: Sequence[str], sensor: SensorCon
     if len(steps) == 1 and len(undetermined) > 1:
         alternatives.append(list(undetermined))
         undetermined = []
-    verdict = verdict_of(steps, effects, noise, structure, alternatives, untestable, limits, associations)
+    taken = _calibration_takes_it(final, clean, noise) if outside_library(final, noise, structure, associations) \
+        else None
+    verdict = verdict_of(steps, effects, noise, structure, alternatives, untestable, limits, associations,
+                         calibration_form=taken is not None)
     result = Diagnosis(clean, effects, noise, steps, associations, verdict, "", outliers, alternatives, [],
                        untestable, base_cv, limits, untested, partial, undetermined,
                        {name: "the data determine it (see docs/diagnosis.md)" for name in released}, structure,
-                       searched)
+                       searched, taken)
     result.suggested_measurements = suggestions(result, registry)
     result.explanation = explain(result, registry)
     return result
@@ -313,10 +317,25 @@ def _final_judgement(final: Step, clean: Measurements, searched: NoiseEstimate
     judged, and its noise reported, with the figures found about a smooth taken from the final model itself.
     Where the residual lives: each reading weighed by its noise, correlated readings counted as fewer."""
     noise = refreshed(searched, _judging_noise(final.fit, clean), clean)
-    associations = residual_associations(clean, whitened(final.fit.residuals_ppm, clean, noise),
-                                         noise.ppm * math.sqrt(max(noise.design_effect, 1.0)),
-                                         noise.variance_shares(clean))
-    return noise, associations, residual_structure(clean, final.fit.residuals_ppm, noise)
+    return noise, _associations(clean, final.fit.residuals_ppm, noise), residual_structure(
+        clean, final.fit.residuals_ppm, noise)
+
+
+def _associations(clean: Measurements, residuals_ppm: np.ndarray, noise: NoiseEstimate) -> list[Association]:
+    return residual_associations(clean, whitened(residuals_ppm, clean, noise),
+                                 noise.ppm * math.sqrt(max(noise.design_effect, 1.0)), noise.variance_shares(clean))
+
+
+def _calibration_takes_it(final: Step, clean: Measurements, noise: NoiseEstimate) -> ResidualStructure | None:
+    """At one frequency, the structure of the final residual once a smooth calibration curve in x took what it
+    can (``identifiability.beyond_calibration``), where that leaves nothing outside the library: the calibration's
+    form (Eq. (5)) not following this sensor's coupling, or an effect the calibration absorbs in these data (the
+    same curve made it ``untestable``), not physics shown to be missing from the library. None otherwise."""
+    left = beyond_calibration(final.fit.model, clean, final.fit.values, final.fit.residuals_ppm, noise)
+    if left is None:
+        return None
+    structure = residual_structure(clean, left, noise)
+    return None if outside_library(final, noise, structure, _associations(clean, left, noise)) else structure
 
 
 def _judging_noise(fit: FitResult, clean: Measurements) -> NoiseEstimate:
