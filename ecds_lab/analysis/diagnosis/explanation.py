@@ -6,6 +6,7 @@ import math
 from itertools import pairwise
 from typing import Any
 
+from ecds_lab.analysis.diagnosis.identifiability import ABSORBED_WORDS
 from ecds_lab.analysis.diagnosis.result import Diagnosis, figure_from_json
 from ecds_lab.analysis.diagnosis.structure import ResidualStructure
 from ecds_lab.analysis.diagnosis.verdict import FAILING_RATIO, STRUCTURE_SIGNIFICANCE, noise_ratio, outside_library
@@ -111,13 +112,13 @@ def explain(result: Diagnosis, registry: EffectRegistry | None = None) -> str:
         untested = "; ".join(f"{k}: {v}" for k, v in result.untestable.items())
         lines.append(f"These data cannot test the library's effects ({untested}); the diagnosis is inconclusive.")
     elif outside and result.calibration_form is not None and structure is not None:
-        absorbed = sorted(name for name, why in result.untestable.items() if "absorbed by the calibration" in why)
+        absorbed = sorted(name for name, why in result.untestable.items() if ABSORBED_WORDS in why)
         lines.append(("Even so the residual stays " if len(result.steps) > 1 else "The residual stays ")
                      + f"{final_ratio:.1f}x the noise{_own_noise(structure, final_ratio)} with structure "
                      f"{_significance(result):.0f} standard deviations beyond chance, but a smooth calibration curve "
                      f"in x takes it (after it, {max(result.calibration_form.significance, 0.0):.0f} standard "
-                     "deviations): at "
-                     "one frequency that is the calibration's form (Eq. (5)) not following this sensor's coupling, "
+                     "deviations): at one frequency that is the calibration's form (Eq. (5)) not following this "
+                     "sensor's coupling, "
                      "or an effect the calibration absorbs in these data"
                      + (f" ({', '.join(absorbed)})" if absorbed else "")
                      + ", not physics shown to be missing from the library, so the diagnosis is inconclusive. It "

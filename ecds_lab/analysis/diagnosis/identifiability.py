@@ -44,6 +44,8 @@ from ecds_lab.model.sensor_model import SensorModel
 #: full width, read every 4 mm at one frequency, was taken as well; with 6 it stays outside the library, while the
 #: broad misfit of a sensor Eq. (5) does not follow (a steel plate over 9 positions, a 30 mm coil at 500 Hz) is taken.
 FORM_BASIS = 6
+#: How ``absorbed`` says it in an effect's reason for being untestable (the explanation lists those effects).
+ABSORBED_WORDS = "absorbed by the calibration"
 #: A key parameter whose column keeps less than this share of its norm after the projection is absorbed.
 ABSORBED_SHARE = 0.1
 #: Baseline parameters the rules may fix that the data can still determine (positive by nature).
@@ -168,7 +170,7 @@ def absorbed(model: SensorModel, data: Measurements, values: Mapping[str, float]
     share = float(np.max(np.divide(left, norms, out=np.zeros_like(left), where=norms > 0)))
     if share >= ABSORBED_SHARE or _predicted_action_visible(model, data, values, space, noise):
         return None
-    return (f"its signature is absorbed by the calibration in these data (after the baseline and a smooth "
+    return (f"its signature is {ABSORBED_WORDS} in these data (after the baseline and a smooth "
             f"calibration curve in x take what they can, {share:.0%} of it is left)")
 
 
