@@ -19,12 +19,12 @@ from ecds_lab.study.scoring import Judgement, judge
 def study_case(case: Case) -> Judgement:
     """Measure one case and judge its diagnosis (runs on a worker)."""
     from ecds_lab.analysis.diagnosis import diagnose
-    from ecds_lab.study.campaigns import lab_config, measure
+    from ecds_lab.study.campaigns import measure, sensor_of
 
     try:
         data = measure(case)
         began = time.process_time()
-        report = diagnose(data, sensor=lab_config(case).sensor)
+        report = diagnose(data, sensor=sensor_of(case))
     except (EcdsLabError, ValueError, ArithmeticError) as error:
         return judge(case, None, f"{type(error).__name__}: {error}")
     judgement = judge(case, report)

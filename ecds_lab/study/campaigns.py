@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from ecds_lab.data.measurements import Measurements
-from ecds_lab.data.sensor import sensor_from
+from ecds_lab.data.sensor import SensorConfig, sensor_from
 from ecds_lab.simulators import campaign
 from ecds_lab.simulators.config import LabConfig
 from ecds_lab.simulators.lab import BOX_HEATER_OUTPUT, TARGET_HEATER_OUTPUT, SimulatedLab
@@ -32,11 +32,15 @@ QUIET_LAB: dict[str, Any] = {
 HEATING_INTERVAL_S = 120.0
 
 
+def sensor_of(case: Case) -> SensorConfig:
+    """The description of ``case``'s sensor, as its sensor YAML gives it to the lab and to the analysis."""
+    return sensor_from(f"study sensor {case.sensor}", SENSORS[case.sensor].sensor)
+
+
 def lab_config(case: Case) -> LabConfig:
     """The faithful lab of ``case``: its sensor, quiet, with the case's truth switched on."""
-    sensor = SENSORS[case.sensor]
-    return LabConfig(physics="field", seed=case.seed, sensor=sensor_from(f"study sensor {sensor.name}", sensor.sensor),
-                     **merged(merged(QUIET_LAB, sensor.lab), case.blocks))
+    return LabConfig(physics="field", seed=case.seed, sensor=sensor_of(case),
+                     **merged(merged(QUIET_LAB, SENSORS[case.sensor].lab), case.blocks))
 
 
 def positions_mm(design: Design) -> list[float]:

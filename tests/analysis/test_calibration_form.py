@@ -15,7 +15,7 @@ from ecds_lab.simulators import campaign
 from ecds_lab.simulators.config import LabConfig
 from ecds_lab.simulators.lab import SimulatedLab
 from ecds_lab.study import cases
-from ecds_lab.study.campaigns import QUIET_LAB, lab_config, measure
+from ecds_lab.study.campaigns import QUIET_LAB, measure, sensor_of
 from ecds_lab.study.cases import SensorKind, draw_case, merged
 
 #: A coil of 20-30 mm radius (a fifth of the paper's), 300 turns, over the lab's 5 mm copper plate.
@@ -33,7 +33,7 @@ def test_a_steel_plate_over_nine_positions_at_one_frequency_is_the_calibrations_
     at 15 kHz; the ECM leaves 80 ppm (4.3x the noise) in x, and magnetic_depth's curvature is absorbed by the same
     curve there (untestable): it was a false alarm, 'outside the library'."""
     case = draw_case(2, 2031, ("steel",))
-    result = run_diagnosis(measure(case), (), lab_config(case).sensor)
+    result = run_diagnosis(measure(case), (), sensor_of(case))
     assert "magnetic_depth" in result.untestable
     assert_the_calibrations_form(result)
 
@@ -48,7 +48,7 @@ def test_a_small_coil_at_500_hz_alone_is_the_calibrations_form(monkeypatch):
     case = draw_case(29, 2026, ("small_coil",))
     case = dataclasses.replace(case, design=dataclasses.replace(case.design, frequencies_hz=(500.0,)))
     assert case.truths == ()
-    result = run_diagnosis(measure(case), (), lab_config(case).sensor)
+    result = run_diagnosis(measure(case), (), sensor_of(case))
     assert_the_calibrations_form(result)
 
 

@@ -63,7 +63,8 @@ def test_its_curvature_is_the_second_order_of_a_complex_shift(depth_m):
     alone."""
     model = SensorModel(STEEL, ["magnetic_depth"])
     values = {p.name: p.value for p in model.parameters()} | {"magnetic_depth": depth_m}
-    at_15_khz = steel_sweep().select(np.arange(len(steel_sweep())) < 11)
+    data = steel_sweep()
+    at_15_khz = data.select(np.arange(len(data)) < 11)
     d, h = depth_m, 2e-3
     shifted = np.linspace(0.04, 0.09, 11) + d
 

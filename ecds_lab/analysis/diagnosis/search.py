@@ -280,7 +280,8 @@ def _run_diagnosis(data: Measurements, effects: Sequence[str], sensor: SensorCon
             screen, clean, steps, names, space, searched, folds, associations, max_steps):
         final = steps[-1]  # a library effect found beside the residual outside the library: judged again
         noise, associations, structure = _final_judgement(final, clean, searched)
-    if not limits and outside_library(final, noise, structure, associations):
+    outside = outside_library(final, noise, structure, associations)
+    if not limits and outside:
         # what each claim left is weighed against its gain, both in the noise the search measured the gain in
         acting = _where_each_acts(steps, clean, searched)
         _mark_partial(steps, clean, searched, acting, _smooth_beside(screen, associations, space), screen)
@@ -291,8 +292,7 @@ def _run_diagnosis(data: Measurements, effects: Sequence[str], sensor: SensorCon
     if len(steps) == 1 and len(undetermined) > 1:
         alternatives.append(list(undetermined))
         undetermined = []
-    taken = _calibration_takes_it(final, clean, noise) if outside_library(final, noise, structure, associations) \
-        else None
+    taken = _calibration_takes_it(final, clean, noise, structure) if outside else None
     verdict = verdict_of(steps, effects, noise, structure, alternatives, untestable, limits, associations,
                          calibration_form=taken is not None)
     result = Diagnosis(clean, effects, noise, steps, associations, verdict, "", outliers, alternatives, [],
@@ -331,20 +331,20 @@ def _associations(clean: Measurements, residuals_ppm: np.ndarray, noise: NoiseEs
                                  noise.ppm * math.sqrt(max(noise.design_effect, 1.0)), noise.variance_shares(clean))
 
 
-def _calibration_takes_it(final: Step, clean: Measurements, noise: NoiseEstimate) -> ResidualStructure | None:
-    """At one frequency, the structure of the final residual once a smooth calibration curve in x took what it
-    can (``identifiability.beyond_calibration``), where that leaves nothing outside the library and no more than
-    FORM_LEAVES of the structure: the calibration's form (Eq. (5)) not following this sensor's coupling, or an
+def _calibration_takes_it(final: Step, clean: Measurements, noise: NoiseEstimate, structure: ResidualStructure
+                          ) -> ResidualStructure | None:
+    """At one frequency, the structure of the final residual (``structure``) once a smooth calibration curve in x
+    took what it can (``identifiability.beyond_calibration``), where that leaves nothing outside the library and no
+    more than FORM_LEAVES of the structure: the calibration's form (Eq. (5)) not following this sensor's coupling, or an
     effect the calibration absorbs in these data (the same curve made it ``untestable``), not physics shown to be
     missing from the library. None otherwise."""
     left = beyond_calibration(final.fit.model, clean, final.fit.values, final.fit.residuals_ppm, noise)
     if left is None:
         return None
-    before = residual_structure(clean, final.fit.residuals_ppm, noise)
-    structure = residual_structure(clean, left, noise)
-    if structure.excess_chi2 > FORM_LEAVES * before.excess_chi2:
+    beside = residual_structure(clean, left, noise)
+    if beside.excess_chi2 > FORM_LEAVES * structure.excess_chi2:
         return None  # the curve follows part of it only: a bump narrower than the calibration bends
-    return None if outside_library(final, noise, structure, _associations(clean, left, noise)) else structure
+    return None if outside_library(final, noise, beside, _associations(clean, left, noise)) else beside
 
 
 def _judging_noise(fit: FitResult, clean: Measurements) -> NoiseEstimate:

@@ -34,9 +34,9 @@ from typing import ClassVar
 import numpy as np
 
 from ecds_lab.data.measurements import Measurements
+from ecds_lab.data.sensor import NON_MAGNETIC_RESISTIVITY_OHM_M
 from ecds_lab.model.effects import Effect, register
 from ecds_lab.model.library.target_tau_temperature import (
-    NON_MAGNETIC_RESISTIVITY_OHM_M,
     per_frequency,
     recession_and_derivatives_m,
     skin_depth_m,

@@ -198,12 +198,16 @@ class TargetTauTemperature(Effect):
         d_t = t_target_c - reference_c
         return p["tau_tempco"] * d_t + p["tau_tempco2"] * d_t**2
 
+    def _rho(self) -> float:
+        """The non-magnetic target's resistivity at 20 C: the skin recession's paths, which a magnetic plate's
+        hooks leave before they reach them."""
+        rho = self.resistivity_ohm_m
+        assert rho is not None  # a magnetic plate returned at its own branch
+        return rho
+
     def _skin_share(self, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
         """w = 1 - exp(-2 d/delta): the share of the conductivity's action that is the skin recession."""
-        rho = self.resistivity_ohm_m
-        if rho is None:
-            return np.zeros(len(data))
-        return -np.expm1(-2.0 * p["plate_thickness"] / skin_depth_m(rho, data.freq_hz))
+        return -np.expm1(-2.0 * p["plate_thickness"] / skin_depth_m(self._rho(), data.freq_hz))
 
     def _depth_ratio(self, data: Measurements, p: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """A magnetic plate: its depth D(f) at 20 C, D(T)/D(20 C) = exp(-a dT/2 - b dT^2/2) (D ~ sigma^-1/2, the
@@ -237,11 +241,9 @@ class TargetTauTemperature(Effect):
         return deepened(k2, dk2, bent, d_bent, depth * ratio, depth, d_hot, {"magnetic_depth": per})
 
     def effective_distance(self, x_m: np.ndarray, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
-        rho = self.resistivity_ohm_m
         if is_magnetic(self.sensor):
             return self.d_effective_distance(x_m, {}, data, p)[0]
-        if rho is None:
-            return x_m
+        rho = self._rho()
         log_ratio = self._log_tau_ratio(data.t_target_c, self.sensor.reference_temperature_c, p)
         delta = skin_depth_m(rho, data.freq_hz)  # rho(T)/rho_0 = tau_0/tau_T(T)
         (cold,) = per_frequency(lambda d: (recession_m(d, p["plate_thickness"]),), delta)
@@ -249,37 +251,30 @@ class TargetTauTemperature(Effect):
         return x_m + self._skin_share(data, p) * p.get(RECESSION_SCALE, 1.0) * change
 
     def target_tau(self, tau_s: np.ndarray, inputs: Inputs, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
-        log_ratio = self._log_tau_ratio(inputs.t_target_c, self.sensor.reference_temperature_c, p)
         if is_magnetic(self.sensor):  # its depth carries the change (the ECM's tau_T of steel is no loop's)
             return tau_s
-        if self.resistivity_ohm_m is not None:
-            log_ratio = log_ratio * (1 - self._skin_share(data, p))
-        return tau_s * np.exp(log_ratio)
+        log_ratio = self._log_tau_ratio(inputs.t_target_c, self.sensor.reference_temperature_c, p)
+        return tau_s * np.exp(log_ratio * (1 - self._skin_share(data, p)))
 
     def _rise(self, t_c: np.ndarray) -> np.ndarray:
         return t_c - self.sensor.reference_temperature_c
 
     def _skin_share_thickness(self, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
         """d w / d thickness: (2 / delta) exp(-2 d / delta)."""
-        rho = self.resistivity_ohm_m
-        assert rho is not None  # called for a non-magnetic target only
-        delta = skin_depth_m(rho, data.freq_hz)
+        delta = skin_depth_m(self._rho(), data.freq_hz)
         return 2.0 / delta * np.exp(-2.0 * p["plate_thickness"] / delta)
 
     def d_effective_distance(self, x_m: np.ndarray, dx: Tangent, data: Measurements,
                              p: Mapping[str, float]) -> tuple[np.ndarray, Tangent]:
-        rho = self.resistivity_ohm_m
         if is_magnetic(self.sensor):  # the depth's set-back D(f) (D(T)/D(20 C) - 1)
             depth, ratio, d_t = self._depth_ratio(data, p)
             by_log_ratio = -0.5 * depth * ratio
             return x_m + depth * (ratio - 1), plus(dx, {
                 "tau_tempco": by_log_ratio * d_t, "tau_tempco2": by_log_ratio * d_t**2,
                 "magnetic_depth": depth_per_frequency(data.freq_hz) * (ratio - 1)})
-        if rho is None:
-            return x_m, dx
         d_t = self._rise(data.t_target_c)
         log_ratio = self._log_tau_ratio(data.t_target_c, self.sensor.reference_temperature_c, p)
-        delta = skin_depth_m(rho, data.freq_hz)
+        delta = skin_depth_m(self._rho(), data.freq_hz)
         hot = delta * np.exp(-0.5 * log_ratio)
         thickness = p["plate_thickness"]
         hot_recession, hot_by_delta, hot_by_thickness = recession_and_derivatives_m(hot, thickness)
@@ -301,10 +296,9 @@ class TargetTauTemperature(Effect):
             return tau_s, dtau
         d_t = self._rise(inputs.t_target_c)
         log_ratio = self._log_tau_ratio(inputs.t_target_c, self.sensor.reference_temperature_c, p)
-        keep = 1.0 if self.resistivity_ohm_m is None else 1 - self._skin_share(data, p)
+        keep = 1 - self._skin_share(data, p)
         out = tau_s * np.exp(log_ratio * keep)
-        own = {"tau_tempco": out * keep * d_t, "tau_tempco2": out * keep * d_t**2}
-        if self.resistivity_ohm_m is not None:
-            own["plate_thickness"] = -out * log_ratio * self._skin_share_thickness(data, p)
+        own = {"tau_tempco": out * keep * d_t, "tau_tempco2": out * keep * d_t**2,
+               "plate_thickness": -out * log_ratio * self._skin_share_thickness(data, p)}
         by_temperature = scaled(d_inputs.t_target_c, out * keep * (p["tau_tempco"] + 2 * p["tau_tempco2"] * d_t))
         return out, plus(scaled(dtau, out / tau_s), own, by_temperature)
