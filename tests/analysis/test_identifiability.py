@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from ecds_lab.analysis.diagnosis import run_diagnosis
 from ecds_lab.analysis.diagnosis.identifiability import absorbed, calibration_space, releasable, start_values
 from ecds_lab.analysis.noise import NoiseEstimate
 from ecds_lab.data.measurements import Measurements
@@ -54,3 +55,12 @@ def test_ls_alone_at_one_frequency_does_not_determine_tau_t():
     free = [n for n in values if n not in fixed]
     assert "tau_t" in fixed
     assert "tau_t" not in releasable(model, data, values, free, fixed, NOISE)
+
+
+def test_an_effect_claimed_after_another_is_not_listed_untestable(study_campaign):
+    """Seed 2031 case 13, 15 kHz alone, the target heated to 130 C, a former re-absorbing moisture: beside the
+    baseline the calibration takes tau(x); once the moisture change is in the model it is testable and claimed.
+    ``untestable`` keeps the last model's judgement, so the claim and 'untestable' never stand side by side."""
+    result = run_diagnosis(study_campaign(2031, 13))
+    assert "tau_displacement" in result.claimed, result.explanation
+    assert not set(result.claimed) & set(result.untestable), result.untestable

@@ -223,6 +223,8 @@ def _run_diagnosis(data: Measurements, effects: Sequence[str], sensor: SensorCon
             base_cv = current_cv if current_cv is not None else base_cv
         for name, why in blocked.items():
             untestable.setdefault(name, why)
+        for candidate in ranked:  # tested against this model: what an earlier model could not test no longer holds
+            untestable.pop(candidate.effect, None)
         current.candidates = ranked
         passing = [c for c in ranked if c.passes]
         if not any(c.effect in names for c in passing):  # only candidates set aside pass: judged already, nothing new
