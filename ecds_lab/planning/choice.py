@@ -22,6 +22,7 @@ from typing import Any
 import yaml
 
 from ecds_lab.analysis.diagnosis import Diagnosis
+from ecds_lab.analysis.diagnosis.checks import MIN_Z
 from ecds_lab.analysis.noise import NoiseEstimate
 from ecds_lab.config.station import StationConfig
 from ecds_lab.data.measurements import Measurements
@@ -38,7 +39,7 @@ from ecds_lab.planning.discrimination import (
 )
 from ecds_lab.planning.questions import DESIGNABLE, OpenQuestion, not_asked, open_questions
 from ecds_lab.planning.recorded_waits import recorded_waits
-from ecds_lab.planning.rivals import Rival, nested_rivals, size_rivals, tie_rivals
+from ecds_lab.planning.rivals import Rival, nested_rivals, size_rivals, size_z, tie_rivals
 from ecds_lab.planning.thermal_response import ThermalResponse
 
 #: Lab time a run costs beyond its plan (hours): setting up, confirming, checking its file. It keeps a run of a
@@ -88,6 +89,12 @@ class NextPlan:
     #: how the planned heater waits were predicted from the campaign's recorded ones, one line per heated part it
     #: informs (``ThermalResponse.describe``; none: the station's declared figures throughout)
     heater_waits: list[str] = field(default_factory=list)
+    #: the guaranteed Delta chi-square that decides each question (``needed_separation``), where not DECISIVE_CHI2
+    needs: dict[int, float] = field(default_factory=dict)
+
+    def need(self, index: int) -> float:
+        """The guaranteed Delta chi-square that decides question ``index``."""
+        return self.needs.get(index, DECISIVE_CHI2)
 
     @property
     def main_question(self) -> int | None:
@@ -95,13 +102,15 @@ class NextPlan:
         if self.chosen is None or not self.chosen.separations:
             return None
         chosen = self.chosen
-        return next((i for i in chosen.separations if chosen.guaranteed(i) >= DECISIVE_CHI2),
+        return next((i for i in chosen.separations if chosen.guaranteed(i) >= self.need(i)),
                     max(chosen.separations, key=chosen.guaranteed))
 
     @property
     def decides(self) -> bool:
         """Whether the chosen experiment is expected to decide at least one question."""
-        return self.predicted_delta_chi2 is not None and self.predicted_delta_chi2 >= DECISIVE_CHI2
+        index = self.main_question
+        return (index is not None and self.predicted_delta_chi2 is not None
+                and self.predicted_delta_chi2 >= self.need(index))
 
     @property
     def predicted_delta_chi2(self) -> float | None:
@@ -143,6 +152,7 @@ class NextPlan:
                 "unanswerable": [self.questions[i].text for i in self.unanswerable],
                 "decided": {self.questions[i].text: why for i, why in self.decided.items()},
                 "chosen": chosen, "why": self.why, "heater_waits": list(self.heater_waits),
+                "needed_delta_chi2": {self.questions[i].text: round(self.need(i), 3) for i in self.rivals},
                 "predicted_delta_chi2": None if self.predicted_delta_chi2 is None
                 else round(self.predicted_delta_chi2, 1)}
 
@@ -154,6 +164,18 @@ def rivals_of(question: OpenQuestion, result: Diagnosis, registry: EffectRegistr
     if question.kind == "undetermined":
         return size_rivals(result, question.effects[0], registry)
     return nested_rivals(result, question.effects[0], registry, hypothetical=True)
+
+
+def needed_separation(question: OpenQuestion, result: Diagnosis, registry: EffectRegistry) -> float:
+    """The guaranteed Delta chi-square that decides ``question``: DECISIVE_CHI2 between rival models; for a size
+    (``size_rivals``: two sizes two standard errors apart) the one at which the joined campaign holds the size MIN_Z
+    standard errors from zero, as the diagnosis needs to claim it: information I_new added to the start's 1/SE^2
+    gives z^2 (1 + Delta/4), so Delta = 4 (MIN_Z^2 / z^2 - 1). A size already MIN_Z or more from zero (undetermined
+    for another reason: on a bound, its course open) keeps DECISIVE_CHI2."""
+    if question.kind != "undetermined":
+        return DECISIVE_CHI2
+    z = size_z(result, question.effects[0], registry)
+    return 4.0 * (MIN_Z**2 / z**2 - 1.0) if 0.0 < z < MIN_Z else DECISIVE_CHI2
 
 
 def decided_by_campaign(question: OpenQuestion, rivals: Sequence[Rival], result: Diagnosis) -> str | None:
@@ -196,6 +218,7 @@ def plan_next(result: Diagnosis, registry: EffectRegistry, station: StationConfi
         reasons = [decided.get(i, questions[i].text) for i in designable]
         return NextPlan(questions, {}, [], {}, None, "no open question has rival models to design for: "
                         + "; ".join(reasons), asked, [], result.data, result.evidence_noise, decided)
+    needs = {i: needed_separation(questions[i], result, registry) for i in rivals}
     candidates, refused = station_candidates(result.data, station, None, done)
     room = room_temperature_c(result.data)
     response = ThermalResponse.of(recorded_waits(runs), station.thermal)
@@ -207,24 +230,26 @@ def plan_next(result: Diagnosis, registry: EffectRegistry, station: StationConfi
             continue
         separations = {i: question_separations(questions[i].kind, rs, result.data, planned, result.evidence_noise)
                        for i, rs in rivals.items()}
-        decides = sum(min(max(decisive(s), 0.0), DECISIVE_CHI2) / DECISIVE_CHI2 for s in separations.values())
+        decides = sum(min(max(decisive(s), 0.0), needs[i]) / needs[i] for i, s in separations.items())
         scored.append(Scored(candidate, separations, decides, decides / (candidate.hours + SETUP_HOURS),
                              planned))
     scored.sort(key=lambda s: (-s.per_hour, s.candidate.hours))
-    unanswerable = [i for i in rivals if not any(s.guaranteed(i) >= DECISIVE_CHI2 for s in scored)]
+    unanswerable = [i for i in rivals if not any(s.guaranteed(i) >= needs[i] for s in scored)]
     over = [s for s in scored if max_hours is not None and s.candidate.hours > max_hours]
     for s in over:
         refused[s.candidate.name] = f"{s.candidate.hours:.2f} h of lab time, more than the {max_hours:g} h allowed"
     scored = [s for s in scored if s not in over]
     deciding: list[Scored] = []
     for index in rivals:  # questions in order of priority: ties first, then sizes, then effects not excluded
-        deciding = [s for s in scored if s.guaranteed(index) >= DECISIVE_CHI2]
+        deciding = [s for s in scored if s.guaranteed(index) >= needs[index]]
         if deciding:
             break
     if deciding:
         chosen: Scored | None = deciding[0]
-        why = (f"decides '{questions[index].text}' (T-criterion: Delta chi-square >= {DECISIVE_CHI2:g} noise "
-               "variances) and, among those that do, the most open questions per hour of lab time")
+        why = (f"decides '{questions[index].text}' (T-criterion: Delta chi-square >= {needs[index]:.3g} noise "
+               "variances" + (", at which the joined campaign holds the size " + f"{MIN_Z:g} standard errors from "
+                              "zero" if needs[index] != DECISIVE_CHI2 else "")
+               + ") and, among those that do, the most open questions per hour of lab time")
     elif len(unanswerable) == len(rivals):
         chosen, why = None, ("no open question this station can answer; no experiment plan-next can build for it "
                              "decides: "
@@ -236,7 +261,7 @@ def plan_next(result: Diagnosis, registry: EffectRegistry, station: StationConfi
     else:
         chosen, why = None, "the station can do no candidate experiment within the time allowed"
     return NextPlan(questions, rivals, scored, refused, chosen, why, asked, unanswerable, result.data,
-                    result.evidence_noise, decided, response.describe())
+                    result.evidence_noise, decided, response.describe(), needs)
 
 
 def _nothing_to_design(questions: list[OpenQuestion]) -> str:
@@ -260,10 +285,10 @@ def header(plan: NextPlan) -> str:
     for index, separations in chosen.separations.items():
         question = plan.questions[index]
         models = " | ".join(r.label for r in plan.rivals[index])
-        verdict = "decides" if decisive(separations) >= DECISIVE_CHI2 else "does not decide"
+        verdict = "decides" if decisive(separations) >= plan.need(index) else "does not decide"
         lines.append(f"{verdict}: {question.text}")
         lines.append(f"  between the models: {models}; predicted Delta chi-square "
-                     f"{decisive(separations):.1f} (noise variances; >= {DECISIVE_CHI2:g} decides)")
+                     f"{decisive(separations):.1f} (noise variances; >= {plan.need(index):.3g} decides)")
     lines.append(f"Why this one: {plan.why}.")
     return "".join(f"# {line}\n" for line in lines)
 

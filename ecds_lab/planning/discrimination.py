@@ -132,10 +132,11 @@ def expected(separations: list[Separation], truth: str, *, at_fit: bool = False)
 
 
 def measured_fits(rivals: list[Rival], campaign: Measurements, noise: NoiseEstimate) -> dict[str, FitResult]:
-    """Each rival alone refitted (noise-weighted, nothing held) to the joined campaign: label -> its fit. Kept
+    """Each rival alone refitted (noise-weighted, nothing held but a size that is the hypothesis, ``Rival.sized``)
+    to the joined campaign: label -> its fit. Kept
     beside ``joined_fits``: where the joined campaign needs an effect neither rival holds, both pay for it and
     their difference measures that shared misfit more than the question (docs/planning.md, investigate)."""
-    return {r.label: weighted_fit(r.model, campaign, noise, r.values) for r in rivals}
+    return {r.label: weighted_fit(r.model, campaign, noise, r.values, r.held if r.sized else None) for r in rivals}
 
 
 def joined_fits(rivals: list[Rival], question: Sequence[str], joined: Diagnosis,

@@ -67,6 +67,9 @@ class Rival:
     #: the same hypothesis across its shape parameters' plausible ranges on the campaign (``plausible_range``, each
     #: point a refit with the parameter held there): the values the data allow as well as the fit's
     plausible: tuple[Rival, ...] = ()
+    #: the hypothesis is the held size itself (``size_rivals``): it stays held when the rival is refitted to a joined
+    #: campaign, where two sizes set free would meet at one
+    sized: bool = False
 
     @property
     def plausible_ranges(self) -> dict[str, tuple[float, float]]:
@@ -229,26 +232,40 @@ def size_rivals(result: Diagnosis, effect: str, registry: EffectRegistry) -> lis
         for sign, word in ((-1, "smaller"), (1, "larger")):
             held = {name: value + sign * error for name, (value, error) in sizes.items()}
             label = f"{effect} {word} (" + ", ".join(f"{k} = {v:.3g}" for k, v in held.items()) + ")"
-            rivals.append(fitted_rival(label, effects, result, registry, start, held))
+            rivals.append(dataclasses.replace(fitted_rival(label, effects, result, registry, start, held),
+                                              sized=True))
         if all(r.chi2 - best.chi2 < TOLD_APART_CHI2 for r in rivals):
             return rivals
         sizes = {name: (value, error / 2) for name, (value, error) in sizes.items()}
     return []
 
 
+def size_z(result: Diagnosis, effect: str, registry: EffectRegistry) -> float:
+    """How many standard errors from zero the start holds an undetermined effect's size: the largest over its key
+    parameters of |value| / standard error, in the fit ``size_rivals`` offsets by those standard errors (0 when
+    none is finite)."""
+    fitted = next((c.fit for step in reversed(result.steps) for c in step.candidates if c.effect == effect), None)
+    if fitted is None:
+        return 0.0
+    zs = [abs(fitted.values[name]) / error for name in hypothetical_size(registry, effect, fitted.model.sensor)
+          if math.isfinite(error := fitted.stderr.get(name, math.inf)) and error > 0]
+    return max(zs, default=0.0)
+
+
 def joined_fit(rival: Rival, question: Sequence[str], joined: Diagnosis, registry: EffectRegistry) -> FitResult:
-    """``rival`` refitted (noise-weighted, nothing held) to a joined campaign together with what that campaign's
-    diagnosis needs beyond the question: the effects of its final model the question is not about, and the
-    baseline parameters it found determined. So the rivals differ only by their hypotheses, and neither pays for
-    a misfit both share (docs/planning.md, investigate). The better of two starts: the rival's values over the
-    joined model's, and the reverse."""
+    """``rival`` refitted (noise-weighted, nothing held but a size that is its hypothesis, ``sized``) to a joined
+    campaign together with what that campaign's diagnosis needs beyond the question: the effects of its final model
+    the question is not about, and the baseline parameters it found determined. So the rivals differ only by their
+    hypotheses, and neither pays for a misfit both share (docs/planning.md, investigate). The better of two starts:
+    the rival's values over the joined model's, and the reverse."""
     needs = [name for name in joined.final.effects if name not in question and name not in rival.effects]
     released = frozenset(getattr(rival.model, "released", frozenset())) | frozenset(joined.released)
     model = ReleasedModel(joined.final.fit.model.sensor, [*rival.effects, *needs], registry, released)
     names = {p.name for p in model.parameters()}
     found = joined.final.fit.values
-    fits = [weighted_fit(model, joined.data, joined.evidence_noise, {k: v for k, v in start.items() if k in names})
-            for start in ({**rival.values, **found}, {**found, **rival.values})]
+    held = rival.held if rival.sized else None
+    fits = [weighted_fit(model, joined.data, joined.evidence_noise, {k: v for k, v in start.items() if k in names},
+                         held) for start in ({**rival.values, **found}, {**found, **rival.values})]
     return min(fits, key=lambda fit: chi2_of(fit, joined.evidence_noise))
 
 

@@ -30,17 +30,22 @@ def investigated(started: Any, case: str, folder: Path, budget: float) -> tuple[
     return _LOOPS[case, budget]
 
 
-def test_investigate_decides_moisture_against_lag_within_budget(tmp_path, started, capsys):
+def test_investigate_d_claims_the_drying_and_the_lag_within_budget(tmp_path, started, capsys):
+    """Case (d). The start claims the drying outright (it takes 1533 ppm to 36 ppm; with the drying's shape
+    parameters on their bounds held there its size is 17 standard errors from zero, docs/diagnosis.md), and the
+    winding's lag, always there with the coil heated, has clear evidence and a size 2.8 standard errors from zero:
+    the open question is the lag's size, which only a changing temperature shows (the ramps)."""
     code, record = investigated(started, "d", tmp_path, 3.0)
     assert code == 0
     first = record["rounds"][0]
     assert ROUND_KEYS <= set(first)
     assert first["chosen"]["name"].startswith("coil_")  # a coil heating in air: a hold or its ramps logged densely
-    assert {"parasitic_capacitance", "thermal_lag"} == set(first["open_questions"][0]["effects"])
+    assert first["open_questions"][0]["kind"] == "undetermined"
+    assert first["open_questions"][0]["effects"] == ["thermal_lag"]
     assert Path(first["run_file"]).exists() and read_run(first["run_file"]).status == "completed"
-    assert first["diagnosis"]["verdict"] == "inconclusive"  # the starting diagnosis, in the diagnose --json form
+    assert first["diagnosis"]["claimed"] == ["parasitic_capacitance"]  # the start, in the diagnose --json form
     predicted = first["measured"]["predicted_if_winner"]
-    assert first["measured"]["winner"] == "parasitic_capacitance"
+    assert first["measured"]["winner"].startswith("thermal_lag ")  # one of two sizes of the lag
     assert predicted / 3 <= first["measured_delta_chi2"] <= predicted * 3
     # the truth (moisture) and the winding's lag, always there with the coil heated (docs/diagnosis.md, the study)
     assert {"parasitic_capacitance", "thermal_lag"} <= set(record["final"]["claimed"])

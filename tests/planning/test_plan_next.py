@@ -96,6 +96,11 @@ PHYSICIST = {
     "a", "b",
     "c",
     pytest.param("d", marks=pytest.mark.xfail(strict=True, reason=(
+        "the start now claims the drying (its shape parameters on their bounds held there, docs/diagnosis.md) and "
+        "asks the lag's size, which a hold does not show (a lag acts only while the temperature changes: the 1 h "
+        "hold separates the two sizes by -1.8, the ramps by 2.9 against the 0.58 that puts the size 3 standard "
+        "errors from zero): plan-next names the ramps, and the joined campaign claims both. Before, the start tied "
+        "moisture with lag, and: "
         "plan-next names the coil's ramps logged every minute (1.0 h), not a 1 h hold (1.3 h): both decide moisture "
         "against lag (guaranteed Delta chi-square 13286 and 1708 after the calibration change, their waits "
         "predicted from the start's recorded one; 6525 and 9758 with the station's declared thermal figures, which "
