@@ -71,3 +71,13 @@ def test_positions_too_coarse_for_any_lead_leave_it_untestable():
     result = run_diagnosis(campaign.displacement_sweep(lab, tuple(np.arange(20.0, 101.0, 10.0)), repeats=2))
     assert "10 mm apart" in result.untestable[EFFECT], result.untestable
     assert EFFECT not in result.claimed
+
+
+def test_a_lead_at_the_alias_of_the_grid_is_not_claimed_on_one_combination(study_campaign):
+    """Seed 2032 case 128 of the study: 16 positions 5.33 mm apart, no screw error (a former's moisture the coil's
+    room temperature cannot show, and scatter between moves). A lead of 10.8 mm, just over twice the step, has its
+    sine and cosine parts sample one pattern: their joint test passed on that combination (77) while the amplitude
+    stayed open (50 um +- 2.5 mm). With the amplitude required to be known, nothing is claimed."""
+    result = run_diagnosis(study_campaign(2032, 128))
+    assert "slide_lead_screw" not in result.claimed, result.explanation
+    assert result.verdict == "adequate", result.explanation

@@ -109,3 +109,16 @@ def test_a_lead_at_which_every_position_has_one_phase_explains_nothing_beyond_th
     y = np.random.default_rng(4).normal(0.0, 1e-6, len(x))
     power = periodogram(x, y, np.ones(len(x)), 2 * np.pi / np.array([2e-3, 1e-3, 7e-3]))
     assert power[:2] == pytest.approx([0.0, 0.0], abs=1e-9 * np.sum(y**2)) and power[2] > 0
+
+
+def test_its_signature_is_the_amplitude_with_its_slopes(screw, readings_at):
+    """A claim needs the error's amplitude known (checks.signature_spread): ln sqrt(a^2 + b^2) and its slopes."""
+    data = readings_at([40.0, 41.0])
+    p = {"screw_sin": 6e-6, "screw_cos": -8e-6, "screw_lead": 4e-3}
+    ln_amplitude, slopes = screw.signature(data, p)
+    assert ln_amplitude == pytest.approx(math.log(10e-6))
+    step = 1e-9
+    for name in ("screw_sin", "screw_cos"):
+        moved = screw.signature(data, {**p, name: p[name] + step})[0]
+        assert slopes[name] == pytest.approx((moved - ln_amplitude) / step, rel=1e-3)
+    assert screw.signature(data, {**p, "screw_sin": 0.0, "screw_cos": 0.0}) is None
