@@ -246,10 +246,10 @@ def plan_next(result: Diagnosis, registry: EffectRegistry, station: StationConfi
             break
     if deciding:
         chosen: Scored | None = deciding[0]
+        sized = (f", at which the joined campaign holds the size {MIN_Z:g} standard errors from zero"
+                 if needs[index] != DECISIVE_CHI2 else "")
         why = (f"decides '{questions[index].text}' (T-criterion: Delta chi-square >= {needs[index]:.3g} noise "
-               "variances" + (", at which the joined campaign holds the size " + f"{MIN_Z:g} standard errors from "
-                              "zero" if needs[index] != DECISIVE_CHI2 else "")
-               + ") and, among those that do, the most open questions per hour of lab time")
+               f"variances{sized}) and, among those that do, the most open questions per hour of lab time")
     elif len(unanswerable) == len(rivals):
         chosen, why = None, ("no open question this station can answer; no experiment plan-next can build for it "
                              "decides: "
