@@ -213,10 +213,15 @@ def tie_rivals(result: Diagnosis, group: Sequence[str], registry: EffectRegistry
     return rivals
 
 
+def last_fit_of(result: Diagnosis, effect: str) -> FitResult | None:
+    """The diagnosis's last fit of ``effect`` as a candidate (the round it was last tried in), or None."""
+    return next((c.fit for step in reversed(result.steps) for c in step.candidates if c.effect == effect), None)
+
+
 def size_rivals(result: Diagnosis, effect: str, registry: EffectRegistry) -> list[Rival]:
     """An effect whose size is undetermined, at two sizes a standard error either side of its fitted one (each
     key parameter held there, the rest fitted): the experiment that tells them apart determines the size."""
-    fitted = next((c.fit for step in reversed(result.steps) for c in step.candidates if c.effect == effect), None)
+    fitted = last_fit_of(result, effect)
     if fitted is None:
         return []
     prior = hypothetical_size(registry, effect, result.final.fit.model.sensor)
@@ -244,7 +249,7 @@ def size_z(result: Diagnosis, effect: str, registry: EffectRegistry) -> float:
     """How many standard errors from zero the start holds an undetermined effect's size: the largest over its key
     parameters of |value| / standard error, in the fit ``size_rivals`` offsets by those standard errors (0 when
     none is finite)."""
-    fitted = next((c.fit for step in reversed(result.steps) for c in step.candidates if c.effect == effect), None)
+    fitted = last_fit_of(result, effect)
     if fitted is None:
         return 0.0
     zs = [abs(fitted.values[name]) / error for name in hypothetical_size(registry, effect, fitted.model.sensor)

@@ -214,6 +214,7 @@ def identified(candidate: Candidate) -> tuple[bool, list[str]]:
     confidence (``joint_wald``)."""
     effect = candidate.effect_object
     keys = effect.key_names()
+    held = held_at_bounds(candidate)
     reasons, best_z = [], 0.0
     for name in keys:
         p = candidate.fit.parameter(name)
@@ -221,9 +222,9 @@ def identified(candidate: Candidate) -> tuple[bool, list[str]]:
             continue
         if at_bound(candidate.fit, name):
             reasons.append(f"{name} sits at its bound ({_shown(p.value, p.unit)})")
-        best_z = max(best_z, _z(candidate, name))
+        best_z = max(best_z, _z(candidate, name, held))
     size = tuple(n for n in effect.size_names() if not candidate.fit.parameter(n).fixed)
-    if best_z < MIN_Z and not joint_wald(candidate, size) >= float(chdtri(max(len(size), 1), JOINT_TAIL)):
+    if best_z < MIN_Z and not joint_wald(candidate, size, held) >= float(chdtri(max(len(size), 1), JOINT_TAIL)):
         jointly = f", {', '.join(size)} jointly as well" if len(size) > 1 else ""
         reasons.append(f"its key parameter{'s' if len(keys) > 1 else ''} {', '.join(keys)} "
                        f"{'are' if len(keys) > 1 else 'is'} not determined (|value| < {MIN_Z:g} standard errors"
@@ -235,16 +236,18 @@ def identified(candidate: Candidate) -> tuple[bool, list[str]]:
     return not reasons, reasons
 
 
-def joint_wald(candidate: Candidate, keys: tuple[str, ...]) -> float:
+def joint_wald(candidate: Candidate, keys: tuple[str, ...],
+               held: tuple[list[str], np.ndarray] | None = None) -> float:
     """The Wald statistic v' C^-1 v of several free key parameters (0 for fewer than two, or any of them fixed).
     Knots of a curve referred to one of its points (tau_T(x) relative to tau_T at 60 mm) trade together with the
     baseline (tau_T, C_p) along one direction, so each knot's own standard error is large while the curve's shape is
-    known: the joint statistic asks whether the parameters together are away from zero."""
-    names, held = held_at_bounds(candidate)
+    known: the joint statistic asks whether the parameters together are away from zero. ``held``: the candidate's
+    ``held_at_bounds`` when the caller has it."""
+    names, full = held if held is not None else held_at_bounds(candidate)
     if len(keys) < 2 or any(name not in names for name in keys):
         return 0.0
     index = [names.index(name) for name in keys]
-    covariance = held[np.ix_(index, index)]
+    covariance = full[np.ix_(index, index)]
     values = np.array([candidate.fit.values[name] for name in keys])
     if not np.all(np.isfinite(covariance)):
         return 0.0
@@ -271,12 +274,12 @@ def _factor(spread: float) -> str:
     return f"{math.exp(spread):.3g}" if spread < 50 else "beyond e^50"
 
 
-def _z(candidate: Candidate, name: str) -> float:
+def _z(candidate: Candidate, name: str, held: tuple[list[str], np.ndarray]) -> float:
     """|value| / standard error of a free parameter (0 when fixed or without a finite standard error), the other
-    parameters on their bounds held there (``held_at_bounds``)."""
+    parameters on their bounds held there (``held``: the candidate's ``held_at_bounds``)."""
     if candidate.fit.parameter(name).fixed:
         return 0.0
-    names, covariance = held_at_bounds(candidate)
+    names, covariance = held
     if name not in names:
         return 0.0
     variance = float(covariance[names.index(name), names.index(name)])
