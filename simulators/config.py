@@ -39,7 +39,8 @@ class TargetTauTemperature(_Strict):
     """tau_T follows the target's conductivity: tau = tau0 (1 + tempco (T_target - T_ref))."""
 
     enabled: bool = False
-    tempco_per_k: float | None = Field(None, description="default: the material's (copper -0.0039/K)")
+    tempco_per_k: float | None = Field(None, description="default: the material's (copper -0.0039/K, aluminium "
+                                                         "-0.0043/K, brass -0.0015/K, steel -0.0030/K)")
 
 
 class TauDisplacement(_Strict):

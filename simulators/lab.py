@@ -393,7 +393,7 @@ class SimulatedLab:
             k2 = self.coupling.k2(x) if gaps is None else sum(self.coupling.k2(gap) for gap in gaps) / len(gaps)
             if effects.target_tau_temperature.enabled:
                 tempco = effects.target_tau_temperature.tempco_per_k
-                tempco = ecm.TAU_TEMPCO_PER_K[sensor.target] if tempco is None else tempco
+                tempco = ecm.tau_tempco_per_k(sensor.target) if tempco is None else tempco
                 tau *= 1 + tempco * d_target
             if effects.tau_displacement.enabled:
                 tau *= 1 + effects.tau_displacement.slope_per_mm * (x * 1e3 - effects.tau_displacement.reference_mm)

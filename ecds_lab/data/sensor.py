@@ -9,10 +9,10 @@ names its sensor and every run file records it, so analysis knows what was measu
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Literal
+from typing import Any, Literal
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from ecds_lab import shipped
 from ecds_lab.errors import ConfigError
@@ -23,13 +23,18 @@ DEFAULT_SENSOR_NOTE = "sensor not recorded: analysed as the paper's copper proto
 #: Thermal expansion of former materials, 1/K (docs/physics.md: gypsum 25e-6, fired clay 7.5e-6).
 FORMER_EXPANSION_PER_K = {"gypsum": 25e-6, "fired_clay": 7.5e-6, "plastic": 70e-6}
 
-#: Target materials: eddy-current time constant tau_T at 20 C (PHYSICS.md) and the
-#: relative change of tau_T per kelvin (copper conductivity falls ~0.39 %/K).
-TARGET_TAU_S = {"copper": 100e-6, "steel": 3e-6}
-TARGET_TAU_TEMPCO_PER_K = {"copper": -0.0039, "steel": -0.0030}
-#: Resistivity at 20 C (Ohm m) of the non-magnetic target materials (textbook: copper 1.68e-8); a target not
-#: listed is magnetic (steel), whose screening depth is mu_r delta/2 (docs/physics.md, "A magnetic plate").
-NON_MAGNETIC_RESISTIVITY_OHM_M = {"copper": 1.68e-8}
+#: Resistivity at 20 C (Ohm m) of the non-magnetic target materials (textbook, pure metals: copper 1.68e-8,
+#: aluminium 2.65e-8; cartridge brass 6.4e-8); a target not listed is magnetic (steel), whose screening depth is
+#: mu_r delta/2 (docs/physics.md, "A magnetic plate").
+NON_MAGNETIC_RESISTIVITY_OHM_M = {"copper": 1.68e-8, "aluminium": 2.65e-8, "brass": 6.4e-8}
+#: The target materials a sensor YAML may name (``target:``); "aluminum" is read as "aluminium".
+TargetMaterial = Literal["copper", "aluminium", "brass", "steel"]
+#: tau_T at 20 C, where the fit starts it (PHYSICS.md: copper's plate ~100 us, steel ~3 us). tau_T = L_T/R_T grows
+#: with the conductivity, so the other non-magnetic plates start at copper's scaled by theirs (aluminium 63 us,
+#: brass 26 us): a start, which the fit moves (its bounds span a factor 1000 either way).
+COPPER_TAU_S = 100e-6
+TARGET_TAU_S = {"steel": 3e-6, **{material: COPPER_TAU_S * NON_MAGNETIC_RESISTIVITY_OHM_M["copper"] / resistivity
+                                  for material, resistivity in NON_MAGNETIC_RESISTIVITY_OHM_M.items()}}
 
 
 class CoilGeometry(BaseModel):
@@ -53,7 +58,7 @@ class SensorConfig(BaseModel):
     name: str = "Gruber 2024 prototype"
     coil: CoilGeometry = CoilGeometry()
     former: Literal["gypsum", "fired_clay", "plastic"] = "fired_clay"
-    target: Literal["copper", "steel"] = "copper"
+    target: TargetMaterial = "copper"
     target_thickness_m: float | None = Field(None, gt=0, description="the target plate's thickness if known "
                                                                      "(else the conductivity effect fits it)")
     inductance_h: float = Field(57e-3, gt=0, description="air-coil L at the reference temperature")
@@ -63,6 +68,12 @@ class SensorConfig(BaseModel):
     parallel_resistance_ohm: float = Field(984e3, gt=0, description="former loss as a parallel R, dry")
     reference_temperature_c: float = 20.0
     coupling_table: Path | None = Field(None, description="CSV of x_mm,k to use instead of the image method")
+
+    @field_validator("target", mode="before")
+    @classmethod
+    def _british_spelling(cls, value: Any) -> Any:
+        """``aluminum`` (US) names the same metal as ``aluminium``."""
+        return "aluminium" if isinstance(value, str) and value.strip().lower() == "aluminum" else value
 
     @property
     def target_tau_s(self) -> float:

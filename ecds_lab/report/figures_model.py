@@ -22,7 +22,7 @@ MIN_CURVE_POSITIONS = 5
 #: Sensitivity needs a room-temperature sweep over at least this many positions.
 MIN_SENSITIVITY_POSITIONS = 3
 GREY = "0.6"
-MATERIAL_MARKERS = {"copper": "o", "steel": "s"}
+MATERIAL_MARKERS = {"copper": "o", "aluminium": "D", "brass": "v", "steel": "s"}
 CATEGORY_COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown", "tab:pink")
 
 

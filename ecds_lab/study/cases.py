@@ -175,12 +175,15 @@ class SensorKind:
 #: The sensors a study may draw (``--sensors``): the paper's prototype over its 5 mm copper plate (the default and
 #: the study's yardstick), the same coil over steel (measured at 15 kHz, as the paper measured it: at 500 Hz the
 #: plate's magnetisation and eddy currents nearly cancel, which no first-order law describes; its screening from a
-#: complex depth, ``magnetic_depth``, is true of every steel campaign), and over a copper sheet of 1 mm (a third of
-#: the skin depth at 500 Hz).
+#: complex depth, ``magnetic_depth``, is true of every steel campaign), over a copper sheet of 1 mm (a third of
+#: the skin depth at 500 Hz), and over plates of the other non-magnetic metals a sensor YAML may name, 5 mm of
+#: aluminium and of brass (docs/simulated_lab.md: brass's skin depth at 500 Hz is longer than the plate is thick).
 SENSORS: dict[str, SensorKind] = {kind.name: kind for kind in (
     SensorKind("paper"),
     SensorKind("steel", sensor={"target": "steel"}, frequencies_hz=(HIGH_HZ,), always_true=("magnetic_depth",)),
     SensorKind("thin_plate", lab={"plate": {"thickness_m": 1e-3}}),
+    SensorKind("aluminium", sensor={"target": "aluminium"}),
+    SensorKind("brass", sensor={"target": "brass"}),
 )}
 
 

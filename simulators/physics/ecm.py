@@ -21,6 +21,7 @@ import numpy as np
 
 from ecds_lab.simulators.physics.field_solution import Winding
 from ecds_lab.simulators.physics.filaments import image_mutual, self_inductance
+from ecds_lab.simulators.physics.plate import MATERIALS, material_key
 
 
 def eddy_factor(omega: float, tau_s: float) -> float:
@@ -73,6 +74,14 @@ class TableCoupling:
         return float(np.interp(x_m, self.x, self.k)) ** 2
 
 
-#: ECM effect ``target_tau_temperature``: relative change of tau_T per kelvin by target material
-#: (copper's conductivity falls about 0.39 %/K; steel's resistivity tempco taken as 0.30 %/K).
-TAU_TEMPCO_PER_K = {"copper": -0.0039, "steel": -0.0030}
+#: ECM effect ``target_tau_temperature``: relative change of tau_T per kelvin by target material. tau_T = L_T/R_T
+#: grows with the plate's conductivity, so a non-magnetic plate's tau_T falls by its resistivity tempco
+#: (``plate.MATERIALS``, handbook: copper 0.39 %/K, aluminium 0.43 %/K, brass 0.15 %/K); steel's, whose mu_r
+#: rises too, taken as 0.30 %/K.
+TAU_TEMPCO_PER_K = {"steel": -0.0030, **{name: -material.resistivity_tempco_per_k
+                                          for name, material in MATERIALS.items() if material.mu_r_20c == 1.0}}
+
+
+def tau_tempco_per_k(material: str) -> float:
+    """The default relative change of tau_T per kelvin of a ``material`` plate; an unknown one is a ValueError."""
+    return TAU_TEMPCO_PER_K[material_key(material)]

@@ -55,7 +55,7 @@ def test_two_different_sensors_for_one_simulated_station_are_refused(yaml_copy):
 @pytest.mark.parametrize(("sensor", "message"), [
     ("brass_target", "sensor 'brass_target': no shipped sensor of that name; shipped: paper_prototype, steel_target"),
     ("missing/sensor.yaml", "missing/sensor.yaml: cannot read the sensor file"),
-    ({"target": "gold"}, "field 'sensor.target': Input should be 'copper' or 'steel'"),
+    ({"target": "gold"}, "field 'sensor.target': Input should be 'copper', 'aluminium', 'brass' or 'steel'"),
 ])
 def test_a_bad_sensor_is_named_with_the_station_file(yaml_copy, sensor, message):
     path = yaml_copy("stations/real_lab_template.yaml", lambda d: d.update(sensor=sensor))
