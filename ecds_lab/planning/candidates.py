@@ -20,8 +20,10 @@ from ecds_lab.config.checks import check_experiment_fits_station, slide_travel_m
 from ecds_lab.config.experiment import EXPERIMENT_ADAPTER, ExperimentConfig
 from ecds_lab.config.station import StationConfig
 from ecds_lab.data.measurements import Measurements
+from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.drivers.hm8118 import FREQUENCIES_HZ
 from ecds_lab.errors import ConfigError
+from ecds_lab.model.library.magnetic_depth import lowest_frequency_hz
 from ecds_lab.planning.conditions import room_temperature_c, slide_approach
 from ecds_lab.runner.plan import Plan, build_plan
 from ecds_lab.runner.progress import PlanEstimate
@@ -88,9 +90,12 @@ def _hot(station: StationConfig, part: str, reached: float | None) -> float:
     return float(min(reached if reached is not None else DEFAULT_HOT_C[part], limit))
 
 
-def _other_frequencies(reach: CampaignReach) -> list[float]:
+def _other_frequencies(reach: CampaignReach, sensor: SensorConfig | None) -> list[float]:
+    """The bridge's frequencies nearest TRIED_HZ the campaign lacks, from the lowest the models describe the
+    sensor's plate at (a steel plate: ``magnetic_depth.lowest_frequency_hz``, 13.4 kHz before the paper's coil)."""
+    lowest = lowest_frequency_hz(sensor) if sensor is not None else 0.0
     near = {min(FREQUENCIES_HZ, key=lambda f: abs(np.log(f / wanted))) for wanted in TRIED_HZ}
-    return sorted(float(f) for f in near if float(f) not in reach.frequencies_hz)
+    return sorted(float(f) for f in near if float(f) not in reach.frequencies_hz and f >= lowest)
 
 
 def _sweep(reach: CampaignReach, frequencies: list[float], **changes: Any) -> dict[str, Any]:
@@ -98,8 +103,10 @@ def _sweep(reach: CampaignReach, frequencies: list[float], **changes: Any) -> di
             "settle_s": 2.0, **changes}
 
 
-def candidate_settings(data: Measurements, station: StationConfig) -> list[tuple[str, str, dict[str, Any]]]:
-    """(name, what, experiment mapping) of every candidate for this campaign on this station (not yet checked)."""
+def candidate_settings(data: Measurements, station: StationConfig, sensor: SensorConfig | None = None
+                       ) -> list[tuple[str, str, dict[str, Any]]]:
+    """(name, what, experiment mapping) of every candidate for this campaign of ``sensor`` on this station (not yet
+    checked)."""
     reach = CampaignReach.of(data)
     freqs = list(reach.frequencies_hz)
     out: list[tuple[str, str, dict[str, Any]]] = []
@@ -107,7 +114,7 @@ def candidate_settings(data: Measurements, station: StationConfig) -> list[tuple
     if reach.positions_mm:
         target_hot = _hot(station, "target", reach.target_hot_c)
         warm = round(reach.room_c + 2.0, 1)
-        for f in _other_frequencies(reach):
+        for f in _other_frequencies(reach, sensor):
             out.append((f"target_hot_{f:g}hz", f"the target at {warm:g} C and {target_hot:g} C, a sweep at each, "
                         f"at {f:g} Hz", {"kind": "target_heating", "name": f"target at {target_hot:g} C, {f:g} Hz",
                                         "heating": {"setpoints_c": [warm, target_hot], "steady": STEADY,
@@ -161,11 +168,12 @@ def candidate_settings(data: Measurements, station: StationConfig) -> list[tuple
 
 
 def station_candidates(data: Measurements, station: StationConfig, max_hours: float | None = None,
-                       done: Sequence[dict[str, Any]] = ()) -> tuple[list[CandidateExperiment], dict[str, str]]:
+                       done: Sequence[dict[str, Any]] = (), sensor: SensorConfig | None = None
+                       ) -> tuple[list[CandidateExperiment], dict[str, str]]:
     """The candidates that validate, fit the station and (with ``max_hours``) fit the time, and are not among the
-    experiments ``done`` already (their settings); and those refused (name -> why)."""
+    experiments ``done`` already (their settings); and those refused (name -> why). ``sensor``: the campaign's."""
     kept, refused = [], {}
-    for name, what, settings in candidate_settings(data, station):
+    for name, what, settings in candidate_settings(data, station, sensor):
         try:
             experiment = EXPERIMENT_ADAPTER.validate_python(settings)
             check_experiment_fits_station(experiment, station, name)

@@ -219,7 +219,7 @@ def plan_next(result: Diagnosis, registry: EffectRegistry, station: StationConfi
         return NextPlan(questions, {}, [], {}, None, "no open question has rival models to design for: "
                         + "; ".join(reasons), asked, [], result.data, result.evidence_noise, decided)
     needs = {i: needed_separation(questions[i], result, registry) for i in rivals}
-    candidates, refused = station_candidates(result.data, station, None, done)
+    candidates, refused = station_candidates(result.data, station, None, done, result.final.fit.model.sensor)
     room = room_temperature_c(result.data)
     response = ThermalResponse.of(recorded_waits(runs), station.thermal)
     scored = []

@@ -16,7 +16,9 @@ import numpy as np
 from ecds_lab.analysis.diagnosis.checks import DRIFT_CHECKS
 from ecds_lab.analysis.diagnosis.result import Diagnosis
 from ecds_lab.data.measurements import Measurements
+from ecds_lab.data.sensor import SensorConfig
 from ecds_lab.model.effects import EffectRegistry
+from ecds_lab.model.library.magnetic_depth import lowest_frequency_hz
 
 #: A reading is "hot" this far (K) above the campaign's coldest reading of the same sensor.
 HOT_K = 5.0
@@ -24,6 +26,8 @@ HOT_K = 5.0
 HOLD_BAND_K = 2.0
 #: The two frequencies the bridge measures the paper's sensor at (Hz).
 USUAL_FREQUENCIES_HZ = (500.0, 15000.0)
+#: A second frequency for a steel plate above 15 kHz, half the paper's coil's self-resonance (~96 kHz).
+STEEL_HIGHER_HZ = 50000.0
 
 
 @dataclass(frozen=True)
@@ -101,8 +105,22 @@ def suggestions(result: Diagnosis, registry: EffectRegistry) -> list[str]:
         if failed and failed <= DRIFT_CHECKS and text and text not in out:
             out.append(text)
     if design.frequencies < 2 and groups:
-        other = next((f for f in USUAL_FREQUENCIES_HZ if f not in design.present_hz), USUAL_FREQUENCIES_HZ[0])
-        text = (f"measure at {other:g} Hz as well: with one frequency tau_T and the coupling are tied together")
+        text = another_frequency(design, result.final.fit.model.sensor)
         if text not in out:
             out.insert(0, text)
     return out
+
+
+def another_frequency(design: Design, sensor: SensorConfig) -> str:
+    """The second frequency a one-frequency campaign should add: the paper's other one, or on a steel plate the
+    next at which its screening depth's law holds (``magnetic_depth.lowest_frequency_hz``; docs/physics.md, "A
+    magnetic plate"): at 500 Hz its magnetisation and eddy currents nearly cancel and no first-order law holds."""
+    lowest = lowest_frequency_hz(sensor)
+    if lowest <= 0.0:
+        other = next((f for f in USUAL_FREQUENCIES_HZ if f not in design.present_hz), USUAL_FREQUENCIES_HZ[0])
+        return f"measure at {other:g} Hz as well: with one frequency tau_T and the coupling are tied together"
+    other = next((f for f in (*USUAL_FREQUENCIES_HZ, STEEL_HIGHER_HZ) if f >= lowest and f not in design.present_hz),
+                 STEEL_HIGHER_HZ)
+    return (f"measure at {other:g} Hz as well: with one frequency tau_T and the coupling are tied together (on a "
+            f"magnetic plate from about {lowest / 1e3:.0f} kHz up, where its screening depth's law holds; at 500 Hz "
+            f"its magnetisation and eddy currents nearly cancel)")

@@ -35,8 +35,9 @@ class TargetBending(Effect):
     #: The shift is b1 dT + b2 dT^2: with sweeps at two temperatures (a curvature seen only on a heating log at one
     #: position) b1 and b2 trade along b1 + b2 dT_hot, each undetermined while the shift they make is not.
     size_parameters = ("bending", "bending_quadratic")
-    reveal = ("measure at both 500 Hz and 15 kHz with the target hot: bending shifts the distance alike at "
-              "both frequencies, a conductivity change alters the eddy-current screening mostly at 500 Hz")
+    reveal = ("measure at two frequencies with the target hot (500 Hz and 15 kHz; on steel two at which its screening "
+              "depth's law holds, e.g. 15 and 50 kHz): bending shifts the distance alike at both frequencies, a "
+              "conductivity change alters the eddy-current screening most at the lower")
     reveal_needs: ClassVar[dict[str, float]] = {"frequencies_target_hot": 2}
 
     def parameters(self) -> list[Parameter]:

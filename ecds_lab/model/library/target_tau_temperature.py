@@ -141,8 +141,9 @@ class TargetTauTemperature(Effect):
     #: flat maximum near 3 delta(500 Hz), so sheet-like and thick starts are tried as well.
     THICKNESS_STARTS: ClassVar[tuple[dict[str, float], ...]] = ({"plate_thickness": 1e-5},
                                                                 {"plate_thickness": 8e-3})
-    reveal = ("measure at both 500 Hz and 15 kHz with the target hot: a conductivity change alters the "
-              "eddy-current screening at both in a way a bending cannot (the skin depth scales as f^-1/2)")
+    reveal = ("measure at two frequencies with the target hot (500 Hz and 15 kHz; on steel two at which its screening "
+              "depth's law holds, e.g. 15 and 50 kHz): a conductivity change alters the eddy-current screening at "
+              "both in a way a bending cannot (the skin depth scales as f^-1/2)")
     reveal_needs: ClassVar[dict[str, float]] = {"frequencies_target_hot": 2}
 
     def __init__(self, sensor: SensorConfig) -> None:
