@@ -7,7 +7,7 @@ from itertools import pairwise
 from typing import Any
 
 from ecds_lab.analysis.diagnosis.identifiability import ABSORBED_WORDS
-from ecds_lab.analysis.diagnosis.result import Diagnosis, figure_from_json
+from ecds_lab.analysis.diagnosis.result import Diagnosis, Step, figure_from_json
 from ecds_lab.analysis.diagnosis.structure import ResidualStructure
 from ecds_lab.analysis.diagnosis.verdict import FAILING_RATIO, STRUCTURE_SIGNIFICANCE, noise_ratio, outside_library
 from ecds_lab.analysis.noise import noise_parts_text
@@ -56,10 +56,10 @@ def explain(result: Diagnosis, registry: EffectRegistry | None = None) -> str:
         error = f", position error {step.position_error(noise).text('rms')}"
         if step.stands_for:
             others = [n for n in step.stands_for if n != added]
-            lines.append(f"The data cannot tell {' from '.join(step.stands_for)}: each explains them about equally "
-                         f"well, so none is claimed. {added} stands for the group while the search goes on "
-                         f"(from {before.rmse_ppm:.1f} to {step.rmse_ppm:.1f} ppm{error}); read it as "
-                         f"{' or '.join([added, *others])}.")
+            lines.append(_sentence(f"{_beside_text(step)}the data cannot tell {' from '.join(step.stands_for)}: each "
+                                   f"explains them about equally well, so none is claimed. {added} stands for the "
+                                   f"group while the search goes on (from {before.rmse_ppm:.1f} to "
+                                   f"{step.rmse_ppm:.1f} ppm{error}); read it as {' or '.join([added, *others])}."))
             continue
         if step.leaves_structure is not None:
             lines.append(f"Adding {added} ({effect.explains}) brings it from {before.rmse_ppm:.1f} to "
@@ -76,11 +76,11 @@ def explain(result: Diagnosis, registry: EffectRegistry | None = None) -> str:
         if step.beside:
             beside = "; ".join(parameter_text(candidate.fit, p.name) for p in effect.parameters()
                                if not candidate.fit.parameter(p.name).fixed)
-            lines.append(f"Beside a smooth in {', '.join(step.beside)} (per frequency) that takes the residual the "
-                         f"library does not describe, {added} ({effect.explains}) passes every check (BIC gain on its "
-                         f"signature {candidate.delta_bic_signature:+.0f}{cv}, residual beside the smooth "
-                         f"{candidate.rmse_ppm:.1f} ppm); fitted there {beside}. It is claimed; the model without the "
-                         f"smooth leaves {step.rmse_ppm:.1f} ppm.")
+            form = step.beside_form or "smooth"
+            lines.append(_sentence(f"{_beside_text(step)}{added} ({effect.explains}) passes every check (BIC gain "
+                                   f"on its signature {candidate.delta_bic_signature:+.0f}{cv}, residual beside the "
+                                   f"{form} {candidate.rmse_ppm:.1f} ppm); fitted there {beside}. It is claimed; the "
+                                   f"model without the {form} leaves {step.rmse_ppm:.1f} ppm."))
             continue
         lines.append(f"Adding {added} ({effect.explains}) brings it from {before.rmse_ppm:.1f} to "
                      f"{step.rmse_ppm:.1f} ppm{error} (BIC gain on its signature "
@@ -204,3 +204,17 @@ def format_diagnosis(report: dict[str, Any]) -> str:
         lines += ["suggested measurements:"] + [f"  - {s}" for s in report["suggested_measurements"]]
     lines += ["", report["explanation"]]
     return "\n".join(lines)
+
+
+def _sentence(text: str) -> str:
+    """``text`` with its first letter capital."""
+    return text[:1].upper() + text[1:]
+
+
+def _beside_text(step: Step) -> str:
+    """"beside a smooth in time_s (per frequency) that takes the residual the library does not describe, " for a step
+    judged beside a nuisance (``search._beside_smooth``), else ""."""
+    if not step.beside:
+        return ""
+    return (f"beside a {step.beside_form or 'smooth'} in {', '.join(step.beside)} (per frequency) that takes the "
+            "residual the library does not describe, ")

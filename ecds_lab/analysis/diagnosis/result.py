@@ -88,8 +88,10 @@ class Step:
     #: allowed (``drift.gain_beside_drift``): the share of its gain it keeps. Not claimed.
     part_of_drift: float | None = None
     #: When the effect added was judged beside a flexible nuisance taking a residual outside the library
-    #: (``search._beside_smooth``): the variables that nuisance was smooth in. Claimed.
+    #: (``search._beside_smooth``): the variables that nuisance was smooth in. Claimed (unless it stands for a group).
     beside: list[str] = field(default_factory=list)
+    #: That nuisance's form: "smooth" (splines) or "straight line" (a drift in time, per frequency).
+    beside_form: str = ""
     #: On a screened campaign, the screening subsample and this model refitted there (the claim's refit there from
     #: its candidate's solution, ``search._full_fit_beside_starts``, or from this fit's, ``search._refitted_on``):
     #: what its round's candidates were weighed against.
@@ -122,6 +124,7 @@ class Step:
                 **position_error_json(figure),
                 "stands_for": list(self.stands_for), "leaves_structure": rounded(self.leaves_structure, 1),
                 "part_of_drift": rounded(self.part_of_drift, 2), "beside": list(self.beside),
+                "beside_form": self.beside_form,
                 "params": fit_params_json(self.fit)}
 
 
