@@ -29,3 +29,9 @@ def test_a_steel_plate_measured_at_15_khz_is_advised_a_higher_frequency_not_500_
 def test_a_steel_plate_measured_below_its_laws_range_is_advised_15_khz():
     at_500_hz = dataclasses.replace(AT_15_KHZ, present_hz=(500.0,))
     assert another_frequency(at_500_hz, SensorConfig(target="steel")).startswith("measure at 15000 Hz as well")
+
+
+def test_a_coil_that_resonates_lower_is_advised_a_lower_second_frequency_on_steel():
+    """A larger parallel capacitance (200 pF: the coil resonates at 47 kHz) keeps the advice below 0.6 of it."""
+    text = another_frequency(AT_15_KHZ, SensorConfig(target="steel", capacitance_f=200e-12))
+    assert text.startswith("measure at 20000 Hz as well"), text

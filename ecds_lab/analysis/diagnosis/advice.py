@@ -9,6 +9,7 @@ effects, were they large enough: more readings, not another design, are the way 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,8 +27,11 @@ HOT_K = 5.0
 HOLD_BAND_K = 2.0
 #: The two frequencies the bridge measures the paper's sensor at (Hz).
 USUAL_FREQUENCIES_HZ = (500.0, 15000.0)
-#: A second frequency for a steel plate above 15 kHz, half the paper's coil's self-resonance (~96 kHz).
-STEEL_HIGHER_HZ = 50000.0
+#: Second frequencies for a steel plate above 15 kHz: the highest at most RESONANCE_SHARE of the coil's
+#: self-resonance 1/(2 pi sqrt(L C_p)) (the paper's coil: 97 kHz, so 50 kHz, where the faithful steel plate was
+#: fitted to its noise: docs/physics.md, "A magnetic plate"); nearer the resonance C_p's share of L grows fast.
+STEEL_HIGHER_HZ = (50000.0, 40000.0, 30000.0, 20000.0)
+RESONANCE_SHARE = 0.6
 
 
 @dataclass(frozen=True)
@@ -114,13 +118,16 @@ def suggestions(result: Diagnosis, registry: EffectRegistry) -> list[str]:
 def another_frequency(design: Design, sensor: SensorConfig) -> str:
     """The second frequency a one-frequency campaign should add: the paper's other one, or on a steel plate the
     next at which its screening depth's law holds (``magnetic_depth.lowest_frequency_hz``; docs/physics.md, "A
-    magnetic plate"): at 500 Hz its magnetisation and eddy currents nearly cancel and no first-order law holds."""
+    magnetic plate"), below the coil's self-resonance: at 500 Hz its magnetisation and eddy currents nearly cancel
+    and no first-order law holds."""
     lowest = lowest_frequency_hz(sensor)
     if lowest <= 0.0:
         other = next((f for f in USUAL_FREQUENCIES_HZ if f not in design.present_hz), USUAL_FREQUENCIES_HZ[0])
         return f"measure at {other:g} Hz as well: with one frequency tau_T and the coupling are tied together"
-    other = next((f for f in (*USUAL_FREQUENCIES_HZ, STEEL_HIGHER_HZ) if f >= lowest and f not in design.present_hz),
-                 STEEL_HIGHER_HZ)
+    resonance = 1 / (2 * math.pi * math.sqrt(sensor.inductance_h * sensor.capacitance_f)) \
+        if sensor.capacitance_f > 0 else math.inf
+    higher = next((f for f in STEEL_HIGHER_HZ if f <= RESONANCE_SHARE * resonance), STEEL_HIGHER_HZ[-1])
+    other = next((f for f in (*USUAL_FREQUENCIES_HZ, higher) if f >= lowest and f not in design.present_hz), higher)
     return (f"measure at {other:g} Hz as well: with one frequency tau_T and the coupling are tied together (on a "
             f"magnetic plate from about {lowest / 1e3:.0f} kHz up, where its screening depth's law holds; at 500 Hz "
             f"its magnetisation and eddy currents nearly cancel)")
