@@ -14,7 +14,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from ecds_lab.data.measurements import Measurements
-from ecds_lab.model.ecm import parallel_rlc_impedance
+from ecds_lab.model.ecm import parallel_rlc_impedance, self_resonance_hz
 
 _NAMES = ("inductance_h", "capacitance_f", "parallel_resistance_ohm", "series_resistance_ohm")
 
@@ -33,7 +33,7 @@ class RlcFit:
 
     @property
     def resonance_hz(self) -> float:
-        return 1 / (2 * math.pi * math.sqrt(self.inductance_h * self.capacitance_f))
+        return float(self_resonance_hz(self.inductance_h, self.capacitance_f))
 
     def as_dict(self) -> dict[str, float | None]:
         """JSON-able values and standard errors."""

@@ -40,3 +40,8 @@ def parallel_rlc_impedance(omega: np.ndarray, inductance: float, capacitance: fl
                            resistance: float, series_resistance: float = 0.0) -> np.ndarray:
     """(R_s + jwL) || C || R: the resonance model of Table 2 (R_s = 0 gives the plain parallel RLC)."""
     return with_parallel_elements(series_resistance + 1j * omega * inductance, omega, capacitance, resistance)
+
+
+def self_resonance_hz(inductance: float, capacitance: float) -> float:
+    """The parallel LC's resonance 1/(2 pi sqrt(L C)) (Hz); infinite without a capacitance."""
+    return 1 / (2 * np.pi * np.sqrt(inductance * capacitance)) if capacitance > 0 else float("inf")

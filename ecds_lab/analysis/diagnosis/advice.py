@@ -9,7 +9,6 @@ effects, were they large enough: more readings, not another design, are the way 
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -18,6 +17,7 @@ from ecds_lab.analysis.diagnosis.checks import DRIFT_CHECKS
 from ecds_lab.analysis.diagnosis.result import Diagnosis
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.data.sensor import SensorConfig
+from ecds_lab.model.ecm import self_resonance_hz
 from ecds_lab.model.effects import EffectRegistry
 from ecds_lab.model.library.magnetic_depth import lowest_frequency_hz
 
@@ -32,6 +32,8 @@ USUAL_FREQUENCIES_HZ = (500.0, 15000.0)
 #: fitted to its noise: docs/physics.md, "A magnetic plate"); nearer the resonance C_p's share of L grows fast.
 STEEL_HIGHER_HZ = (50000.0, 40000.0, 30000.0, 20000.0)
 RESONANCE_SHARE = 0.6
+#: Why one frequency cannot decide (the second frequency's advice).
+TIED = "with one frequency tau_T and the coupling are tied together"
 
 
 @dataclass(frozen=True)
@@ -123,11 +125,9 @@ def another_frequency(design: Design, sensor: SensorConfig) -> str:
     lowest = lowest_frequency_hz(sensor)
     if lowest <= 0.0:
         other = next((f for f in USUAL_FREQUENCIES_HZ if f not in design.present_hz), USUAL_FREQUENCIES_HZ[0])
-        return f"measure at {other:g} Hz as well: with one frequency tau_T and the coupling are tied together"
-    resonance = 1 / (2 * math.pi * math.sqrt(sensor.inductance_h * sensor.capacitance_f)) \
-        if sensor.capacitance_f > 0 else math.inf
+        return f"measure at {other:g} Hz as well: {TIED}"
+    resonance = self_resonance_hz(sensor.inductance_h, sensor.capacitance_f)
     higher = next((f for f in STEEL_HIGHER_HZ if f <= RESONANCE_SHARE * resonance), STEEL_HIGHER_HZ[-1])
     other = next((f for f in (*USUAL_FREQUENCIES_HZ, higher) if f >= lowest and f not in design.present_hz), higher)
-    return (f"measure at {other:g} Hz as well: with one frequency tau_T and the coupling are tied together (on a "
-            f"magnetic plate from about {lowest / 1e3:.0f} kHz up, where its screening depth's law holds; at 500 Hz "
-            f"its magnetisation and eddy currents nearly cancel)")
+    return (f"measure at {other:g} Hz as well: {TIED} (on a magnetic plate from about {lowest / 1e3:.0f} kHz up, "
+            f"where its screening depth's law holds; at 500 Hz its magnetisation and eddy currents nearly cancel)")

@@ -57,10 +57,10 @@ def verdict_of(steps: list[Step], effects: list[str], noise: NoiseEstimate, stru
     structure is one a smooth calibration curve in x takes (``calibration_form``, at one frequency)."""
     if any(step.claims for step in steps[1:]):
         return "missing_effect"
+    outside = outside_library(steps[-1], noise, structure, associations)
     if alternatives:
-        outside = outside_library(steps[-1], noise, structure, associations)
         return "missing_effect" if outside and not limits and not calibration_form else "inconclusive"
-    if not outside_library(steps[-1], noise, structure, associations):
+    if not outside:
         # Above the noise without structure: scatter the noise estimate misses (e.g. between moves), not adequate.
         return "adequate" if noise_ratio(steps[-1], noise) <= FAILING_RATIO else "inconclusive"
     return "missing_effect" if steps[0].candidates and not limits and not calibration_form else "inconclusive"
