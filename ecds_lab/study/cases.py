@@ -104,11 +104,16 @@ def _signed(g: np.random.Generator, low: float, high: float) -> float:
     return float(g.uniform(low, high) * g.choice([-1.0, 1.0]))
 
 
+#: The paper prototype's winding rim (outer radius, mm), beside which a metal object's block places it.
+PAPER_RIM_MM = 75.0
+
+
 def _metal_object(g: np.random.Generator) -> dict[str, Any]:
-    """A bracket anywhere in the travel, clearing the winding's 75 mm rim by 0.5-6 mm (docs/simulated_lab.md)."""
+    """A bracket anywhere in the travel, clearing the winding's rim by 0.5-6 mm (docs/simulated_lab.md); placed
+    by the paper prototype's rim, moved to another sensor's own by ``SensorKind.placed``."""
     radius_mm = float(g.uniform(2.5, 5.0))
     return _imperfection("metal_object", position_mm=float(g.uniform(30.0, 90.0)), radius_mm=radius_mm,
-                         radial_mm=75.0 + radius_mm + float(g.uniform(0.5, 6.0)))
+                         radial_mm=PAPER_RIM_MM + radius_mm + float(g.uniform(0.5, 6.0)))
 
 
 def _imperfection(name: str, **settings: Any) -> dict[str, Any]:
@@ -171,19 +176,39 @@ class SensorKind:
     #: library effects its physics makes true whatever the truth drawn
     always_true: tuple[str, ...] = ()
 
+    @property
+    def rim_mm(self) -> float:
+        """The outer radius of its winding (mm)."""
+        return 1e3 * float(self.lab.get("coil", {}).get("outer_radius_m", PAPER_RIM_MM / 1e3))
+
+    def placed(self, blocks: dict[str, Any]) -> dict[str, Any]:
+        """``blocks`` with a metal object moved from the paper prototype's rim to this winding's, at the same
+        clearance: drawn beside the paper's 75 mm rim, a bracket would sit 45 mm beyond a 30 mm coil's."""
+        bracket = blocks.get("imperfections", {}).get("metal_object")
+        if bracket is None or self.rim_mm == PAPER_RIM_MM:
+            return blocks
+        return merged(blocks, {"imperfections": {"metal_object": {
+            "radial_mm": bracket["radial_mm"] - PAPER_RIM_MM + self.rim_mm}}})
+
+
+#: A coil of a fifth of the paper's winding radius (20-30 mm, 2 mm high, 300 turns), as commercial ECDSs' are
+#: small against the paper's: over the same 5 mm copper plate and 20-100 mm travel it reaches 0.7-3.3 of its radius.
+SMALL_COIL = {"inner_radius_m": 0.02, "outer_radius_m": 0.03, "height_m": 0.002, "turns": 300}
 
 #: The sensors a study may draw (``--sensors``): the paper's prototype over its 5 mm copper plate (the default and
 #: the study's yardstick), the same coil over steel (measured at 15 kHz, as the paper measured it: at 500 Hz the
 #: plate's magnetisation and eddy currents nearly cancel, which no first-order law describes; its screening from a
 #: complex depth, ``magnetic_depth``, is true of every steel campaign), over a copper sheet of 1 mm (a third of
 #: the skin depth at 500 Hz), and over plates of the other non-magnetic metals a sensor YAML may name, 5 mm of
-#: aluminium and of brass (docs/simulated_lab.md: brass's skin depth at 500 Hz is longer than the plate is thick).
+#: aluminium and of brass (docs/simulated_lab.md: brass's skin depth at 500 Hz is longer than the plate is thick),
+#: and a small coil over the copper plate (a metal object then clears its own rim).
 SENSORS: dict[str, SensorKind] = {kind.name: kind for kind in (
     SensorKind("paper"),
     SensorKind("steel", sensor={"target": "steel"}, frequencies_hz=(HIGH_HZ,), always_true=("magnetic_depth",)),
     SensorKind("thin_plate", lab={"plate": {"thickness_m": 1e-3}}),
     SensorKind("aluminium", sensor={"target": "aluminium"}),
     SensorKind("brass", sensor={"target": "brass"}),
+    SensorKind("small_coil", lab={"coil": SMALL_COIL}, sensor={"coil": SMALL_COIL}),
 )}
 
 
@@ -248,7 +273,7 @@ def draw_case(number: int, seed: int, sensors: Sequence[str] = ("paper",)) -> Ca
     sensor = SENSORS[sensors[int(np.random.default_rng([seed, number, 1]).integers(len(sensors)))]]
     if sensor.frequencies_hz is not None:
         design = dataclasses.replace(design, frequencies_hz=sensor.frequencies_hz)
-    return Case(number, int(rng.integers(2**31)), design, tuple(names), blocks, sensor.name)
+    return Case(number, int(rng.integers(2**31)), design, tuple(names), sensor.placed(blocks), sensor.name)
 
 
 def draw_cases(count: int, seed: int, sensors: Sequence[str] = ("paper",)) -> list[Case]:

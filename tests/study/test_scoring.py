@@ -119,3 +119,20 @@ def test_a_steel_plates_magnetic_depth_is_true_of_steel_alone():
     on_copper = judge(case_with([], ONE_FREQUENCY_HEATED), claimed)
     assert on_steel.right and not on_steel.wrong_claims
     assert on_copper.false_alarm and on_copper.wrong_claims == ["magnetic_depth"]
+
+
+def test_a_metal_object_clears_the_small_coils_own_rim():
+    """Drawn beside the paper's 75 mm rim, a bracket would sit 45 mm beyond a 30 mm coil's and show nothing; on the
+    small coil it keeps the clearance drawn, from its own rim, and everything else of the case is the paper's."""
+    bracketed = [n for n in range(60) if "metal_object" in draw_case(n, 7).truths]
+    assert bracketed
+    for number in bracketed:
+        paper, small = draw_case(number, 7), draw_case(number, 7, ("small_coil",))
+        on_paper = paper.blocks["imperfections"]["metal_object"]
+        on_small = small.blocks["imperfections"]["metal_object"]
+        clearance = on_paper["radial_mm"] - on_paper["radius_mm"] - 75.0
+        assert 0.5 <= clearance <= 6.0
+        assert on_small["radial_mm"] == pytest.approx(30.0 + on_paper["radius_mm"] + clearance)
+        assert {k: v for k, v in on_small.items() if k != "radial_mm"} == {
+            k: v for k, v in on_paper.items() if k != "radial_mm"}
+        assert (small.truths, small.design, small.seed) == (paper.truths, paper.design, paper.seed)
