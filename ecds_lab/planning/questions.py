@@ -13,6 +13,9 @@
   the residual lives, never designed for.
 - ``untested``: the search stopped at its limit; re-diagnosing with the found effects given answers it, not a
   measurement.
+- ``drift_alike``: a library effect would take the residual to the noise, but a slow drift of every reading in time
+  between the sweeps explains it as well (``drift_alike``): that effect or a drift? Reported with the measurement
+  that tells them apart (``Effect.reveal_beside_drift``), not designed for: no rival model describes the drift.
 """
 
 from __future__ import annotations
@@ -83,6 +86,12 @@ def open_questions(result: Diagnosis, registry: EffectRegistry) -> list[OpenQues
         out.append(OpenQuestion("untested", tuple(result.untested), "the search stopped at its limit before testing "
                                 f"{', '.join(result.untested)}: diagnose again with the found effects given "
                                 "(--effects), no measurement needed"))
+    for name in result.drift_alike:
+        cls = registry.get(name)
+        reveal = cls.reveal_beside_drift if cls is not None else ""
+        tells = f"; to tell them apart, {reveal}" if reveal else ""
+        out.append(OpenQuestion("drift_alike", (name,), f"is it {name} or a slow drift in time between the sweeps: "
+                                f"each takes the residual to the noise{tells}"))
     if outside_library(result):
         where = "; ".join(f"{a.variable} ({a.detail})" for a in result.associations[:2])
         out.append(OpenQuestion("outside_library", (), f"a residual no library effect explains; it lives in {where}"))
@@ -119,6 +128,7 @@ def not_asked(result: Diagnosis, registry: EffectRegistry) -> dict[str, str]:
 
 
 def outside_library(result: Diagnosis) -> bool:
-    """The verdict says a residual lies outside the library (docs/diagnosis.md, Verdict)."""
-    return (result.structure is not None and not result.limits_reached
+    """The verdict says a residual lies outside the library (docs/diagnosis.md, Verdict): not when a library effect
+    takes it that a drift in time explains as well (``drift_alike``)."""
+    return (result.structure is not None and not result.limits_reached and not result.drift_alike
             and library_outside(result.final, result.noise, result.structure, result.associations))

@@ -92,7 +92,7 @@ def explain(result: Diagnosis, registry: EffectRegistry | None = None) -> str:
         for group in result.alternatives:
             lines.append(f"The data cannot tell {' from '.join(group)}: each explains them about equally well "
                          "(or neither is determined), so none is claimed.")
-    if (result.alternatives or result.undetermined) and result.suggested_measurements:
+    if (result.alternatives or result.undetermined or result.drift_alike) and result.suggested_measurements:
         lines.append("To separate or determine them: " + "; or ".join(result.suggested_measurements) + " "
                      "(`ecds-lab plan-next` designs the experiment that decides for a given station, with its "
                      "predicted separation and lab time; docs/planning.md).")
@@ -125,6 +125,15 @@ def explain(result: Diagnosis, registry: EffectRegistry | None = None) -> str:
                      "lives in " + _where(result) + ". A second frequency tells such effects from the calibration; "
                      "a coupling table for the sensor (`coupling_table:` in its YAML) gives the calibration the "
                      "coupling's true form.")
+    elif outside and result.drift_alike and structure is not None:
+        alike = [c for c in final.candidates if c.effect in result.drift_alike]
+        taken = "; ".join(f"{c.effect} to {c.rmse_ppm:.1f} ppm ({'; '.join(c.rejected)})" for c in alike)
+        lines.append(("Even so the residual stays " if len(result.steps) > 1 else "The residual stays ")
+                     + f"{final_ratio:.1f}x the noise{_own_noise(structure, final_ratio)} with structure "
+                     f"{_significance(result):.0f} standard deviations beyond chance. A library effect takes it to "
+                     f"the noise ({taken}), but a slow drift of every reading in time explains it as well: the "
+                     f"residual is {' or '.join(result.drift_alike)} or such a drift, not physics shown to be "
+                     "missing from the library, so the diagnosis is inconclusive. It lives in " + _where(result) + ".")
     elif outside and not result.limits_reached and structure is not None:
         rejected = [f"{c.effect} ({'; '.join(c.rejected)})" for c in final.candidates[:3] if c.rejected]
         lines.append(("Even so the residual stays " if len(result.steps) > 1 else "The residual stays ")
@@ -196,6 +205,9 @@ def format_diagnosis(report: dict[str, Any]) -> str:
                   + "; ".join(" / ".join(g) for g in report["partial"])]
     if report.get("undetermined"):
         lines += ["evidence but size not determined (not claimed): " + ", ".join(report["undetermined"])]
+    if report.get("drift_alike"):
+        lines += ["takes the residual, but a drift in time explains it as well (not claimed): "
+                  + ", ".join(report["drift_alike"])]
     if report.get("limits_reached"):
         lines += ["", "limits reached:"] + [f"  - {limit}" for limit in report["limits_reached"]]
     if report.get("untested"):

@@ -162,6 +162,9 @@ class Diagnosis:
     #: At one frequency, where a smooth calibration curve in x takes the final residual's structure: the structure
     #: left after it (the calibration's form, not physics shown to be outside the library); else None.
     calibration_form: ResidualStructure | None = None
+    #: Effects that would take the final residual's structure to the noise but that a slow drift in time between the
+    #: sweeps explains as well (``search._drift_alike``): that structure is then not shown to lie outside the library.
+    drift_alike: list[str] = field(default_factory=list)
 
     @property
     def evidence_noise(self) -> NoiseEstimate:
@@ -237,6 +240,7 @@ class Diagnosis:
             "released": dict(self.released),
             "residual_structure": self.structure.to_json() if self.structure is not None else None,
             "calibration_form": self.calibration_form.to_json() if self.calibration_form is not None else None,
+            "drift_alike": list(self.drift_alike),
             "steps": [s.to_json(self.noise.ppm) for s in self.steps],
         }
 

@@ -46,6 +46,7 @@ from ecds_lab.analysis.associations import Association, residual_associations
 from ecds_lab.analysis.blas_threads import one_blas_thread
 from ecds_lab.analysis.diagnosis.advice import suggestions
 from ecds_lab.analysis.diagnosis.checks import (
+    BEYOND_DRIFT,
     SIGNATURE_SHARE,
     at_bound,
     check_beyond_drift,
@@ -301,12 +302,13 @@ def _run_diagnosis(data: Measurements, effects: Sequence[str], sensor: SensorCon
         alternatives.append(list(undetermined))
         undetermined = []
     taken = _calibration_takes_it(final, clean, noise, structure) if outside else None
+    alike = _drift_alike(final, searched) if outside and taken is None and not limits else []
     verdict = verdict_of(steps, effects, noise, structure, alternatives, untestable, limits, associations,
-                         calibration_form=taken is not None)
+                         calibration_form=taken is not None, drift_alike=bool(alike))
     result = Diagnosis(clean, effects, noise, steps, associations, verdict, "", outliers, alternatives, [],
                        untestable, base_cv, limits, untested, partial, undetermined,
                        {name: "the data determine it (see docs/diagnosis.md)" for name in released}, structure,
-                       searched, taken)
+                       searched, taken, alike)
     result.suggested_measurements = suggestions(result, registry)
     result.explanation = explain(result, registry)
     return result
@@ -608,6 +610,15 @@ def _mark_drift(steps: list[Step], data: Measurements, noise: NoiseEstimate, act
         kept = gain_beside_drift(data, r_before, r_after, acts) if gain > 0 else None
         if kept is not None and kept < PARTIAL_SHARE * gain:
             step.part_of_drift = kept / gain
+
+
+def _drift_alike(final: Step, noise: NoiseEstimate) -> list[str]:
+    """Effects of the final round that would take the residual to the noise and failed only because a slow drift of
+    every reading in time leaves what they take as well (``checks.BEYOND_DRIFT``: a backlash, where the sweeps of
+    each direction come at other times): the residual is that effect or such a drift, not shown to lie outside the
+    library."""
+    return [c.effect for c in final.candidates if c.rmse_ppm <= ADEQUATE_RATIO * noise.ppm
+            and {name for name, passed in c.checks.items() if not passed} == {BEYOND_DRIFT}]
 
 
 def _undetermined(ranked: list[Candidate]) -> list[str]:

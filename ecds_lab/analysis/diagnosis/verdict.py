@@ -48,19 +48,22 @@ def noise_ratio(step: Step, noise: NoiseEstimate) -> float:
 
 def verdict_of(steps: list[Step], effects: list[str], noise: NoiseEstimate, structure: ResidualStructure,
                alternatives: list[list[str]], untestable: dict[str, str], limits: list[str],
-               associations: Sequence[Association] = (), calibration_form: bool = False) -> str:
+               associations: Sequence[Association] = (), calibration_form: bool = False,
+               drift_alike: bool = False) -> str:
     """missing_effect when effects were claimed, or when every candidate was refitted at the final model
     and the residual still holds structure (outside the library; a tie beside it is listed, not the verdict);
     inconclusive when the data cannot separate the candidates and nothing lies outside the library, could test none
     of them, the search stopped at a limit first, the residual is
     clearly above the noise without structure a model could take (scatter the noise estimate misses), or its
-    structure is one a smooth calibration curve in x takes (``calibration_form``, at one frequency)."""
+    structure is one a smooth calibration curve in x takes (``calibration_form``, at one frequency) or a library
+    effect takes that a slow drift in time explains as well (``drift_alike``)."""
     if any(step.claims for step in steps[1:]):
         return "missing_effect"
     outside = outside_library(steps[-1], noise, structure, associations)
+    explained = calibration_form or drift_alike  # the structure is taken by something other than missing physics
     if alternatives:
-        return "missing_effect" if outside and not limits and not calibration_form else "inconclusive"
+        return "missing_effect" if outside and not limits and not explained else "inconclusive"
     if not outside:
         # Above the noise without structure: scatter the noise estimate misses (e.g. between moves), not adequate.
         return "adequate" if noise_ratio(steps[-1], noise) <= FAILING_RATIO else "inconclusive"
-    return "missing_effect" if steps[0].candidates and not limits and not calibration_form else "inconclusive"
+    return "missing_effect" if steps[0].candidates and not limits and not explained else "inconclusive"
