@@ -177,6 +177,12 @@ class Effect:
         model carries k^2's own tangent only where one does."""
         return type(self).coupling_squared is not Effect.coupling_squared
 
+    def held_out_of_reach(self, training: Measurements) -> dict[str, float]:
+        """Parameters a held-out fold's training readings leave free, with the value its fit holds them at
+        (``analysis.diagnosis.held_out``): a parameter that only readings near it determine (a spline's knot), when
+        the fold holds all of those out. Default: none."""
+        return {}
+
     def identifies(self, data: Measurements) -> set[str]:
         """Baseline parameters this effect makes determinable in these data although the baseline
         alone would not (e.g. tau_T at one frequency once it changes with target temperature)."""

@@ -117,6 +117,15 @@ def cv_rmses(data: Measurements, fits: Sequence[FitResult], folds: np.ndarray) -
     return held_out.rmses(forked.each(held_out.squares, held_out.tasks(), shared=held_out.shared()))
 
 
+def out_of_reach(full: FitResult, training: Measurements) -> dict[str, float]:
+    """The parameters ``full`` fitted free that a fold's ``training`` readings leave out of reach
+    (``Effect.held_out_of_reach``), at the values the effects hold them: never at the full fit's, which the
+    held-out readings helped make."""
+    free = set(full.free_names)
+    return {name: value for effect in full.model.effects
+            for name, value in effect.held_out_of_reach(training).items() if name in free}
+
+
 @dataclass(frozen=True, eq=False)
 class HeldOutFits:
     """The fits behind the held-out errors of ``fits`` on ``data``: one per model and fold, each independent of the
@@ -137,7 +146,7 @@ class HeldOutFits:
         whole history; a nuisance smooth's coefficients held where the fit on every reading left them."""
         which, k = task
         full, held = self.fits[which], self.folds == k
-        fixed = held_in_folds(full.model, full.values)
+        fixed = {**out_of_reach(full, self.data.select(~held)), **(held_in_folds(full.model, full.values) or {})}
         trained = fit_model(full.model, self.data, start=full.values, fixed=fixed or None, multistart=False,
                             rows=~held, screening=True)
         r = (self.data.ls_h[held] / trained.predict(self.data)[held] - 1) * 1e6
