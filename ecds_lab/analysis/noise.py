@@ -438,7 +438,11 @@ def _smoothed_sigma(u: np.ndarray, shared_ppm: np.ndarray) -> float:
         return float(np.median(centred / np.sqrt(sigma**2 + shared_ppm**2))) - _MEDIAN_ABS_NORMAL
 
     floor = 0.1 * alone  # positioning cannot explain all of the scatter: the bridge is never noiseless
-    return floor if excess(floor) <= 0 else float(brentq(excess, floor, alone, xtol=1e-6 * alone))
+    if excess(floor) <= 0:
+        return floor
+    # where the median remainder has no positioning share, the root is ``alone`` itself, and rounding can leave the
+    # excess there a hair above zero (brentq then refuses the bracket: a study campaign's diagnosis failed so)
+    return alone if excess(alone) >= 0 else float(brentq(excess, floor, alone, xtol=1e-6 * alone))
 
 
 @dataclass(frozen=True)

@@ -123,6 +123,8 @@ def estimate_positioning(data: Measurements, residuals_ppm: np.ndarray, reading_
     upper = 1e-6
     while excess(upper) > _MEDIAN_ABS_NORMAL and upper < 1e-2:
         upper *= 4
+    if excess(upper) > _MEDIAN_ABS_NORMAL:  # no scatter up to centimetres explains the revisits: not a positioning one
+        return Positioning(declared)
     sigma_x = brentq(lambda v: excess(v) - _MEDIAN_ABS_NORMAL, 0.0, upper, xtol=1e-10)
     return Positioning(declared, float(sigma_x), dof)
 

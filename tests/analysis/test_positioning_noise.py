@@ -65,3 +65,18 @@ def test_without_the_declaration_the_noise_is_todays_reading_noise(faithful_swee
     assert result.noise_ppm == estimate_noise(result.data, result.baseline.residuals_ppm).ppm
     assert result.to_json()["noise"] == {"reading_ppm": round(result.noise_ppm, 3), "positioning_ppm": 0.0,
                                          "method": result.noise.method}
+
+
+def test_revisits_no_positioning_scatter_explains_are_not_a_positioning_estimate(monkeypatch):
+    """Revisit differences that no scatter up to centimetres explains (a sensitivity near zero there) give no
+    positioning figure from the data: the declared one stands (the root search's bracket failed before)."""
+    from types import SimpleNamespace
+
+    from ecds_lab.analysis import positioning
+
+    u = np.full(12, 50.0)
+    monkeypatch.setattr(positioning, "_revisit_differences", lambda *args: (
+        u, np.ones((12, 2)), np.full(12, 1e-12), np.arange(12)))
+    data = SimpleNamespace(x_m=np.full(4, 0.03), slide_repeatability_m=np.full(4, 5e-6))
+    estimate = positioning.estimate_positioning(data, np.zeros(4), np.ones(4), np.ones(4), np.zeros(4, int))
+    assert estimate.dof == 0 and not np.isfinite(estimate.from_data_m) and estimate.sigma_m == 5e-6
