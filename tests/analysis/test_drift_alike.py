@@ -30,6 +30,8 @@ def test_a_backlash_a_drift_explains_as_well_is_neither_claimed_nor_called_outsi
     assert result.associations[0].variable == "direction", result.explanation
     assert "it lies outside the library" not in result.explanation
     assert "slide_backlash or such a drift" in result.explanation
+    said, tells = result.explanation.index("or such a drift"), result.explanation.index("To tell them apart: sweep up")
+    assert said < tells  # the measurement follows what it tells apart
     assert any("up and down twice over" in s for s in result.suggested_measurements), result.suggested_measurements
 
 

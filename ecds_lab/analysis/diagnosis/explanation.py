@@ -92,7 +92,7 @@ def explain(result: Diagnosis, registry: EffectRegistry | None = None) -> str:
         for group in result.alternatives:
             lines.append(f"The data cannot tell {' from '.join(group)}: each explains them about equally well "
                          "(or neither is determined), so none is claimed.")
-    if (result.alternatives or result.undetermined or result.drift_alike) and result.suggested_measurements:
+    if (result.alternatives or result.undetermined) and result.suggested_measurements:
         lines.append("To separate or determine them: " + "; or ".join(result.suggested_measurements) + " "
                      "(`ecds-lab plan-next` designs the experiment that decides for a given station, with its "
                      "predicted separation and lab time; docs/planning.md).")
@@ -134,6 +134,9 @@ def explain(result: Diagnosis, registry: EffectRegistry | None = None) -> str:
                      f"the noise ({taken}), but a slow drift of every reading in time explains it as well: the "
                      f"residual is {' or '.join(result.drift_alike)} or such a drift, not physics shown to be "
                      "missing from the library, so the diagnosis is inconclusive. It lives in " + _where(result) + ".")
+        tells = [c.effect_object.reveal_beside_drift for c in alike if c.effect_object.reveal_beside_drift]
+        if tells and not (result.alternatives or result.undetermined):  # else among the measurements above
+            lines.append("To tell them apart: " + "; or ".join(dict.fromkeys(tells)) + ".")
     elif outside and not result.limits_reached and structure is not None:
         rejected = [f"{c.effect} ({'; '.join(c.rejected)})" for c in final.candidates[:3] if c.rejected]
         lines.append(("Even so the residual stays " if len(result.steps) > 1 else "The residual stays ")
