@@ -116,7 +116,7 @@ def contested_claims(result: Diagnosis) -> list[OpenQuestion]:
             out.append(OpenQuestion("tie", group, f"which of {' or '.join(group)}: {claimed} is claimed, but "
                                     f"{' and '.join(rivals)} explain(s) the data as well and failed only on "
                                     + ", ".join(sorted({k for c in before.candidates if c.effect in rivals
-                                                        for k, ok in c.checks.items() if not ok}))))
+                                                        for k in c.failed}))))
     return out
 
 

@@ -106,7 +106,7 @@ def suggestions(result: Diagnosis, registry: EffectRegistry) -> list[str]:
             if cls.reveal not in out:
                 out.append(cls.reveal)
     for candidate in result.steps[-1].candidates:  # failed only for what a slow drift would leave as well
-        failed = {name for name, passed in candidate.checks.items() if not passed}
+        failed = candidate.failed
         text = candidate.effect_object.reveal_beside_drift
         if failed and failed <= DRIFT_CHECKS and text and text not in out:
             out.append(text)

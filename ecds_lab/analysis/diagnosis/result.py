@@ -54,6 +54,11 @@ class Candidate:
         return bool(self.checks) and all(self.checks.values())
 
     @property
+    def failed(self) -> set[str]:
+        """The checks it failed, by name."""
+        return {name for name, passed in self.checks.items() if not passed}
+
+    @property
     def effect_object(self) -> Effect:
         return self.fit.model.effect(self.effect)
 

@@ -618,7 +618,7 @@ def _drift_alike(final: Step, noise: NoiseEstimate) -> list[str]:
     each direction come at other times): the residual is that effect or such a drift, not shown to lie outside the
     library."""
     return [c.effect for c in final.candidates if c.rmse_ppm <= ADEQUATE_RATIO * noise.ppm
-            and {name for name, passed in c.checks.items() if not passed} == {BEYOND_DRIFT}]
+            and c.failed == {BEYOND_DRIFT}]
 
 
 def _undetermined(ranked: list[Candidate]) -> list[str]:
