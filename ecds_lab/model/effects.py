@@ -10,7 +10,9 @@ Stages (all arrays have one entry per data row, SI units):
 1. effective inputs: ``effective_distance(x_m, data: Measurements, p)``,
    ``winding_temperature(t_c, data: Measurements, p)``, ``target_temperature(t_c, data: Measurements, p)``
 2. target time constant: ``target_tau(tau_s, inputs, data: Measurements, p)``
-3. the calibrated coupling squared, ``coupling_squared(k2, inputs, data: Measurements, p, coupling_hat)``: for a
+3. the coil's own inductance after Eq. (4), ``coil_inductance(l_h, inputs, data: Measurements, p)``: for what
+   changes the winding itself (a moist former's swelling scales it; the eddy currents' share, R and L, follows);
+   the calibrated coupling squared, ``coupling_squared(k2, inputs, data: Measurements, p, coupling_hat)``: for a
    target that does not screen like a perfect conductor seen at one distance (``coupling_hat(x_m)`` is Eq. (5) at
    any distances, e.g. near the effective one); then the baseline ECM, Eq. (2)-(4), then
    ``series_inductance(l_h, inputs, data: Measurements, p)``: L of the series branch, for anything else that
@@ -38,6 +40,8 @@ measurement that shows the effect best, suggested when the data cannot separate 
 Derivatives: for each hook it overrides, an effect provides ``d_<hook>``, which returns the hook's result
 and its derivative with respect to every parameter (forward mode, ``ecds_lab.model.tangents``); fits then
 use the exact Jacobian. An effect without them still works: its model's fits take finite differences.
+Where many of its parameters act through one quantity of its own (a moist former's moisture m(t)), the tangents
+may carry that quantity as one entry, unfolded at the end (``Effect.latent_tangents``).
 
 An effect that extends a simpler law declares ``simpler_form`` (parameter -> value giving that law):
 fits solve the simpler law first, then free those parameters from their own start values with the
@@ -183,6 +187,14 @@ class Effect:
         the fold holds all of those out. Default: none."""
         return {}
 
+    def latent_tangents(self, data: Measurements, p: Mapping[str, float]) -> dict[str, Tangent]:
+        """Quantities of the effect that many of its parameters act through (a moist former's moisture m(t)), each
+        with its derivative by parameter: name -> parameter -> d quantity / d parameter per row. Its derivative hooks
+        then carry one tangent entry for such a quantity instead of one per parameter, and the model's Jacobian
+        unfolds it at the end (``SensorModel.prediction_and_jacobian``): the same derivatives, fewer rows carried
+        through every stage. Names must not be parameter names. Default: none."""
+        return {}
+
     def identifies(self, data: Measurements) -> set[str]:
         """Baseline parameters this effect makes determinable in these data although the baseline
         alone would not (e.g. tau_T at one frequency once it changes with target temperature)."""
@@ -204,6 +216,10 @@ class Effect:
     def coupling_squared(self, k2: np.ndarray, inputs: Inputs, data: Measurements, p: Mapping[str, float],
                          coupling_hat: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
         return k2
+
+    def coil_inductance(self, l_h: np.ndarray, inputs: Inputs, data: Measurements,
+                        p: Mapping[str, float]) -> np.ndarray:
+        return l_h
 
     def series_inductance(self, l_h: np.ndarray, inputs: Inputs, data: Measurements,
                           p: Mapping[str, float]) -> np.ndarray:
@@ -260,6 +276,10 @@ class Effect:
         any distances whose tangent is ``dx``."""
         return self._identity("coupling_squared", k2, dk2)
 
+    def d_coil_inductance(self, l_h: np.ndarray, dl: Tangent, inputs: Inputs, d_inputs: InputTangents,
+                          data: Measurements, p: Mapping[str, float]) -> tuple[np.ndarray, Tangent]:
+        return self._identity("coil_inductance", l_h, dl)
+
     def d_series_inductance(self, l_h: np.ndarray, dl: Tangent, inputs: Inputs, d_inputs: InputTangents,
                             data: Measurements, p: Mapping[str, float]) -> tuple[np.ndarray, Tangent]:
         return self._identity("series_inductance", l_h, dl)
@@ -275,7 +295,7 @@ class Effect:
 
 #: The stage hooks an effect may override (each with its derivative hook ``d_<hook>``).
 HOOKS = ("effective_distance", "winding_temperature", "target_temperature", "target_tau", "coupling_squared",
-         "series_inductance", "coil_capacitance", "parallel_conductance")
+         "coil_inductance", "series_inductance", "coil_capacitance", "parallel_conductance")
 
 
 def register(cls: type[Effect]) -> type[Effect]:

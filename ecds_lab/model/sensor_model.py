@@ -107,6 +107,8 @@ class SensorModel:
         omega = 2 * np.pi * data.freq_hz
         d_coil = inputs.t_winding_c - sensor.reference_temperature_c
         l_coil = ecm.coil_inductance(p["L0"], p["alpha"], p["beta"], d_coil)
+        for effect in self.effects:
+            l_coil = effect.coil_inductance(l_coil, inputs, data, p)
         k2 = self.coupling_hat(inputs.x_m, p) ** 2
         for effect in self.effects:
             if effect.changes_coupling():
@@ -152,7 +154,11 @@ class SensorModel:
         The same pipeline as ``impedance``, each quantity carried with its tangent (forward mode); every
         effect's ``d_<hook>`` gives its part. Needs ``has_derivatives``.
         """
-        wanted = set(p) if names is None else set(names)
+        asked = set(p) if names is None else set(names)
+        latents: dict[str, Tangent] = {}
+        for effect in self.effects:
+            latents.update(effect.latent_tangents(data, p))
+        wanted = asked | set(latents)  # an effect's latent quantities are carried as one entry each, unfolded below
 
         def only(tangent: Tangent) -> Tangent:
             return {name: values for name, values in tangent.items() if name in wanted}
@@ -179,6 +185,15 @@ class SensorModel:
         l_coil = p["L0"] * shape
         own_l_coil = only({"L0": shape, "alpha": p["L0"] * d_coil, "beta": p["L0"] * d_coil**2})
         l_coil_by_t = p["L0"] * (p["alpha"] + 2 * p["beta"] * d_coil)
+        # L_coil's tangent itself, for the effects that change it (a few parameters: Eq. (4)'s, the winding's
+        # temperature's and the effect's own); else its parts enter the Jacobian folded, below
+        coil_hooked = any(type(effect).coil_inductance is not Effect.coil_inductance for effect in self.effects)
+        dl_coil: Tangent = {}
+        if coil_hooked:
+            dl_coil = plus(scaled(dtw, l_coil_by_t), own_l_coil)
+            for effect in self.effects:
+                l_coil, dl_coil = effect.d_coil_inductance(l_coil, dl_coil, inputs, d_inputs, data, p)
+                dl_coil = only(dl_coil)
         k_hat, dk_hat = self.coupling_hat_tangent(inputs.x_m, dx, p)
         k2 = k_hat**2
         # the coupling's tangent: k^'s (2 k^ then enters its factors), or k^2's itself where an effect reshapes k^2
@@ -201,7 +216,8 @@ class SensorModel:
             l_by_k = -l_coil * f_t
         hooked = any(type(effect).series_inductance is not Effect.series_inductance for effect in self.effects)
         if hooked:  # L_true's tangent itself, for the effects that change it
-            dl_coil = plus(scaled(dtw, l_coil_by_t), own_l_coil)
+            if not coil_hooked:
+                dl_coil = plus(scaled(dtw, l_coil_by_t), own_l_coil)
             dl_true = plus(scaled(dl_coil, l_by_l_coil), scaled(d_coupling, l_by_k), scaled(dtau, l_by_tau))
             for effect in self.effects:
                 l_true, dl_true = effect.d_series_inductance(l_true, dl_true, inputs, d_inputs, data, p)
@@ -236,12 +252,21 @@ class SensorModel:
             by_l_coil = by_l_coil + by_l * l_by_l_coil
             by_k = by_k + by_l * l_by_k
             by_tau = by_tau + by_l * l_by_tau
-        add_to(jacobian, own_l_coil, by_l_coil)
-        add_to(jacobian, dtw, by_l_coil * l_coil_by_t + by_r * sensor.resistance_ohm * sensor.resistance_tempco_per_k)
+        by_t_wire = by_r * sensor.resistance_ohm * sensor.resistance_tempco_per_k
+        if coil_hooked:
+            add_to(jacobian, dl_coil, by_l_coil)
+            add_to(jacobian, dtw, by_t_wire)
+        else:
+            add_to(jacobian, own_l_coil, by_l_coil)
+            add_to(jacobian, dtw, by_l_coil * l_coil_by_t + by_t_wire)
         add_to(jacobian, d_coupling, by_k)
         add_to(jacobian, dtau, by_tau)
         add_to(jacobian, dcap, -z2.real)
         add_to(jacobian, dcond, -z2.imag / omega)
+        for latent, by_parameter in latents.items():
+            through = jacobian.pop(latent, None)
+            if through is not None:
+                add_to(jacobian, {name: d for name, d in by_parameter.items() if name in asked}, through)
         return z.imag / omega, jacobian
 
     def predict(self, data: Measurements, p: Mapping[str, float], x_m: np.ndarray | None = None) -> np.ndarray:

@@ -133,6 +133,21 @@ def test_moisture_derivatives_without_bound_water(station: StationConfig, data: 
           inert=("sorption_width",))
 
 
+def test_a_swelling_former_and_its_moisture_carried_as_one_entry(station: StationConfig, data: Measurements) -> None:
+    """The swelling acts on the coil's L and the distance through the moisture, carried as one latent entry and
+    unfolded at the end (``Effect.latent_tangents``): exact for every parameter, for a subset of them as well, and
+    the latent entry never reaches the caller."""
+    model = SensorModel(station.sensor, ["parasitic_capacitance"])
+    p = moved(model.parameters(), {"moist_swelling": 2e-3, "moist_dC": 15e-12, "bound_share": 0.5})
+    check(model, data, p)
+    _, full = model.prediction_and_jacobian(data, p)
+    subset = ("drying_rate", "moist_swelling", "p1")
+    _, some = model.prediction_and_jacobian(data, p, names=subset)
+    assert set(some) == set(subset) and not any(name not in p for name in full)
+    for name in subset:
+        np.testing.assert_allclose(some[name], full[name], rtol=1e-12)
+
+
 def test_effects_chain_through_each_other(station: StationConfig, data: Measurements) -> None:
     """Several effects at once: stage-1 tangents reach tau_T(x), the lag reaches every L term."""
     model = SensorModel(station.sensor, ["former_expansion", "target_bending", "tau_displacement", "thermal_lag",

@@ -18,6 +18,15 @@ solve it first, then free b and s with the rest at its solution (``Effect.simple
 The coil's parallel capacitance is C_p + dC m and its loss conductance 1/R_p + dG m (Table 2:
 62.5 pF / 92 kOhm moist, 47.5 pF / 984 kOhm dry). Seen through L || C, the apparent L changes
 like 1/(1 - w^2 L C): strongly at 15 kHz, hardly at 500 Hz, and with hysteresis on cooling.
+Moisture also swells a porous former (hygral strain), and the winding on it with it: every length of the coil
+scaled by s = 1 + e (m - 1), e the moist former's strain against dry (m = 1 at the start). As for a thermal
+expansion (``former_expansion``), the coil's own inductance scales by s and the coupling is the cold coil's at the
+distance (x - p1) / s; early drying shrinks the coil, which is the paper's "initial decrease" of L_coil at 500 Hz
+(Sec. 4.2, Fig. 19), where the capacitance hardly shows. The same water swells the former and adds the
+capacitance, so the strain is a share of it: e = k dC / C_ref (``moist_swelling`` k, C_ref the larger of the dry
+C_p and 50 pF). Water in the pores raises the relative capacitance by ~16x its volume share (permittivity 80
+against a dry ceramic's ~5) and strains a clay or gypsum by ~1-5 % of it, so k ~ 6e-4 to 3e-3: a strain with
+hardly any capacitance (a gain that drifts in time, taken for a drying) is no swelling.
 """
 
 from __future__ import annotations
@@ -36,11 +45,15 @@ from ecds_lab.model.effects import Effect, Inputs, register
 from ecds_lab.model.library.history import relaxation, relaxation_derivatives
 from ecds_lab.model.library.remembered import Remembered
 from ecds_lab.model.parameters import Parameter
-from ecds_lab.model.tangents import InputTangents, Tangent, plus
+from ecds_lab.model.tangents import InputTangents, Tangent, chained, plus, scaled
 
 #: The parameters the moisture m(t) depends on.
 _MOISTURE_PARAMETERS = ("drying_rate", "drying_onset", "drying_width", "drying_order", "bound_share", "sorption_width")
 
+
+#: The moisture m(t) as the model's derivatives carry it: one entry, unfolded into its parameters at the end
+#: (``Effect.latent_tangents``).
+MOISTURE = "parasitic_capacitance.moisture"
 
 #: A moisture falling by less than this over a campaign (as a share of the start's) shows no drying temperature.
 FALL_SEEN = 1e-3
@@ -54,14 +67,24 @@ def _moisture_key(p: Mapping[str, float]) -> tuple[float, ...]:
 @register
 class ParasiticCapacitance(Effect):
     name = "parasitic_capacitance"
-    explains = "moisture in the former changes the coil's parallel capacitance as heating dries it"
+    explains = ("moisture in the former changes the coil's parallel capacitance (and swells the winding) as heating "
+                "dries it")
     #: Table 2: the moist former adds ~15 pF to the coil's 47.5 pF. Water fills only the pores of the former
     #: between the turns, so moisture adds at most about the dry inter-winding capacitance itself, which
     #: grows with the winding (a large coil's C_p is several times the paper's): up to the larger of 50 pF
     #: and the sensor's own C_p (set per sensor in ``__init__``). Water (relative permittivity ~80) in the
     #: pores can only add capacitance: a negative dC, capacitance that rises as the former dries, is no drying.
     plausible: ClassVar[dict[str, tuple[float, float]]] = {"moist_dC": (0.0, 50e-12)}
+    #: The strain per relative capacitance the water adds, k (module docstring: ~6e-4 to 3e-3), with room for a
+    #: field that sees the pores only in part (less capacitance for the same strain): up to 0.02. Water swells a
+    #: former, never shrinks it: a negative k only as far as noise puts a null one (the fit's lower bound too: a
+    #: negative strain follows the coupling as a thermal expansion does, where the bound water follows the
+    #: temperature).
+    PLAUSIBLE_SWELLING = (-5e-4, 0.02)
     key_parameters = ("moist_dC",)
+    #: The swelling only shapes how a drying shows (through L and the coupling, beside the capacitance): held where
+    #: the fit left it when the data determine it poorly, so it does not blur the capacitance's size.
+    nuisance_parameters = ("moist_swelling",)
     reveal = ("hold the coil at two or three temperatures for an hour each at 15 kHz, then cool it: drying "
               "changes L early in each heating, stops once the former holds its equilibrium moisture, and "
               "leaves a hysteresis on cooling")
@@ -82,8 +105,10 @@ class ParasiticCapacitance(Effect):
     def __init__(self, sensor: SensorConfig) -> None:
         super().__init__(sensor)
         limit = max(50e-12, sensor.capacitance_f)
-        self.plausible = {"moist_dC": (0.0, limit)}  # type: ignore[misc]  # per sensor, not per class
+        self.plausible = {"moist_dC": (0.0, limit),  # type: ignore[misc]  # per sensor, not per class
+                          "moist_swelling": self.PLAUSIBLE_SWELLING}
         self._dc_bound = max(1e-10, 2 * limit)
+        self._c_ref = limit
         # worked out once for the value and the derivatives a solver asks for at the same parameters
         self._timeline: Remembered[_Timeline] = Remembered()
         self._moisture: Remembered[np.ndarray] = Remembered()
@@ -104,17 +129,23 @@ class ParasiticCapacitance(Effect):
                       0.2),
             Parameter("sorption_width", 18.0, 1.0, 100.0, "K",
                       "warming s that lowers the bound water's equilibrium e-fold (p_sat: ~18 K)", 5.0),
+            Parameter("moist_swelling", 0.0, self.PLAUSIBLE_SWELLING[0], 0.05, "1",
+                      "strain of the winding on the moist former per capacitance the moisture adds (of C_ref)",
+                      5e-4),
         ]
 
     def unidentifiable(self, data: Measurements) -> dict[str, str]:
         span = float(np.ptp(data.t_coil_c)) if len(data) else 0.0
         if span < 10.0:
-            return {n: f"coil temperature span {span:.1f} K < 10 K"
-                    for n in ("moist_dC", "moist_dG", "drying_rate", "drying_onset", "drying_width", "drying_order",
-                              "bound_share", "sorption_width")}
+            return {q.name: f"coil temperature span {span:.1f} K < 10 K" for q in self.parameters()}
+        out: dict[str, str] = {}
         if float(data.freq_hz.max()) < 2000:
-            return {"moist_dG": "low frequencies only: the loss hardly changes L"}
-        return {}
+            out["moist_dG"] = "low frequencies only: the loss hardly changes L"
+        if len(np.unique(data.freq_hz)) < 2:
+            out["moist_swelling"] = ("one frequency: a strain changes L as the capacitance does in air and differs "
+                                     "from it only through the coupling, as a thermal expansion does; at two "
+                                     "frequencies the capacitance acts (f2/f1)^2 times more at the higher")
+        return out
 
     def signature(self, data: Measurements, values: Mapping[str, float]) -> tuple[float, dict[str, float]]:
         """ln of the drying rate at the coil temperature where the fitted former did its drying
@@ -226,12 +257,14 @@ class ParasiticCapacitance(Effect):
         return self._bound_water.get(data, key,
                                      lambda: relaxation(line.time_s, rate, equilibrium, 1.0, restart=line.restart))
 
+    def latent_tangents(self, data: Measurements, p: Mapping[str, float]) -> dict[str, Tangent]:
+        return {MOISTURE: self.moisture_derivatives(data, p)}
+
     def _with_moisture(self, value: np.ndarray, tangent: Tangent, size: str, data: Measurements,
                        p: Mapping[str, float]) -> tuple[np.ndarray, Tangent]:
-        """value + p[size] m and its tangent: m for the size, p[size] dm for the moisture's parameters."""
+        """value + p[size] m and its tangent: m for the size, p[size] for the moisture (``MOISTURE``)."""
         moisture = self.moisture(data, p)
-        own = {name: p[size] * values for name, values in self.moisture_derivatives(data, p).items()}
-        own[size] = moisture
+        own = {size: moisture, MOISTURE: np.full(len(moisture), p[size])}
         return value + p[size] * moisture, plus(tangent, own)
 
     def d_coil_capacitance(self, c_f: np.ndarray, dc: Tangent, inputs: Inputs, d_inputs: InputTangents,
@@ -241,6 +274,41 @@ class ParasiticCapacitance(Effect):
     def d_parallel_conductance(self, g_s: np.ndarray, dg: Tangent, inputs: Inputs, d_inputs: InputTangents,
                                data: Measurements, p: Mapping[str, float]) -> tuple[np.ndarray, Tangent]:
         return self._with_moisture(g_s, dg, "moist_dG", data, p)
+
+    def strain(self, p: Mapping[str, float]) -> float:
+        """e = k dC / C_ref: the moist former's strain of the winding against dry."""
+        return p["moist_swelling"] * p["moist_dC"] / self._c_ref
+
+    def _scale(self, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
+        """s = 1 + e (m - 1): the winding's size against its size on the moist former at the start."""
+        return 1.0 + self.strain(p) * (self.moisture(data, p) - 1.0)
+
+    def _scale_tangent(self, data: Measurements, p: Mapping[str, float]) -> Tangent:
+        """ds per parameter: (m - 1) de for the swelling and the capacitance, e for the moisture (``MOISTURE``)."""
+        wetter = self.moisture(data, p) - 1.0
+        return {"moist_swelling": wetter * p["moist_dC"] / self._c_ref,
+                "moist_dC": wetter * p["moist_swelling"] / self._c_ref, MOISTURE: np.full(len(wetter), self.strain(p))}
+
+    def effective_distance(self, x_m: np.ndarray, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
+        return p["p1"] + (x_m - p["p1"]) / self._scale(data, p)
+
+    def d_effective_distance(self, x_m: np.ndarray, dx: Tangent, data: Measurements,
+                             p: Mapping[str, float]) -> tuple[np.ndarray, Tangent]:
+        scale = self._scale(data, p)
+        finite = np.isfinite(x_m)
+        offset = np.where(finite, x_m - p["p1"], 0.0)
+        own = scaled(self._scale_tangent(data, p), -offset / scale**2)
+        own = plus(own, {"p1": np.where(finite, 1.0 - 1.0 / scale, 0.0)})
+        return p["p1"] + (x_m - p["p1"]) / scale, chained(dx, 1.0 / scale, own)
+
+    def coil_inductance(self, l_h: np.ndarray, inputs: Inputs, data: Measurements,
+                        p: Mapping[str, float]) -> np.ndarray:
+        return l_h * self._scale(data, p)
+
+    def d_coil_inductance(self, l_h: np.ndarray, dl: Tangent, inputs: Inputs, d_inputs: InputTangents,
+                          data: Measurements, p: Mapping[str, float]) -> tuple[np.ndarray, Tangent]:
+        scale = self._scale(data, p)
+        return l_h * scale, chained(dl, scale, scaled(self._scale_tangent(data, p), l_h))
 
     def coil_capacitance(self, c_f: np.ndarray, inputs: Inputs, data: Measurements,
                          p: Mapping[str, float]) -> np.ndarray:
