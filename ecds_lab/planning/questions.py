@@ -16,6 +16,11 @@
 - ``drift_alike``: a library effect would take the residual to the noise, but a slow drift of every reading in time
   between the sweeps explains it as well (``drift_alike``): that effect or a drift? Reported with the measurement
   that tells them apart (``Effect.reveal_beside_drift``), not designed for: no rival model describes the drift.
+- ``calibration_form``: at one frequency, a smooth calibration curve in x takes the residual's structure
+  (``calibration_form``): the calibration's form not following the sensor's coupling, or an effect the calibration
+  absorbs here (asked as ``not_excluded``, where a second frequency can decide)? Reported, not designed for: no
+  rival model describes a calibration's form. Like ``drift_alike``, the verdict counts such structure as explained
+  otherwise, so it raises no ``outside_library`` question.
 """
 
 from __future__ import annotations
@@ -26,6 +31,7 @@ from ecds_lab.analysis.diagnosis import Diagnosis
 from ecds_lab.analysis.diagnosis.advice import HOT_K
 from ecds_lab.analysis.diagnosis.advice import Design as CampaignDesign
 from ecds_lab.analysis.diagnosis.checks import tied
+from ecds_lab.analysis.diagnosis.identifiability import ABSORBED_WORDS
 from ecds_lab.analysis.diagnosis.verdict import outside_library as library_outside
 from ecds_lab.model.effects import EffectRegistry
 
@@ -92,6 +98,12 @@ def open_questions(result: Diagnosis, registry: EffectRegistry) -> list[OpenQues
         tells = f"; to tell them apart, {reveal}" if reveal else ""
         out.append(OpenQuestion("drift_alike", (name,), f"is it {name} or a slow drift in time between the sweeps: "
                                 f"each takes the residual to the noise{tells}"))
+    if result.calibration_form is not None:
+        absorbed = tuple(name for name, why in result.untestable.items() if ABSORBED_WORDS in why)
+        out.append(OpenQuestion("calibration_form", absorbed, "is the residual the calibration's form (Eq. (5)) not "
+                                "following this sensor's coupling, or an effect the calibration absorbs at one "
+                                "frequency" + (f" ({', '.join(absorbed)})" if absorbed else "")
+                                + ": a second frequency tells them apart"))
     if outside_library(result):
         where = "; ".join(f"{a.variable} ({a.detail})" for a in result.associations[:2])
         out.append(OpenQuestion("outside_library", (), f"a residual no library effect explains; it lives in {where}"))
@@ -129,6 +141,8 @@ def not_asked(result: Diagnosis, registry: EffectRegistry) -> dict[str, str]:
 
 def outside_library(result: Diagnosis) -> bool:
     """The verdict says a residual lies outside the library (docs/diagnosis.md, Verdict): not when a library effect
-    takes it that a drift in time explains as well (``drift_alike``)."""
+    takes it that a drift in time explains as well (``drift_alike``), nor when a smooth calibration curve in x takes
+    it (``calibration_form``), as the verdict has it."""
     return (result.structure is not None and not result.limits_reached and not result.drift_alike
+            and result.calibration_form is None
             and library_outside(result.final, result.noise, result.structure, result.associations))

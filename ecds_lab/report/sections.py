@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from ecds_lab.analysis.associations import BEYOND_CHANCE, Association
 from ecds_lab.analysis.quantities import (
     MODEL_FAILS,
     MODEL_FAILS_FACTOR,
@@ -277,9 +278,8 @@ def diagnosis_section(findings: Findings) -> Parts:
                  "passes" if c.passes else "; ".join(c.rejected)) for c in candidates]
         ranking = table(("effect", "RMS (ppm)", "held-out RMS (ppm)", "ΔBIC", "checks"), rows,
                         caption="Candidates against the given model")
-        associations = table(("variable", "score", "detail"),
-                             [(a.variable, f"{a.score:.2f}", a.detail) for a in diagnosis.associations],
-                             caption="Where the final model's residual lives (share of it each variable explains)")
+        associations = _associations_table(diagnosis.associations, "Where the final model's residual lives (share "
+                                                                    "of it each variable explains)")
         parts.append(side_by_side(ranking, associations))
     elif getattr(diagnosis, "untestable", None):
         parts.append(table(("effect", "why these data cannot test it"), sorted(diagnosis.untestable.items()),
@@ -318,10 +318,19 @@ def _other_diagnoses(findings: Findings) -> Parts:
         if steps:
             parts.append(_chain_table(steps, diagnosis.noise_ppm))
         if diagnosis.associations:
-            parts.append(table(("variable", "score", "detail"),
-                               [(a.variable, f"{a.score:.2f}", a.detail) for a in diagnosis.associations],
-                               caption=f"Where the {material} target's final residual lives"))
+            parts.append(_associations_table(diagnosis.associations, f"Where the {material} target's final residual "
+                                                                     "lives"))
     return parts
+
+
+def _associations_table(associations: Sequence[Association], caption: str) -> Html:
+    """Where the residual lives, with how far beyond chance each variable's share is; where none is (beyond
+    BEYOND_CHANCE standard deviations), the caption says the residual is noise, so no share reads as a finding."""
+    if not any(a.significance > BEYOND_CHANCE for a in associations):
+        caption += f" (none is beyond chance, {BEYOND_CHANCE:g} sd: the residual is noise)"
+    return table(("variable", "score", "beyond chance (sd)", "detail"),
+                 [(a.variable, f"{a.score:.2f}", f"{a.significance:+.1f}", a.detail) for a in associations],
+                 caption=caption)
 
 
 def _glitches_note(diagnosis: Any, group: TargetGroup | None) -> str:

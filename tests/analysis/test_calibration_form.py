@@ -10,7 +10,13 @@ import dataclasses
 import numpy as np
 import pytest
 
+from ecds_lab import shipped
 from ecds_lab.analysis.diagnosis import run_diagnosis
+from ecds_lab.config.loading import parse_yaml, read_text, validate
+from ecds_lab.config.station import StationConfig
+from ecds_lab.model.effects import library
+from ecds_lab.planning.choice import plan_next
+from ecds_lab.planning.questions import open_questions
 from ecds_lab.simulators import campaign
 from ecds_lab.simulators.config import LabConfig
 from ecds_lab.simulators.lab import SimulatedLab
@@ -24,14 +30,32 @@ def assert_the_calibrations_form(result) -> None:
     assert "calibration's form" in result.explanation and "x_mm" in result.explanation
 
 
-def test_a_steel_plate_over_nine_positions_at_one_frequency_is_the_calibrations_form():
+@pytest.fixture(scope="module")
+def steel_at_one_frequency():
     """Validation study seed 2031 case 2 drawn on steel: nothing switched on, the target heated once, nine positions
-    at 15 kHz; the ECM leaves 80 ppm (4.3x the noise) in x, and magnetic_depth's curvature is absorbed by the same
-    curve there (untestable): it was a false alarm, 'outside the library'."""
+    at 15 kHz."""
     case = draw_case(2, 2031, ("steel",))
-    result = run_diagnosis(measure(case), (), sensor_of(case))
-    assert "magnetic_depth" in result.untestable
-    assert_the_calibrations_form(result)
+    return run_diagnosis(measure(case), (), sensor_of(case))
+
+
+def test_a_steel_plate_over_nine_positions_at_one_frequency_is_the_calibrations_form(steel_at_one_frequency):
+    """The ECM leaves 80 ppm (4.3x the noise) in x, and magnetic_depth's curvature is absorbed by the same curve
+    there (untestable): it was a false alarm, 'outside the library'."""
+    assert "magnetic_depth" in steel_at_one_frequency.untestable
+    assert_the_calibrations_form(steel_at_one_frequency)
+
+
+def test_plan_next_asks_a_second_frequency_where_the_calibrations_form_takes_the_residual(steel_at_one_frequency):
+    """The calibration's form is not a residual outside the library (no experiment could change that), but a
+    question a second frequency answers: plan-next asks it and designs for the effect the calibration absorbs."""
+    questions = open_questions(steel_at_one_frequency, library())
+    kinds = {q.kind: q for q in questions}
+    assert "outside_library" not in kinds and "magnetic_depth" in kinds["calibration_form"].effects, questions
+    station = shipped.station()
+    plan = plan_next(steel_at_one_frequency, library(),
+                     validate(str(station), parse_yaml(read_text(station), str(station)), StationConfig))
+    assert plan.chosen is not None, plan.why
+    assert set(plan.chosen.candidate.settings()["sweep"]["frequencies_hz"]) - {15000.0}, plan.chosen.candidate.what
 
 
 def test_a_small_coil_at_500_hz_alone_is_the_calibrations_form():

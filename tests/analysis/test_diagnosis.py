@@ -6,6 +6,7 @@ import json
 
 import pytest
 
+from ecds_lab.analysis.associations import BEYOND_CHANCE
 from ecds_lab.analysis.diagnosis import FAILING_RATIO, diagnose, format_diagnosis, run_diagnosis
 from ecds_lab.cli import main
 from ecds_lab.model.effects import EFFECT_NAMES
@@ -27,6 +28,16 @@ def test_no_hidden_effect_is_judged_adequate(campaign_with):
     assert report["verdict"] == "adequate", report["explanation"]
     assert report["baseline"]["rmse_ppm"] <= FAILING_RATIO * report["noise_ppm"]
     assert "noise level" in report["explanation"]
+    # where a residual at the noise lives is no measurement: the summary says its associations are the noise's
+    assert all(a["significance"] <= BEYOND_CHANCE for a in report["associations"])
+    assert "none is beyond chance" in format_diagnosis(report)
+
+
+def test_a_residual_with_a_place_is_located_without_the_noise_caveat(campaign_with, metal_object):
+    report = diagnose(metal_object(campaign_with()))
+    assert report["associations"][0]["variable"] == "x_mm"
+    assert report["associations"][0]["significance"] > BEYOND_CHANCE
+    assert "none is beyond chance" not in format_diagnosis(report)
 
 
 def test_the_noise_is_estimated_from_the_data(campaign_with):

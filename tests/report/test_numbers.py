@@ -53,3 +53,13 @@ def test_no_position_error_from_a_failing_model_is_a_length(campaign_report):
 def test_parameters_are_shown_with_si_prefixes_not_long_decimals_or_a_unit_one(campaign_report, pattern):
     tables = "".join(re.findall(r'<table class="params">.*?</table>', campaign_report.html, re.S))
     assert tables and not re.search(pattern, tables.replace("</td>", " |"))
+
+
+def test_where_the_residual_lives_says_how_far_beyond_chance(campaign_report):
+    """Each variable's share of the final residual is shown with how far beyond chance it is, so a share of noise
+    does not read as a finding (the caption says so where none is beyond chance)."""
+    caption = "Where the final model"
+    rows = _rows(_table(campaign_report.html, caption))
+    assert rows and all(re.fullmatch(r"[+-][0-9]+\.[0-9]", cells[2]) for cells in rows.values()), rows
+    beyond = any(float(cells[2]) > 3.0 for cells in rows.values())
+    assert ("none is beyond chance" in _table(campaign_report.html, caption)) is not beyond

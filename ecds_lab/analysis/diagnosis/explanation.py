@@ -6,6 +6,7 @@ import math
 from itertools import pairwise
 from typing import Any
 
+from ecds_lab.analysis.associations import BEYOND_CHANCE
 from ecds_lab.analysis.diagnosis.identifiability import ABSORBED_WORDS
 from ecds_lab.analysis.diagnosis.result import Diagnosis, Step, figure_from_json
 from ecds_lab.analysis.diagnosis.structure import ResidualStructure
@@ -197,8 +198,11 @@ def format_diagnosis(report: dict[str, Any]) -> str:
         cv = f"  held-out {c['cv_rmse_ppm']:.1f} ppm" if c.get("cv_rmse_ppm") is not None else ""
         status = "passes" if c.get("passes") else "rejected: " + "; ".join(c.get("rejected_because", []))
         lines.append(f"  {c['effect']:24s} {c['rmse_ppm']:9.1f} ppm  delta BIC {c['delta_bic']:+10.1f}{cv}  {status}")
-    lines += ["", "where the residual lives (strongest first):"]
-    lines += [f"  {a['variable']:20s} {a['score']:.2f}  {a['detail']}" for a in report["associations"]]
+    beyond = [a for a in report["associations"] if a.get("significance", 0.0) > BEYOND_CHANCE]
+    lines += ["", "where the residual lives (strongest first"
+              + ("):" if beyond else f"; none is beyond chance, {BEYOND_CHANCE:g} sd: the residual is noise):")]
+    lines += [f"  {a['variable']:20s} {a['score']:.2f}  {a.get('significance', 0.0):+6.1f} sd  {a['detail']}"
+              for a in report["associations"]]
     if report.get("outliers"):
         lines += ["", "excluded readings:"] + [f"  row {o['row']}: {o['reason']}" for o in report["outliers"]]
     if report.get("alternatives"):
