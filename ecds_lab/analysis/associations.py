@@ -36,6 +36,8 @@ WITHIN_PHASE = ("time_s", "coil_rate_k_per_min")
 CONFOUNDED = 4
 #: What time explains beyond a state variable must be this many standard deviations beyond chance to rank it first.
 BEYOND_CHANCE = 3.0
+#: What a summary says where no variable's share of the residual is beyond chance.
+NONE_BEYOND_CHANCE = f"none is beyond chance, {BEYOND_CHANCE:g} sd: the residual is noise"
 
 
 @dataclass(frozen=True)

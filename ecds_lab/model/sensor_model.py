@@ -185,12 +185,12 @@ class SensorModel:
         l_coil = p["L0"] * shape
         own_l_coil = only({"L0": shape, "alpha": p["L0"] * d_coil, "beta": p["L0"] * d_coil**2})
         l_coil_by_t = p["L0"] * (p["alpha"] + 2 * p["beta"] * d_coil)
-        # L_coil's tangent itself, for the effects that change it (a few parameters: Eq. (4)'s, the winding's
-        # temperature's and the effect's own); else its parts enter the Jacobian folded, below
+        # L_coil's tangent itself, for the effects that change it or L_true (a few parameters: Eq. (4)'s, the
+        # winding's temperature's and the effects' own); else its parts enter the Jacobian folded, below
         coil_hooked = any(type(effect).coil_inductance is not Effect.coil_inductance for effect in self.effects)
-        dl_coil: Tangent = {}
+        hooked = any(type(effect).series_inductance is not Effect.series_inductance for effect in self.effects)
+        dl_coil: Tangent = plus(scaled(dtw, l_coil_by_t), own_l_coil) if coil_hooked or hooked else {}
         if coil_hooked:
-            dl_coil = plus(scaled(dtw, l_coil_by_t), own_l_coil)
             for effect in self.effects:
                 l_coil, dl_coil = effect.d_coil_inductance(l_coil, dl_coil, inputs, d_inputs, data, p)
                 dl_coil = only(dl_coil)
@@ -214,10 +214,7 @@ class SensorModel:
         l_by_l_coil, l_by_k, l_by_tau = 1.0 - k2 * f_t, -l_coil * f_t * 2 * k_hat, -l_coil * k2 * f_t_by_tau
         if reshaped:
             l_by_k = -l_coil * f_t
-        hooked = any(type(effect).series_inductance is not Effect.series_inductance for effect in self.effects)
         if hooked:  # L_true's tangent itself, for the effects that change it
-            if not coil_hooked:
-                dl_coil = plus(scaled(dtw, l_coil_by_t), own_l_coil)
             dl_true = plus(scaled(dl_coil, l_by_l_coil), scaled(d_coupling, l_by_k), scaled(dtau, l_by_tau))
             for effect in self.effects:
                 l_true, dl_true = effect.d_series_inductance(l_true, dl_true, inputs, d_inputs, data, p)

@@ -31,7 +31,6 @@ from ecds_lab.analysis.diagnosis import Diagnosis
 from ecds_lab.analysis.diagnosis.advice import HOT_K
 from ecds_lab.analysis.diagnosis.advice import Design as CampaignDesign
 from ecds_lab.analysis.diagnosis.checks import tied
-from ecds_lab.analysis.diagnosis.identifiability import ABSORBED_WORDS
 from ecds_lab.analysis.diagnosis.verdict import outside_library as library_outside
 from ecds_lab.model.effects import EffectRegistry
 
@@ -99,7 +98,7 @@ def open_questions(result: Diagnosis, registry: EffectRegistry) -> list[OpenQues
         out.append(OpenQuestion("drift_alike", (name,), f"is it {name} or a slow drift in time between the sweeps: "
                                 f"each takes the residual to the noise{tells}"))
     if result.calibration_form is not None:
-        absorbed = tuple(name for name, why in result.untestable.items() if ABSORBED_WORDS in why)
+        absorbed = tuple(result.absorbed)
         out.append(OpenQuestion("calibration_form", absorbed, "is the residual the calibration's form (Eq. (5)) not "
                                 "following this sensor's coupling, or an effect the calibration absorbs at one "
                                 "frequency" + (f" ({', '.join(absorbed)})" if absorbed else "")

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from ecds_lab.analysis.associations import BEYOND_CHANCE, Association
+from ecds_lab.analysis.associations import BEYOND_CHANCE, NONE_BEYOND_CHANCE, Association
 from ecds_lab.analysis.quantities import (
     MODEL_FAILS,
     MODEL_FAILS_FACTOR,
@@ -327,7 +327,7 @@ def _associations_table(associations: Sequence[Association], caption: str) -> Ht
     """Where the residual lives, with how far beyond chance each variable's share is; where none is (beyond
     BEYOND_CHANCE standard deviations), the caption says the residual is noise, so no share reads as a finding."""
     if not any(a.significance > BEYOND_CHANCE for a in associations):
-        caption += f" (none is beyond chance, {BEYOND_CHANCE:g} sd: the residual is noise)"
+        caption += f" ({NONE_BEYOND_CHANCE})"
     return table(("variable", "score", "beyond chance (sd)", "detail"),
                  [(a.variable, f"{a.score:.2f}", f"{a.significance:+.1f}", a.detail) for a in associations],
                  caption=caption)

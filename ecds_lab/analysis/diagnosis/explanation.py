@@ -6,8 +6,7 @@ import math
 from itertools import pairwise
 from typing import Any
 
-from ecds_lab.analysis.associations import BEYOND_CHANCE
-from ecds_lab.analysis.diagnosis.identifiability import ABSORBED_WORDS
+from ecds_lab.analysis.associations import BEYOND_CHANCE, NONE_BEYOND_CHANCE
 from ecds_lab.analysis.diagnosis.result import Diagnosis, Step, figure_from_json
 from ecds_lab.analysis.diagnosis.structure import ResidualStructure
 from ecds_lab.analysis.diagnosis.verdict import FAILING_RATIO, STRUCTURE_SIGNIFICANCE, noise_ratio, outside_library
@@ -113,7 +112,7 @@ def explain(result: Diagnosis, registry: EffectRegistry | None = None) -> str:
         untested = "; ".join(f"{k}: {v}" for k, v in result.untestable.items())
         lines.append(f"These data cannot test the library's effects ({untested}); the diagnosis is inconclusive.")
     elif outside and result.calibration_form is not None and structure is not None:
-        absorbed = sorted(name for name, why in result.untestable.items() if ABSORBED_WORDS in why)
+        absorbed = sorted(result.absorbed)
         lines.append(("Even so the residual stays " if len(result.steps) > 1 else "The residual stays ")
                      + f"{final_ratio:.1f}x the noise{_own_noise(structure, final_ratio)} with structure "
                      f"{_significance(result):.0f} standard deviations beyond chance, but a smooth calibration curve "
@@ -200,7 +199,7 @@ def format_diagnosis(report: dict[str, Any]) -> str:
         lines.append(f"  {c['effect']:24s} {c['rmse_ppm']:9.1f} ppm  delta BIC {c['delta_bic']:+10.1f}{cv}  {status}")
     beyond = [a for a in report["associations"] if a.get("significance", 0.0) > BEYOND_CHANCE]
     lines += ["", "where the residual lives (strongest first"
-              + ("):" if beyond else f"; none is beyond chance, {BEYOND_CHANCE:g} sd: the residual is noise):")]
+              + ("):" if beyond else f"; {NONE_BEYOND_CHANCE}):")]
     lines += [f"  {a['variable']:20s} {a['score']:.2f}  {a.get('significance', 0.0):+6.1f} sd  {a['detail']}"
               for a in report["associations"]]
     if report.get("outliers"):

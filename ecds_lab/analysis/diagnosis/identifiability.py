@@ -32,6 +32,7 @@ import numpy as np
 from scipy.interpolate import BSpline
 
 from ecds_lab.analysis.diagnosis.checks import MIN_CHI2_GAIN
+from ecds_lab.analysis.diagnosis.result import ABSORBED_WORDS
 from ecds_lab.analysis.noise import NoiseEstimate
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.data.sensor import SensorConfig
@@ -44,8 +45,6 @@ from ecds_lab.model.sensor_model import SensorModel
 #: full width, read every 4 mm at one frequency, was taken as well; with 6 it stays outside the library, while the
 #: broad misfit of a sensor Eq. (5) does not follow (a steel plate over 9 positions, a 30 mm coil at 500 Hz) is taken.
 FORM_BASIS = 6
-#: How ``absorbed`` says it in an effect's reason for being untestable (the explanation lists those effects).
-ABSORBED_WORDS = "absorbed by the calibration"
 #: A key parameter whose column keeps less than this share of its norm after the projection is absorbed.
 ABSORBED_SHARE = 0.1
 #: Baseline parameters the rules may fix that the data can still determine (positive by nature).

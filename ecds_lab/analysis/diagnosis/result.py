@@ -17,6 +17,9 @@ from ecds_lab.analysis.quantities import PositionErrorFigure, chain_position_err
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.model.effects import Effect
 
+#: How ``identifiability.absorbed`` says it in an effect's reason for being untestable (``Diagnosis.absorbed``).
+ABSORBED_WORDS = "absorbed by the calibration"
+
 #: Friendlier display units for parameters in explanations: name -> (unit, factor).
 DISPLAY_UNITS = {"bending": ("um/K", 1e6), "bending_quadratic": ("um/K^2", 1e6), "backlash": ("um", 1e6),
                  "moist_dC": ("pF", 1e12), "moist_dG": ("uS", 1e6), "tau_tempco": ("%/K", 100.0),
@@ -175,6 +178,11 @@ class Diagnosis:
     def evidence_noise(self) -> NoiseEstimate:
         """The noise chi-square gains between candidate models are stated in: the search's (``searched_noise``)."""
         return self.searched_noise if self.searched_noise is not None else self.noise
+
+    @property
+    def absorbed(self) -> list[str]:
+        """Untestable effects whose signature the calibration absorbs in these data, in ``untestable``'s order."""
+        return [name for name, why in self.untestable.items() if ABSORBED_WORDS in why]
 
     @property
     def noise_ppm(self) -> float:

@@ -283,21 +283,23 @@ class ParasiticCapacitance(Effect):
         """s = 1 + e (m - 1): the winding's size against its size on the moist former at the start."""
         return 1.0 + self.strain(p) * (self.moisture(data, p) - 1.0)
 
-    def _scale_tangent(self, data: Measurements, p: Mapping[str, float]) -> Tangent:
-        """ds per parameter: (m - 1) de for the swelling and the capacitance, e for the moisture (``MOISTURE``)."""
-        wetter = self.moisture(data, p) - 1.0
-        return {"moist_swelling": wetter * p["moist_dC"] / self._c_ref,
-                "moist_dC": wetter * p["moist_swelling"] / self._c_ref, MOISTURE: np.full(len(wetter), self.strain(p))}
+    def _scale_and_tangent(self, data: Measurements, p: Mapping[str, float]) -> tuple[np.ndarray, Tangent]:
+        """s (``_scale``) and ds per parameter: (m - 1) de for the swelling and the capacitance, e for the moisture
+        (``MOISTURE``)."""
+        strain, wetter = self.strain(p), self.moisture(data, p) - 1.0
+        return 1.0 + strain * wetter, {"moist_swelling": wetter * p["moist_dC"] / self._c_ref,
+                                       "moist_dC": wetter * p["moist_swelling"] / self._c_ref,
+                                       MOISTURE: np.full(len(wetter), strain)}
 
     def effective_distance(self, x_m: np.ndarray, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
         return p["p1"] + (x_m - p["p1"]) / self._scale(data, p)
 
     def d_effective_distance(self, x_m: np.ndarray, dx: Tangent, data: Measurements,
                              p: Mapping[str, float]) -> tuple[np.ndarray, Tangent]:
-        scale = self._scale(data, p)
+        scale, d_scale = self._scale_and_tangent(data, p)
         finite = np.isfinite(x_m)
         offset = np.where(finite, x_m - p["p1"], 0.0)
-        own = scaled(self._scale_tangent(data, p), -offset / scale**2)
+        own = scaled(d_scale, -offset / scale**2)
         own = plus(own, {"p1": np.where(finite, 1.0 - 1.0 / scale, 0.0)})
         return p["p1"] + (x_m - p["p1"]) / scale, chained(dx, 1.0 / scale, own)
 
@@ -307,8 +309,8 @@ class ParasiticCapacitance(Effect):
 
     def d_coil_inductance(self, l_h: np.ndarray, dl: Tangent, inputs: Inputs, d_inputs: InputTangents,
                           data: Measurements, p: Mapping[str, float]) -> tuple[np.ndarray, Tangent]:
-        scale = self._scale(data, p)
-        return l_h * scale, chained(dl, scale, scaled(self._scale_tangent(data, p), l_h))
+        scale, d_scale = self._scale_and_tangent(data, p)
+        return l_h * scale, chained(dl, scale, scaled(d_scale, l_h))
 
     def coil_capacitance(self, c_f: np.ndarray, inputs: Inputs, data: Measurements,
                          p: Mapping[str, float]) -> np.ndarray:
