@@ -485,7 +485,9 @@ def _solve(model: SensorModel, data: Measurements, params: Sequence[Parameter],
     retain_freed_memory()  # the model's arrays are reused between evaluations, not faulted in anew (``heap``)
     # The trust-region step factors the tall n x k Jacobian (cost linear in n); on one BLAS thread,
     # since threads only contend on a matrix this thin (``blas_threads``), and through its QR (``tall_svd``).
-    with one_blas_thread(), tall_svd():
+    # A column the current solution leaves flat (a drying's rate at the start temperature where the onset lies far
+    # above it) divides by zero inside the trust-region step: scipy takes the infinite slope, so it is not warned of.
+    with one_blas_thread(), tall_svd(), np.errstate(divide="ignore"):
         result = least_squares(residuals, theta0, jac=jac, bounds=(lower, upper), method="trf", x_scale=1.0,
                                ftol=cost_tolerance, xtol=tolerance, gtol=tolerance, max_nfev=budget * (len(theta0) + 1))
     return result, scaling
@@ -638,8 +640,9 @@ def _covariance(jac: np.ndarray, residuals: np.ndarray, dof: int) -> np.ndarray:
     s2 = float(residuals @ residuals) / dof
     e = _NormalEigen.of(jac)
     kept = e.vectors[:, ~e.tiny]
-    cov = (kept / e.eigenvalues[~e.tiny]) @ kept.T / np.outer(e.norms, e.norms)
-    unconstrained = e.dead | (np.abs(e.vectors[:, e.tiny]) > 0.01).any(axis=1)
+    with np.errstate(over="ignore", invalid="ignore"):  # a column all but dead (norm ~1e-160): its variance is inf
+        cov = (kept / e.eigenvalues[~e.tiny]) @ kept.T / np.outer(e.norms, e.norms)
+    unconstrained = e.dead | (np.abs(e.vectors[:, e.tiny]) > 0.01).any(axis=1) | ~np.isfinite(np.diag(cov))
     cov[unconstrained, :] = np.inf
     cov[:, unconstrained] = np.inf
     return s2 * cov
@@ -661,13 +664,15 @@ def combination_stderr(fit: FitResult, gradient: Mapping[str, float]) -> float:
     e = _NormalEigen.of(fit.jacobian)
     if (g[e.dead] != 0).any():
         return math.inf
-    scaled = g / e.norms
-    along = e.vectors.T @ scaled
-    if float(along[e.tiny] @ along[e.tiny]) > 1e-4 * float(scaled @ scaled):
-        return math.inf
-    effective = fit.effective_residuals_ppm
-    s2 = float(effective @ effective) / fit.dof
-    return math.sqrt(s2 * float(np.sum(along[~e.tiny] ** 2 / e.eigenvalues[~e.tiny])))
+    with np.errstate(over="ignore", invalid="ignore"):  # a gradient on an all but dead column (norm ~1e-160): inf
+        scaled = g / e.norms
+        along = e.vectors.T @ scaled
+        if not np.isfinite(along).all() or float(along[e.tiny] @ along[e.tiny]) > 1e-4 * float(scaled @ scaled):
+            return math.inf
+        effective = fit.effective_residuals_ppm
+        s2 = float(effective @ effective) / fit.dof
+        variance = s2 * float(np.sum(along[~e.tiny] ** 2 / e.eigenvalues[~e.tiny]))
+    return math.sqrt(variance) if math.isfinite(variance) else math.inf
 
 
 def _finite_or_none(value: float) -> float | None:

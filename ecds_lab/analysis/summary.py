@@ -400,11 +400,12 @@ def format_fit_summary(summary: dict[str, Any]) -> str:
                      "the model lacks)")
     lines += [f"  warning: {text}" for text in summary.get("noise_warnings", [])]
     lines.append("  parameters:")
+    width = max([14, *(len(name) for name in summary["params"])])
     for name, p in summary["params"].items():
         shown = p.get("shown") or format_quantity(p["value"], p["unit"], p["stderr"])
         status = p.get("status", "")
         reason = f" ({p['status_reason']})" if p.get("status_reason") else ""
-        lines.append(f"    {name:<14} {shown:<26} {status}{reason}")
+        lines.append(f"    {name:<{width}} {shown:<26} {status}{reason}")
     for cal in summary.get("calibration", []):
         lines.append(f"  calibration at {cal['freq_hz']:g} Hz:")
         for label in ("all_points", f"n{FEW_POINTS}"):

@@ -64,6 +64,8 @@ from ecds_lab.model.tangents import InputTangents, Tangent
 
 log = logging.getLogger("ecds_lab.model")
 
+#: Why an effect holds a parameter at the value the sensor description gives: known, not left open by the data.
+GIVEN_BY_SENSOR = "given by the sensor description"
 #: The effect names DESIGN.md fixes (the contract of ``--effects`` and of the diagnosis).
 EFFECT_NAMES = ("target_tau_temperature", "tau_displacement", "target_bending",
                 "parasitic_capacitance", "thermal_lag", "slide_backlash", "former_expansion")

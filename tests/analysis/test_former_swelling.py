@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import pytest
 
+from ecds_lab.analysis.diagnosis import run_diagnosis
 from ecds_lab.analysis.fitting import fit_model
 from ecds_lab.model.sensor_model import SensorModel
 from ecds_lab.study.campaigns import measure, sensor_of
@@ -34,3 +35,17 @@ def test_the_swelling_is_measured_near_its_size(moist_former_at_two_frequencies)
     assert DOCUMENTED_STRAIN / 2 < strain < 2 * DOCUMENTED_STRAIN, strain
     assert free.values["moist_dC"] == pytest.approx(15e-12, rel=0.2)  # the documented 15 pF
     assert free.rms_ppm < 0.8 * held.rms_ppm, (free.rms_ppm, held.rms_ppm)
+
+
+def test_at_one_frequency_an_expansion_is_not_claimed_for_the_swelling_held():
+    """Validation study seed 2037 case 57 (small coil): a moist former alone at 15 kHz, swept with the coil hot.
+    The swelling is held at one frequency, so the strain drying leaves in the winding shows on the hot sweep as a
+    change of the coupling an expansion of the former makes alike: it used to be claimed as one. Now the held
+    swelling's column is projected out with the calibration's, and the expansion is untestable beside the drying."""
+    case = draw_case(57, 2037, ("small_coil",))
+    assert case.truths == ("moisture",) and case.design.frequencies_hz == (15000.0,)
+    assert case.design.coil_setpoints_c  # the coil heated, then swept hot
+    result = run_diagnosis(measure(case), (), sensor_of(case))
+    assert "parasitic_capacitance" in result.claimed, result.explanation
+    assert "former_expansion" not in result.claimed, result.explanation
+    assert "the held moist_swelling" in result.untestable["former_expansion"], result.untestable

@@ -36,7 +36,7 @@ from ecds_lab.analysis.diagnosis.result import ABSORBED_WORDS
 from ecds_lab.analysis.noise import NoiseEstimate
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.data.sensor import SensorConfig
-from ecds_lab.model.effects import Effect, EffectRegistry
+from ecds_lab.model.effects import GIVEN_BY_SENSOR, Effect, EffectRegistry
 from ecds_lab.model.parameters import Parameter, values_of
 from ecds_lab.model.sensor_model import SensorModel
 
@@ -124,12 +124,24 @@ def calibration_basis(model: SensorModel, data: Measurements, values: Mapping[st
 
 
 def calibration_space(model: SensorModel, data: Measurements, values: Mapping[str, float], free: Sequence[str],
-                      noise: NoiseEstimate) -> np.ndarray:
+                      noise: NoiseEstimate, held: Sequence[str] = ()) -> np.ndarray:
     """The columns a calibration can follow (weighed by each reading's noise): the current model's free
-    parameters and the smooth change of the coupling with x (``calibration_basis``). One per round."""
+    parameters and the smooth change of the coupling with x (``calibration_basis``), then those of the ``held``
+    nuisance parameters (``held_nuisances``), last. One per round."""
     steps = _steps(model.parameters())
-    block = np.hstack([columns(model, data, values, list(free), steps), calibration_basis(model, data, values)])
+    block = np.hstack([columns(model, data, values, list(free), steps), calibration_basis(model, data, values),
+                       columns(model, data, values, list(held), steps)])
     return block * _weights(data, noise)
+
+
+def held_nuisances(model: SensorModel, data: Measurements) -> list[str]:
+    """The nuisance parameters of ``model``'s acting effects (a key parameter free) that these data leave it holding
+    (``unidentifiable``) at a value nothing gives: what a candidate explains only through that value is no evidence
+    for it (at one frequency the drying's swelling is held at 0, and an expansion would take its strain of the
+    coupling). A value the sensor description gives (a plate's thickness, ``GIVEN_BY_SENSOR``) is known, not open."""
+    held = model.unidentifiable(data)
+    return [name for effect in model.effects if not set(effect.key_names()) <= set(held)
+            for name in effect.nuisance_parameters if name in held and held[name] != GIVEN_BY_SENSOR]
 
 
 def _weights(data: Measurements, noise: NoiseEstimate) -> np.ndarray:
@@ -153,9 +165,10 @@ def beyond_calibration(model: SensorModel, data: Measurements, values: Mapping[s
 
 
 def absorbed(model: SensorModel, data: Measurements, values: Mapping[str, float], space: np.ndarray,
-             noise: NoiseEstimate) -> str | None:
+             noise: NoiseEstimate, held: Sequence[str] = ()) -> str | None:
     """Why the last effect of ``model`` is untestable here (its signature absorbed by ``space``, the
-    ``calibration_space`` of the current model), or None.
+    ``calibration_space`` of the current model with the ``held`` nuisance parameters' columns last), or None.
+    The reason names the held parameters where without them the signature would not be absorbed.
 
     ``values``: the current solution with the effect's own parameters at their starts."""
     effect = model.effects[-1]
@@ -165,11 +178,17 @@ def absorbed(model: SensorModel, data: Measurements, values: Mapping[str, float]
     norms = np.linalg.norm(target, axis=0)
     if not (norms > 0).any():
         return "its signature moves none of these readings"
-    left = np.linalg.norm(_project_out(space, target), axis=0)
-    share = float(np.max(np.divide(left, norms, out=np.zeros_like(left), where=norms > 0)))
+
+    def share_left(columns_of: np.ndarray) -> float:
+        left = np.linalg.norm(_project_out(columns_of, target), axis=0)
+        return float(np.max(np.divide(left, norms, out=np.zeros_like(left), where=norms > 0)))
+
+    share = share_left(space)
     if share >= ABSORBED_SHARE or _predicted_action_visible(model, data, values, space, noise):
         return None
-    return (f"its signature is {ABSORBED_WORDS} in these data (after the baseline and a smooth "
+    by_held = bool(held) and share_left(space[:, :-len(held)]) >= ABSORBED_SHARE
+    beside = "".join(f", the held {name}" for name in held) if by_held else ""
+    return (f"its signature is {ABSORBED_WORDS} in these data (after the baseline{beside} and a smooth "
             f"calibration curve in x take what they can, {share:.0%} of it is left)")
 
 

@@ -70,6 +70,7 @@ from ecds_lab.analysis.diagnosis.identifiability import (
     absorbed,
     beyond_calibration,
     calibration_space,
+    held_nuisances,
     releasable,
     start_values,
 )
@@ -759,7 +760,8 @@ def default_candidates(registry: EffectRegistry, sensor: SensorConfig | None = N
 
 
 def _absorbed_at_every_shape(model: SensorModel, data: Measurements, current: Mapping[str, float],
-                             start: Mapping[str, float] | None, space: np.ndarray, noise: NoiseEstimate) -> str | None:
+                             start: Mapping[str, float] | None, space: np.ndarray, noise: NoiseEstimate,
+                             held: Sequence[str] = ()) -> str | None:
     """Why the last effect of ``model`` is untestable (``absorbed``) at its start and at each alternative start
     that only reshapes it (sets nuisance parameters alone: a plate's thickness), or None when any is testable: a
     conductivity change seen through a sheet's tau_T vanishes once tau_T screens fully, through a thick plate's
@@ -769,7 +771,7 @@ def _absorbed_at_every_shape(model: SensorModel, data: Measurements, current: Ma
                                     if alt and set(alt) <= set(effect.nuisance_parameters)]
     why = None
     for shape in shapes:
-        why = absorbed(model, data, start_values(model, {**current, **shape}), space, noise)
+        why = absorbed(model, data, start_values(model, {**current, **shape}), space, noise, held)
         if why is None:
             return None
     return why
@@ -792,7 +794,8 @@ def _round(screen: Measurements, clean: Measurements, current: Step, names: list
         current.on_screen = (screen, base)
     ranked, untestable = [], {}
     shift_m, shift_weights = _distance_error(base, screen, noise)
-    space = calibration_space(base.model, screen, base.values, base.free_names, noise)
+    held = held_nuisances(base.model, screen)
+    space = calibration_space(base.model, screen, base.values, base.free_names, noise, held)
 
     def tried(name: str) -> Candidate | str:
         """The candidate fitted, or why these data cannot test it."""
@@ -804,7 +807,7 @@ def _round(screen: Measurements, clean: Measurements, current: Step, names: list
             return "; ".join(sorted({fixed[k] for k in keys}))
         from_residual = effect.starts_from_residual(screen, shift_m, shift_weights)
         start = from_residual[0] if from_residual else None
-        why = _absorbed_at_every_shape(model, screen, base.values, start, space, noise)
+        why = _absorbed_at_every_shape(model, screen, base.values, start, space, noise, held)
         if why is not None:
             return why
         candidate = _candidate(screen, model, name, base, noise, len(clean), start)

@@ -35,7 +35,7 @@ import numpy as np
 
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.data.sensor import NON_MAGNETIC_RESISTIVITY_OHM_M
-from ecds_lab.model.effects import Effect, register
+from ecds_lab.model.effects import GIVEN_BY_SENSOR, Effect, register
 from ecds_lab.model.library.target_tau_temperature import (
     per_frequency,
     recession_and_derivatives_m,
@@ -99,7 +99,7 @@ class PlateRecession(Effect):
             return dict.fromkeys(both, "fewer than two frequencies with the target present: the recession is one "
                                        "shift of the distance, taken by p1")
         if self.sensor.target_thickness_m is not None:
-            return {"plate_thickness": "given by the sensor description"}
+            return {"plate_thickness": GIVEN_BY_SENSOR}
         return {}
 
     def effective_distance(self, x_m: np.ndarray, data: Measurements, p: Mapping[str, float]) -> np.ndarray:

@@ -56,7 +56,7 @@ import numpy as np
 
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.data.sensor import NON_MAGNETIC_RESISTIVITY_OHM_M, SensorConfig
-from ecds_lab.model.effects import Effect, Inputs, register
+from ecds_lab.model.effects import GIVEN_BY_SENSOR, Effect, Inputs, register
 from ecds_lab.model.library.magnetic_depth import (
     curvature,
     curvature_and_tangent,
@@ -181,7 +181,7 @@ class TargetTauTemperature(Effect):
         thickness = self.resistivity_ohm_m is not None
         fixed: dict[str, str] = {}
         if thickness and self.sensor.target_thickness_m is not None:
-            fixed["plate_thickness"] = "given by the sensor description"
+            fixed["plate_thickness"] = GIVEN_BY_SENSOR
         if is_magnetic(self.sensor):  # its change D (r - 1) trades D against the tempco; the curvature tells D
             fixed["magnetic_depth"] = "the textbook steel's unless magnetic_depth (its curvature) is in the model"
         if span < 5.0:
