@@ -485,9 +485,7 @@ def _solve(model: SensorModel, data: Measurements, params: Sequence[Parameter],
     retain_freed_memory()  # the model's arrays are reused between evaluations, not faulted in anew (``heap``)
     # The trust-region step factors the tall n x k Jacobian (cost linear in n); on one BLAS thread,
     # since threads only contend on a matrix this thin (``blas_threads``), and through its QR (``tall_svd``).
-    # A column the current solution leaves flat (a drying's rate at the start temperature where the onset lies far
-    # above it) divides by zero inside the trust-region step: scipy takes the infinite slope, so it is not warned of.
-    with one_blas_thread(), tall_svd(), np.errstate(divide="ignore"):
+    with one_blas_thread(), tall_svd():
         result = least_squares(residuals, theta0, jac=jac, bounds=(lower, upper), method="trf", x_scale=1.0,
                                ftol=cost_tolerance, xtol=tolerance, gtol=tolerance, max_nfev=budget * (len(theta0) + 1))
     return result, scaling
