@@ -6,7 +6,8 @@ One module per job:
   effects the data cannot test within what the campaign asks, a residual outside the library);
 - ``rivals``: the competing fitted models of each question (the chain's model and each alternative);
 - ``candidates``: the experiments the station can do (frequencies, directions, finer positions, holds, repeats),
-  each validated against the station's travel and safety limits, with its lab time from the plan's estimate;
+  each validated against the station's travel and safety limits, with its lab time from the plan's estimate, read
+  with the campaign's bridge settings (``recorded_bridge``: its noise is theirs);
 - ``conditions``: the readings a candidate will take (distance, frequency, temperatures, times), from its plan and
   the station's thermal block;
 - ``discrimination``: the T-criterion (Atkinson & Fedorov): the expected chi-square between rival models on a

@@ -17,7 +17,7 @@ import numpy as np
 
 from ecds_lab.analysis.diagnosis.advice import HOT_K
 from ecds_lab.config.checks import check_experiment_fits_station, slide_travel_mm
-from ecds_lab.config.experiment import EXPERIMENT_ADAPTER, ExperimentConfig
+from ecds_lab.config.experiment import EXPERIMENT_ADAPTER, BridgeConfig, ExperimentConfig
 from ecds_lab.config.station import StationConfig
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.data.sensor import SensorConfig
@@ -103,10 +103,18 @@ def _sweep(reach: CampaignReach, frequencies: list[float], **changes: Any) -> di
             "settle_s": 2.0, **changes}
 
 
-def candidate_settings(data: Measurements, station: StationConfig, sensor: SensorConfig | None = None
-                       ) -> list[tuple[str, str, dict[str, Any]]]:
+def candidate_settings(data: Measurements, station: StationConfig, sensor: SensorConfig | None = None,
+                       bridge: BridgeConfig | None = None) -> list[tuple[str, str, dict[str, Any]]]:
     """(name, what, experiment mapping) of every candidate for this campaign of ``sensor`` on this station (not yet
-    checked)."""
+    checked), each read with the campaign's ``bridge`` settings where they are known (``planning.recorded_bridge``:
+    its noise is the campaign's), else the experiment's default."""
+    return [(name, what, settings if bridge is None else {**settings, "bridge": bridge.model_dump(mode="json")})
+            for name, what, settings in _candidate_settings(data, station, sensor)]
+
+
+def _candidate_settings(data: Measurements, station: StationConfig, sensor: SensorConfig | None
+                        ) -> list[tuple[str, str, dict[str, Any]]]:
+    """``candidate_settings``' experiments, their bridge settings left to the default."""
     reach = CampaignReach.of(data)
     freqs = list(reach.frequencies_hz)
     out: list[tuple[str, str, dict[str, Any]]] = []
@@ -168,25 +176,48 @@ def candidate_settings(data: Measurements, station: StationConfig, sensor: Senso
 
 
 def station_candidates(data: Measurements, station: StationConfig, max_hours: float | None = None,
-                       done: Sequence[dict[str, Any]] = (), sensor: SensorConfig | None = None
-                       ) -> tuple[list[CandidateExperiment], dict[str, str]]:
+                       done: Sequence[dict[str, Any]] = (), sensor: SensorConfig | None = None,
+                       bridge: BridgeConfig | None = None) -> tuple[list[CandidateExperiment], dict[str, str]]:
     """The candidates that validate, fit the station and (with ``max_hours``) fit the time, and are not among the
-    experiments ``done`` already (their settings); and those refused (name -> why). ``sensor``: the campaign's."""
+    experiments ``done`` already (their settings); and those refused (name -> why). ``sensor`` and ``bridge`` (its
+    settings): the campaign's."""
     kept, refused = [], {}
-    for name, what, settings in candidate_settings(data, station, sensor):
+    for name, what, settings in candidate_settings(data, station, sensor, bridge):
         try:
-            experiment = EXPERIMENT_ADAPTER.validate_python(settings)
-            check_experiment_fits_station(experiment, station, name)
+            candidate = _checked(name, what, settings, station)
         except (ValueError, ConfigError) as error:
             refused[name] = str(error).splitlines()[0]
             continue
-        plan = build_plan(experiment, station.thermal, station.regulation)
-        if CandidateExperiment(name, what, experiment, plan, 0.0).settings() in done:
+        if candidate.settings() in done:
             refused[name] = "already measured in an earlier round"
             continue
-        hours = PlanEstimate(plan).total_s() / 3600.0
-        if max_hours is not None and hours > max_hours:
-            refused[name] = f"{hours:.2f} h of lab time, more than the {max_hours:g} h allowed"
+        if max_hours is not None and candidate.hours > max_hours:
+            refused[name] = f"{candidate.hours:.2f} h of lab time, more than the {max_hours:g} h allowed"
             continue
-        kept.append(CandidateExperiment(name, what, experiment, plan, hours))
+        kept.append(candidate)
     return kept, refused
+
+
+def repeated(candidate: CandidateExperiment, times: int, station: StationConfig) -> CandidateExperiment | None:
+    """``candidate`` with its sweep passed ``times`` as often (each pass a new visit of every position, so its
+    positioning error is drawn anew): more readings where one pass separates the rivals but not by enough. None for
+    a candidate without a sweep (a hold in air) or one the station refuses so long."""
+    settings = candidate.settings()
+    sweep = settings.get("sweep")
+    if sweep is None:
+        return None
+    passes = {**sweep, "repeats": int(sweep.get("repeats", 1)) * times}
+    try:
+        return _checked(f"{candidate.name}_x{times}", f"{candidate.what}, passed {times} times",
+                        {**settings, "sweep": passes}, station)
+    except (ValueError, ConfigError):
+        return None
+
+
+def _checked(name: str, what: str, settings: dict[str, Any], station: StationConfig) -> CandidateExperiment:
+    """The candidate ``settings`` validated as an experiment and checked against the station as ``run`` checks it
+    (raises ValueError or ConfigError saying why not), with its plan and lab time."""
+    experiment = EXPERIMENT_ADAPTER.validate_python(settings)
+    check_experiment_fits_station(experiment, station, name)
+    plan = build_plan(experiment, station.thermal, station.regulation)
+    return CandidateExperiment(name, what, experiment, plan, PlanEstimate(plan).total_s() / 3600.0)

@@ -8,12 +8,14 @@ Delta chi-square reaching ``DECISIVE_CHI2``, a partial share below) per hour of 
 ``SETUP_HOURS``); a separation beyond the decisive one counts for nothing more, since a margin is only as good as
 the rival models' predictions (docs/planning.md, Scoring). The questions come in priority order (ties first: the
 diagnosis's own question, then sizes, then effects not excluded); among the candidates that decide the first
-question any candidate can decide, the worthiest is chosen. When none decides any question within the time, the
-one with the largest separation is named, and said not to decide.
+question any candidate can decide, the worthiest is chosen. Where no candidate decides any question in one pass of
+its sweep, those that separate are also scored passed as often as deciding needs (``_passed_more_often``). When
+none decides any question within the time, the one with the largest separation is named, and said not to decide.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -27,7 +29,7 @@ from ecds_lab.analysis.noise import NoiseEstimate
 from ecds_lab.config.station import StationConfig
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.model.effects import EffectRegistry
-from ecds_lab.planning.candidates import CandidateExperiment, station_candidates
+from ecds_lab.planning.candidates import CandidateExperiment, repeated, station_candidates
 from ecds_lab.planning.conditions import planned_readings, room_temperature_c
 from ecds_lab.planning.discrimination import (
     DECISIVE_CHI2,
@@ -38,6 +40,7 @@ from ecds_lab.planning.discrimination import (
     question_separations,
 )
 from ecds_lab.planning.questions import DESIGNABLE, OpenQuestion, not_asked, open_questions
+from ecds_lab.planning.recorded_bridge import recorded_bridge
 from ecds_lab.planning.recorded_waits import recorded_waits
 from ecds_lab.planning.rivals import Rival, nested_rivals, size_rivals, size_z, tie_rivals
 from ecds_lab.planning.thermal_response import ThermalResponse
@@ -45,6 +48,11 @@ from ecds_lab.planning.thermal_response import ThermalResponse
 #: Lab time a run costs beyond its plan (hours): setting up, confirming, checking its file. It keeps a run of a
 #: minute from outscoring one of ten that answers more.
 SETUP_HOURS = 0.25
+#: A candidate's sweep is passed at most this many times over to decide what one pass only separates
+#: (``_passed_more_often``).
+MAX_PASSES = 20
+#: Pass counts tried per candidate: each the count the last one's separation asks for.
+PASS_TRIALS = 3
 
 
 @dataclass
@@ -200,8 +208,9 @@ def plan_next(result: Diagnosis, registry: EffectRegistry, station: StationConfi
               max_hours: float | None = None, done: Sequence[dict[str, Any]] = (),
               runs: Sequence[str | Path] = ()) -> NextPlan:
     """Score every candidate on every designable open question and choose (module docstring). ``runs``: the
-    campaign's run files, whose recorded heater waits predict the planned ones (``planning.thermal_response``);
-    without them the station's declared thermal figures do."""
+    campaign's run files, whose recorded heater waits predict the planned ones (``planning.thermal_response``;
+    without them the station's declared thermal figures do) and whose bridge settings the candidates read with
+    (``planning.recorded_bridge``)."""
     questions = open_questions(result, registry)
     asked = not_asked(result, registry)
     designable = [i for i, q in enumerate(questions) if q.kind in DESIGNABLE]
@@ -219,20 +228,24 @@ def plan_next(result: Diagnosis, registry: EffectRegistry, station: StationConfi
         return NextPlan(questions, {}, [], {}, None, "no open question has rival models to design for: "
                         + "; ".join(reasons), asked, [], result.data, result.evidence_noise, decided)
     needs = {i: needed_separation(questions[i], result, registry) for i in rivals}
-    candidates, refused = station_candidates(result.data, station, None, done, result.final.fit.model.sensor)
+    candidates, refused = station_candidates(result.data, station, None, done, result.final.fit.model.sensor,
+                                             recorded_bridge(runs))
     room = room_temperature_c(result.data)
     response = ThermalResponse.of(recorded_waits(runs), station.thermal)
-    scored = []
-    for candidate in candidates:
+
+    def score(candidate: CandidateExperiment) -> Scored | None:
         planned = planned_readings(candidate.plan, station, room, result.data, response)
         if not len(planned):
             refused[candidate.name] = "takes no readings"
-            continue
+            return None
         separations = {i: question_separations(questions[i].kind, rs, result.data, planned, result.evidence_noise)
                        for i, rs in rivals.items()}
         decides = sum(min(max(decisive(s), 0.0), needs[i]) / needs[i] for i, s in separations.items())
-        scored.append(Scored(candidate, separations, decides, decides / (candidate.hours + SETUP_HOURS),
-                             planned))
+        return Scored(candidate, separations, decides, decides / (candidate.hours + SETUP_HOURS), planned)
+
+    scored = [s for s in map(score, candidates) if s is not None]
+    if not any(s.guaranteed(i) >= needs[i] for s in scored for i in rivals):
+        scored += _passed_more_often(scored, needs, station, score, done)
     scored.sort(key=lambda s: (-s.per_hour, s.candidate.hours))
     unanswerable = [i for i in rivals if not any(s.guaranteed(i) >= needs[i] for s in scored)]
     over = [s for s in scored if max_hours is not None and s.candidate.hours > max_hours]
@@ -262,6 +275,37 @@ def plan_next(result: Diagnosis, registry: EffectRegistry, station: StationConfi
         chosen, why = None, "the station can do no candidate experiment within the time allowed"
     return NextPlan(questions, rivals, scored, refused, chosen, why, asked, unanswerable, result.data,
                     result.evidence_noise, decided, response.describe(), needs)
+
+
+def _passed_more_often(scored: list[Scored], needs: Mapping[int, float], station: StationConfig,
+                       score: Callable[[CandidateExperiment], Scored | None],
+                       done: Sequence[dict[str, Any]] = ()) -> list[Scored]:
+    """Where no candidate decides a question in one pass: each that separates the rivals of a question, passed as
+    often as its separation, were it to grow with the passes, needs to decide that question (at most MAX_PASSES),
+    scored anew. The rivals' refits share the extra readings, so the separation grows less than the readings: where
+    that count falls short, again at the count its own separation asks (PASS_TRIALS counts in all). A campaign read
+    with a noisier setting, or a smaller effect, needs more readings of the same experiment, not another experiment;
+    the lab time then decides whether it is worth it. An experiment ``done`` in an earlier round is not offered
+    again."""
+    out: list[Scored] = []
+    for base in scored:
+        # a question more passes than MAX_PASSES would not decide even were the separation to grow with them
+        short = [i for i in base.separations if needs[i] / MAX_PASSES <= base.guaranteed(i) < needs[i]]
+        if not short:
+            continue
+        index = min(short, key=lambda i: needs[i] / base.guaranteed(i))
+        passes, separation = 1, base.guaranteed(index)
+        for _ in range(PASS_TRIALS):
+            wanted = min(math.ceil(passes * needs[index] / separation), MAX_PASSES)
+            more = repeated(base.candidate, wanted, station) if wanted > passes else None
+            trial = score(more) if more is not None and more.settings() not in done else None
+            if trial is None:
+                break
+            out.append(trial)
+            passes, separation = wanted, trial.guaranteed(index)
+            if not 0.0 < separation < needs[index]:
+                break
+    return out
 
 
 def _nothing_to_design(questions: list[OpenQuestion]) -> str:
