@@ -128,8 +128,12 @@ def investigate(data: Sequence[Path], station: Path, output: Path, *, budget_hou
             run_path = output / f"round-{number}.h5"
             run = run_experiment(yaml_path, station_file, run_path, progress=False)
             state.files.append(run_path)
-            state.hours_spent += plan.chosen.candidate.hours
-            entry.update(run_file=str(run_path), run_status=run.status, stopped_by=run.stopped_by)
+            # the lab time the run took on the station's clock, not the plan's estimate: a real station's heaters
+            # that settle slower than its declared figures would otherwise overspend the budget unseen
+            lab_hours = run.lab_s / 3600.0
+            state.hours_spent += lab_hours
+            entry.update(run_file=str(run_path), run_status=run.status, stopped_by=run.stopped_by,
+                         lab_hours=round(lab_hours, 3), planned_hours=round(plan.chosen.candidate.hours, 3))
             if run.status != "completed":
                 state.stopped = _run_ended(number, run.status, run.error, run.stopped_by, run_path, plan)
                 break

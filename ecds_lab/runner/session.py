@@ -57,6 +57,8 @@ class RunResult:
     planned: int = 0
     #: Whether the plan waits on heaters, logging readings meanwhile
     logs_while_heating: bool = False
+    #: Lab time the run took on the station's clock (s): the wall clock's on instruments, the simulated lab's own
+    lab_s: float = 0.0
 
     def rows_are(self) -> str:
         """What the rows are, in the data contract's words (docs/data-contract.md, "Words")."""
@@ -141,7 +143,9 @@ def _run_experiment(experiment_path: Path, station_path: Path | None, output: Pa
         if previous is not None:
             done, offset = _carry_over(previous, writer)
         runner = Runner(station, plan, writer, done=done, time_offset_s=offset, progress=progress)
+        began = station.clock.now()
         status, error = runner.run()
+        lab_s = station.clock.now() - began
         notes = link_notes(station.transports.values())
         with ctrl_c_deferred():
             writer.close(status, error, {**({LINK_NOTES_ATTRIBUTE: json.dumps(notes)} if notes else {}),
@@ -152,7 +156,7 @@ def _run_experiment(experiment_path: Path, station_path: Path | None, output: Pa
                        tuple(runner.context.notes) if runner.context is not None else (),
                        planned=len(plan.points), logs_while_heating=any(
                            isinstance(step, WaitSteady | CoolDown) and step.log is not None
-                           and bool(step.log.frequencies_hz) for step in plan.steps))
+                           and bool(step.log.frequencies_hz) for step in plan.steps), lab_s=lab_s)
     log.info("run %s: %d rows in %s (%.1f s)", status, result.points, output, result.wall_s)
     return result
 

@@ -7,6 +7,8 @@ import json
 from pathlib import Path
 from typing import Any
 
+import pytest
+
 import ecds_lab.runner.session
 from ecds_lab.cli import main
 from ecds_lab.clock import SimulatedClock
@@ -58,6 +60,17 @@ def test_investigate_a_decides_for_the_bending_within_budget(tmp_path, started):
     assert set(final["claimed"]) == {"target_bending", "tau_displacement"}
     assert not final["alternatives"] and not final["undetermined"]
     assert record["hours_spent"] <= 2.0
+
+
+def test_the_budget_is_spent_by_the_lab_time_the_runs_took(tmp_path, started):
+    """Each round records the lab time its run took on the station's clock beside the plan's estimate, and the
+    budget counts the former (docs/planning.md, investigate)."""
+    _, record = investigated(started, "a", tmp_path, 2.0)
+    ran = [r for r in record["rounds"] if r["run_file"] is not None]
+    assert ran and all(r["lab_hours"] > 0 and r["planned_hours"] > 0 for r in ran)
+    assert record["hours_spent"] == pytest.approx(sum(r["lab_hours"] for r in ran), abs=1e-3 * len(ran))
+    # the simulated lab's heaters settle as the station's thermal block says only roughly: the two differ
+    assert any(r["lab_hours"] != r["planned_hours"] for r in ran)
 
 
 def test_investigate_a_ends_with_no_open_question(tmp_path, started):
