@@ -21,12 +21,19 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ecds_lab.analysis.grouping import visit_labels
 from ecds_lab.analysis.noise_margin import loadings, significance
 from ecds_lab.analysis.phases import phase_labels, within_phase
 from ecds_lab.data.columns import VARIABLES, Variable
 from ecds_lab.data.measurements import Measurements
 
 MAX_BINS = 10
+#: A category of a categorical variable (a direction of approach, a frequency) counts only where readings of it come
+#: from at least this many visits (``analysis.grouping.visit_labels``: one stop of the slide). The readings of one
+#: visit share its carriage error and the moment's state, so a category seen at one visit is that visit: in a
+#: campaign of forward sweeps the only readings approached downward are the first of a later sweep, whose offset
+#: is whatever that moment holds (a hot sweep's first reading after the coil came from the air), not the direction.
+MIN_VISITS = 2
 #: Time is confounded with every phase of a campaign, so it ranks first only when it explains
 #: clearly more than every physical variable (by this factor).
 TIME_MARGIN = 1.25
@@ -74,6 +81,16 @@ def _binned(values: np.ndarray, categorical: bool, groups: list[np.ndarray]
         rows = group & np.isfinite(values)
         if rows.sum() >= 3:
             yield (rows, *_bin_index(values[rows], categorical))
+
+
+def _replicated(values: np.ndarray, visits: np.ndarray) -> np.ndarray:
+    """A categorical variable's ``values``, NaN where their category was seen at fewer than MIN_VISITS visits."""
+    out = values.astype(float)
+    for value in np.unique(values[np.isfinite(values)]):
+        level = values == value
+        if len(np.unique(visits[level])) < MIN_VISITS:
+            out[level] = np.nan
+    return out
 
 
 def _bin_means(r: np.ndarray, index: np.ndarray, bins: int) -> tuple[np.ndarray, np.ndarray]:
@@ -172,17 +189,23 @@ class _Scorer:
         self.total = float(np.sum((full - full.mean()) ** 2)) or 1.0
         self.within = sum(float(np.sum((full[g] - full[g].mean()) ** 2)) for g in self.frequencies) or 1.0
         self.labels = phase_labels(data)
+        self.visits = visit_labels(data)
 
     def without(self, variable: Variable, r: np.ndarray) -> np.ndarray:
         """``r`` minus its mean in each bin of ``variable`` (per frequency): what the variable does not explain."""
         out = r.copy()
-        for rows, index, bins in _binned(variable.values(self.data), variable.categorical, self.frequencies):
+        for rows, index, bins in _binned(self.values(variable), variable.categorical, self.frequencies):
             out[rows] = r[rows] - _bin_means(r[rows], index, bins)[1][index]
         return out
 
+    def values(self, variable: Variable) -> np.ndarray:
+        """The variable's values, a category seen at fewer than MIN_VISITS visits left out (NaN)."""
+        values = variable.values(self.data)
+        return _replicated(values, self.visits) if variable.categorical else values
+
     def association(self, variable: Variable, full: np.ndarray) -> Association:
         data, noise_ppm = self.data, self.noise_ppm
-        values = variable.values(data)
+        values = self.values(variable)
         r = within_phase(full, self.labels, data.freq_hz) if variable.name in WITHIN_PHASE else full
         between, dof = 0.0, 0
         loads = np.zeros(len(self.dof))

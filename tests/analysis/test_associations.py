@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ecds_lab.analysis.associations import residual_associations
+from ecds_lab.analysis.associations import BEYOND_CHANCE, residual_associations
+from ecds_lab.analysis.grouping import visit_labels
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.study.campaigns import measure
 from ecds_lab.study.cases import Case, Design
@@ -73,3 +74,35 @@ def test_an_effect_of_the_hot_target_keeps_the_target_temperature_first(cold_the
     residual = np.where(hot, 150.0, 0.0) + np.random.default_rng(seed).normal(0, 20, len(data))
     found = residual_associations(data, residual - residual.mean(), noise_ppm=20.0)
     assert found[0].variable == "t_target_c", [(a.variable, a.significance) for a in found]
+
+
+@pytest.fixture(scope="module")
+def both_ways() -> Measurements:
+    """As ``cold_then_hot``, every sweep approaching from both directions."""
+    design = Design((500.0, 15000.0), ("forward", "backward"), 9, False, (75.0,), (), 1)
+    return measure(Case(0, 1, design, (), {}))
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_a_direction_seen_at_one_visit_is_that_visit_not_the_direction(cold_then_hot, seed):
+    """Forward sweeps: the only readings approached downward are the first of the hot sweep, one stop of the slide
+    (small coil, validation study seed 2037 case 121: -75 and -60 ppm there, said to live in the direction at 12 sd).
+    Their offset is that visit's (its carriage error, the moment's state), no evidence about the direction (6.5 to
+    19.9 sd before)."""
+    data = cold_then_hot
+    down = np.isfinite(data.x_m) & (data.direction < 0)
+    assert len(np.unique(visit_labels(data)[down])) == 1
+    residual = np.where(down, -75.0, 0.0) + np.random.default_rng(seed).normal(0, 20, len(data))
+    direction = next(a for a in residual_associations(data, residual - residual.mean(), 20.0)
+                     if a.variable == "direction")
+    assert direction.significance < BEYOND_CHANCE and "downward" not in direction.detail
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_a_direction_seen_at_every_stop_of_a_sweep_leads(both_ways, seed):
+    data = both_ways
+    down = np.isfinite(data.x_m) & (data.direction < 0)
+    assert len(np.unique(visit_labels(data)[down])) >= 9
+    residual = np.where(down, -75.0, 0.0) + np.random.default_rng(seed).normal(0, 20, len(data))
+    found = residual_associations(data, residual - residual.mean(), 20.0)
+    assert found[0].variable == "direction" and found[0].significance > BEYOND_CHANCE
