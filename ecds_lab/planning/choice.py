@@ -41,6 +41,7 @@ from ecds_lab.planning.discrimination import (
 )
 from ecds_lab.planning.questions import DESIGNABLE, OpenQuestion, not_asked, open_questions
 from ecds_lab.planning.recorded_bridge import recorded_bridge
+from ecds_lab.planning.recorded_runs import recorded_runs
 from ecds_lab.planning.recorded_waits import recorded_waits
 from ecds_lab.planning.rivals import Rival, nested_rivals, size_rivals, size_z, tie_rivals
 from ecds_lab.planning.thermal_response import ThermalResponse
@@ -228,10 +229,11 @@ def plan_next(result: Diagnosis, registry: EffectRegistry, station: StationConfi
         return NextPlan(questions, {}, [], {}, None, "no open question has rival models to design for: "
                         + "; ".join(reasons), asked, [], result.data, result.evidence_noise, decided)
     needs = {i: needed_separation(questions[i], result, registry) for i in rivals}
+    recorded = recorded_runs(runs)
     candidates, refused = station_candidates(result.data, station, None, done, result.final.fit.model.sensor,
-                                             recorded_bridge(runs))
+                                             recorded_bridge(recorded))
     room = room_temperature_c(result.data)
-    response = ThermalResponse.of(recorded_waits(runs), station.thermal)
+    response = ThermalResponse.of(recorded_waits(recorded), station.thermal)
 
     def score(candidate: CandidateExperiment) -> Scored | None:
         planned = planned_readings(candidate.plan, station, room, result.data, response)

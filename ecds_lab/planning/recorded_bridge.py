@@ -11,29 +11,17 @@ from __future__ import annotations
 
 from collections import Counter
 from collections.abc import Sequence
-from pathlib import Path
 
-import yaml
-
-from ecds_lab.config.experiment import EXPERIMENT_ADAPTER, BridgeConfig
-from ecds_lab.data.files import file_kind
-from ecds_lab.errors import EcdsLabError
-from ecds_lab.storage.reader import read_run
+from ecds_lab.config.experiment import BridgeConfig
+from ecds_lab.planning.recorded_runs import RecordedRun
 
 
-def recorded_bridge(paths: Sequence[str | Path]) -> BridgeConfig | None:
-    """The bridge settings most of the readings of the run files among ``paths`` were taken with (the settings of
-    the readings the campaign's noise is mostly estimated on); None when no file records them."""
+def recorded_bridge(runs: Sequence[RecordedRun]) -> BridgeConfig | None:
+    """The bridge settings most of the readings of the campaign's ``runs`` (``recorded_runs``) were taken with (the
+    settings of the readings the campaign's noise is mostly estimated on); None when no run records them."""
     readings: Counter[str] = Counter()
-    for path in paths:
-        try:
-            if file_kind(Path(path)) == "csv":
-                continue
-            run = read_run(path, transcripts=False)
-            experiment = EXPERIMENT_ADAPTER.validate_python(yaml.safe_load(run.metadata.get("experiment_yaml", "")))
-        except (EcdsLabError, ValueError, yaml.YAMLError):
-            continue  # a file without its configuration, or one this ecds-lab cannot read the experiment of
-        readings[experiment.bridge.model_dump_json()] += len(run.points)
+    for recorded in runs:
+        readings[recorded.experiment.bridge.model_dump_json()] += len(recorded.run.points)
     if not readings:
         return None
     return BridgeConfig.model_validate_json(readings.most_common(1)[0][0])

@@ -6,7 +6,8 @@ A run file keeps its experiment and station (``experiment_yaml``, ``station_yaml
 ``CoolDown`` that logs bridge readings has its heated part's thermocouple at every log, the first at the wait's
 start (a wait on a heater driven at a fixed power is not its regulation's answer, and is left out). A steady wait
 ends where the run starts judging the hold at its setpoint (``temperature_holds``'s ``start_s``), so its duration
-is measured, not the time of its last log. A CSV, or a run file without its configuration, records no waits.
+is measured, not the time of its last log. A CSV, or a run file without its configuration, records no waits
+(``recorded_runs``).
 """
 
 from __future__ import annotations
@@ -14,20 +15,19 @@ from __future__ import annotations
 import json
 from collections.abc import Sequence
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 import yaml
 
-from ecds_lab.config.experiment import EXPERIMENT_ADAPTER
+from ecds_lab.config.experiment import ExperimentConfig
 from ecds_lab.config.station import StationConfig
 from ecds_lab.data.columns import LOGGED_POINT
-from ecds_lab.data.files import file_kind
 from ecds_lab.errors import EcdsLabError
+from ecds_lab.planning.recorded_runs import RecordedRun
 from ecds_lab.runner.plan import build_plan
 from ecds_lab.runner.steady_state import SteadyState
 from ecds_lab.runner.steps import CoolDown, SetHeater, WaitSteady
-from ecds_lab.storage.reader import RunFile, read_run
+from ecds_lab.storage.reader import RunFile
 
 #: A log this close after the hold's start (s) still belongs to the wait (the clock's rounding).
 _SLACK_S = 1e-6
@@ -53,21 +53,19 @@ class RecordedWait:
         return float(self.temps_c[0])
 
 
-def recorded_waits(paths: Sequence[str | Path]) -> list[RecordedWait]:
-    """Every heater wait that logged readings in the run files among ``paths``, in file and step order."""
+def recorded_waits(runs: Sequence[RecordedRun]) -> list[RecordedWait]:
+    """Every heater wait that logged readings in the campaign's ``runs`` (``recorded_runs``), in file and step
+    order."""
     waits: list[RecordedWait] = []
-    for path in paths:
+    for recorded in runs:
         try:
-            if file_kind(Path(path)) == "csv":
-                continue
-            waits.extend(_waits_of(read_run(path, transcripts=False)))
+            waits.extend(_waits_of(recorded.run, recorded.experiment))
         except (EcdsLabError, ValueError, yaml.YAMLError):
-            continue  # a file without its configuration, or one this ecds-lab cannot rebuild the plan of
+            continue  # a run whose station this ecds-lab cannot rebuild the plan with
     return waits
 
 
-def _waits_of(run: RunFile) -> list[RecordedWait]:
-    experiment = EXPERIMENT_ADAPTER.validate_python(yaml.safe_load(run.metadata.get("experiment_yaml", "")))
+def _waits_of(run: RunFile, experiment: ExperimentConfig) -> list[RecordedWait]:
     station = StationConfig.model_validate(yaml.safe_load(run.metadata.get("station_yaml", "")))
     plan = build_plan(experiment, station.thermal, station.regulation)
     holds = json.loads(run.metadata.get("temperature_holds", "") or "[]")

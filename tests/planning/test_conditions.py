@@ -24,6 +24,7 @@ from ecds_lab.config.station import StationConfig
 from ecds_lab.data.columns import LOGGED_POINT, PLANNED_POINT
 from ecds_lab.planning.candidates import station_candidates
 from ecds_lab.planning.conditions import planned_readings, planned_rows, room_temperature_c
+from ecds_lab.planning.recorded_runs import recorded_runs
 from ecds_lab.planning.recorded_waits import recorded_waits
 from ecds_lab.planning.thermal_response import ThermalResponse
 from ecds_lab.runner.progress import estimate_plan
@@ -52,7 +53,7 @@ def test_the_planned_readings_are_the_readings_the_run_records(case, started, tm
     config = validate(str(station), parse_yaml(read_text(station), str(station)), StationConfig)
     data = open_campaign([run]).data
     room = room_temperature_c(data)
-    response = ThermalResponse.of(recorded_waits([run]), config.thermal)  # as plan-next predicts them
+    response = ThermalResponse.of(recorded_waits(recorded_runs([run])), config.thermal)  # as plan-next predicts them
     candidates, _ = station_candidates(data, config)
     kinds = set()
     for candidate in candidates:
@@ -97,7 +98,7 @@ def test_a_wait_like_one_the_campaign_recorded_logs_as_many_readings_as_planned(
     config = validate(str(station), parse_yaml(read_text(station), str(station)), StationConfig)
     data = open_campaign([run]).data
     room = room_temperature_c(data)
-    response = ThermalResponse.of(recorded_waits([run]), config.thermal)
+    response = ThermalResponse.of(recorded_waits(recorded_runs([run])), config.thermal)
     recorded_part = {"a": "target", "d": "coil"}[case]
     assert recorded_part in response.shapes and response.describe()
     candidates, _ = station_candidates(data, config)
@@ -140,7 +141,7 @@ def test_without_a_recorded_wait_of_a_part_its_declared_figures_predict_it(start
         config = validate(str(station), parse_yaml(read_text(station), str(station)), StationConfig)
         data = open_campaign([run]).data
         room = room_temperature_c(data)
-        response = ThermalResponse.of(recorded_waits([run]), config.thermal)
+        response = ThermalResponse.of(recorded_waits(recorded_runs([run])), config.thermal)
         assert part not in response.shapes and part not in response.cooling_fits
         candidates, _ = station_candidates(data, config)
         used = [c for c in candidates if any(isinstance(s, WaitSteady | CoolDown) and s.heater == part

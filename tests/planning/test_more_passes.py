@@ -20,6 +20,7 @@ from ecds_lab.planning.candidates import repeated, station_candidates
 from ecds_lab.planning.choice import NextPlan, plan_next, write_experiment
 from ecds_lab.planning.discrimination import joined_fits, measured_separation
 from ecds_lab.planning.recorded_bridge import recorded_bridge
+from ecds_lab.planning.recorded_runs import recorded_runs
 from ecds_lab.runner.session import run_experiment
 from ecds_lab.storage.data_file import open_campaign
 
@@ -50,7 +51,7 @@ def screw(truth_station, measured, tmp_path_factory) -> tuple[Path, Path, Diagno
 
 def test_the_candidates_read_as_the_campaign_did(screw):
     station, run, result, _ = screw
-    recorded = recorded_bridge([run])
+    recorded = recorded_bridge(recorded_runs([run]))
     assert recorded == BridgeConfig(**READ)
     config = load_yaml_model(station, StationConfig)
     as_read, _ = station_candidates(result.data, config, bridge=recorded)
@@ -66,8 +67,8 @@ def test_a_csv_records_no_bridge_settings(screw, tmp_path):
     _, run, _, _ = screw
     exported = tmp_path / "start.csv"
     open_campaign([run]).data.to_csv(exported)
-    assert recorded_bridge([exported]) is None
-    assert recorded_bridge([exported, run]) == BridgeConfig(**READ)
+    assert recorded_bridge(recorded_runs([exported])) is None
+    assert recorded_bridge(recorded_runs([exported, run])) == BridgeConfig(**READ)
 
 
 def test_a_sweep_passed_more_often_takes_its_readings_as_often(screw):

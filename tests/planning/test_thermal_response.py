@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from ecds_lab.config.station import ThermalConfig
+from ecds_lab.planning.recorded_runs import recorded_runs
 from ecds_lab.planning.recorded_waits import RecordedWait, recorded_waits
 from ecds_lab.planning.thermal_response import ThermalResponse, cooling_fit, steady_after_s
 from ecds_lab.runner.steady_state import SteadyState
@@ -68,4 +69,4 @@ def test_a_csv_or_a_missing_file_records_no_waits(tmp_path):
     csv = tmp_path / "data.csv"
     csv.write_text("time_s,x_mm,freq_hz,t_coil_c,t_target_c,ls_h,rs_ohm\n0,20,15000,22,22,0.05,50\n",
                    encoding="utf-8")
-    assert recorded_waits([csv, tmp_path / "missing.h5"]) == []
+    assert recorded_waits(recorded_runs([csv, tmp_path / "missing.h5"])) == []
