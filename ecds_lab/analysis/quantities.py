@@ -6,7 +6,8 @@ Three jobs, each one function here so every output agrees:
   sensible significant digits (``18.14 ± 0.50 pF``, not ``0.00000000001814 F``; ``-2``, not ``-2 1``).
 - ``parameter_status``: a fitted parameter is *fitted*, *at bound*, *undetermined* (standard error
   comparable to the value and to its plausible change, or an unconstrained direction) or *fixed*
-  (with the reason), never simply "fitted" when the data did not determine it.
+  (with the reason), never simply "fitted" when the data did not determine it; a standard error that
+  spans the parameter's whole allowed range is not printed as a ± at all (``spans_its_range``).
 - ``position_error_figure``: a position error that knows its limits: readings outside the calibrated
   range, or a model whose residual is far above the noise, give "out of range" / "model fails here",
   never a length.
@@ -39,6 +40,10 @@ def _scale_for(value: float, unit: str) -> tuple[float, str]:
     """(factor, shown unit) that puts ``value`` of ``unit`` between 1 and 1000 (engineering notation)."""
     if unit in _PPM_UNITS:
         return 1e6, _PPM_UNITS[unit]
+    top, slash, bottom = unit.partition("/")
+    if slash and top in _PREFIXABLE:  # a rate of a prefixable unit: the prefix on it (0.83 µm/K, not 0.00000083 m/K)
+        factor, shown = _scale_for(value, top)
+        return factor, f"{shown}/{bottom.replace('^2', '²')}"
     if unit not in _PREFIXABLE:
         return 1.0, _SYMBOLS.get(unit, unit)
     symbol = _PREFIXABLE[unit]
@@ -116,6 +121,19 @@ class ParameterStatus:
         return {"status": self.label, **({"status_reason": self.reason} if self.reason else {})}
 
 
+def spans_its_range(p: Any, stderr: float | None) -> bool:
+    """Whether one standard error either side of the value covers the parameter's whole allowed range: the data
+    leave it anywhere there, and a ``±`` would print a number that means nothing (a drying's sorption width
+    ``1 ± 3500000000000000 K`` where no bound water shows it)."""
+    span = p.upper - p.lower
+    return stderr is not None and math.isfinite(span) and span > 0 and math.isfinite(stderr) and 2 * stderr >= span
+
+
+def _anywhere_in(p: Any) -> str:
+    return (f"the data leave it anywhere in its allowed range {format_quantity(p.lower, p.unit)} to "
+            f"{format_quantity(p.upper, p.unit)}")
+
+
 def parameter_status(fit: Any, name: str) -> ParameterStatus:
     """Fitted / at bound / undetermined / fixed (with the reason) for one parameter of a ``FitResult``."""
     p = fit.parameter(name)
@@ -123,15 +141,24 @@ def parameter_status(fit: Any, name: str) -> ParameterStatus:
         return ParameterStatus(FIXED, fit.fixed.get(name, "held by the caller"))
     stderr = float(fit.stderr.get(name, math.nan))
     near = AT_BOUND_SHARE * p.prior_scale
+    anywhere = spans_its_range(p, stderr)
     for bound, side in ((p.lower, "lower"), (p.upper, "upper")):
         if math.isfinite(bound) and abs(p.value - bound) <= near:
-            error = f", ± {format_quantity(stderr, p.unit)}" if math.isfinite(stderr) else ""
+            error = (f"; {_anywhere_in(p)}" if anywhere else
+                     f", ± {format_quantity(stderr, p.unit)}" if math.isfinite(stderr) else "")
             return ParameterStatus(AT_BOUND, f"on its {side} bound {format_quantity(bound, p.unit)}{error}")
     if not math.isfinite(stderr):
         return ParameterStatus(UNDETERMINED, "the data do not constrain it (flat direction)")
+    if anywhere:
+        return ParameterStatus(UNDETERMINED, _anywhere_in(p))
     if stderr >= UNDETERMINED_SHARE * max(abs(p.value), p.prior_scale):
         return ParameterStatus(UNDETERMINED, "standard error comparable to or larger than the value")
     return ParameterStatus(FITTED)
+
+
+def shown_value(p: Any, stderr: float | None) -> str:
+    """``value ± error unit`` of one parameter, or its value alone where the error spans its whole range."""
+    return format_quantity(p.value, p.unit, None if spans_its_range(p, stderr) else stderr)
 
 
 def parameter_rows(fit: Any) -> list[dict[str, Any]]:
@@ -142,7 +169,7 @@ def parameter_rows(fit: Any) -> list[dict[str, Any]]:
         stderr = float(stderr) if stderr is not None and math.isfinite(stderr) else None
         status = parameter_status(fit, p.name)
         rows.append({"name": p.name, "value": p.value, "stderr": stderr, "unit": p.unit, **status.to_json(),
-                     "shown": format_quantity(p.value, p.unit, stderr)})
+                     "shown": shown_value(p, stderr)})
     return rows
 
 
@@ -154,11 +181,12 @@ def params_json(fit: Any) -> dict[str, dict[str, Any]]:
 
 def parameter_text(fit: Any, name: str) -> str:
     """``name = value ± error unit`` and, unless fitted, its status: one parameter as every text output shows it
-    (e.g. ``moist_dC = 18.14 ± 0.50 pF``, ``p3 = 0 ± 190 (at bound: on its upper bound 5, ± 190)``)."""
+    (e.g. ``moist_dC = 18.14 ± 0.50 pF``, ``tau_x_20mm = -2.00 ± 0.30 (at bound: on its lower bound -2, ± 0.30)``,
+    ``p3 = 5 (at bound: on its upper bound 5; the data leave it anywhere in its allowed range 0.2 to 5)``)."""
     p = fit.parameter(name)
     stderr = None if p.fixed else fit.stderr.get(name)
     status = parameter_status(fit, name)
-    shown = f"{name} = {format_quantity(p.value, p.unit, stderr)}"
+    shown = f"{name} = {shown_value(p, stderr)}"
     if status.label == FITTED:
         return shown
     return f"{shown} ({status.label}: {status.reason})" if status.reason else f"{shown} ({status.label})"

@@ -92,3 +92,14 @@ def test_a_bump_the_curve_follows_in_part_stays_outside_the_library():
     assert result.verdict == "missing_effect" and not result.claimed, result.explanation
     assert result.calibration_form is None and "outside the library" in result.explanation
     assert result.associations[0].variable == "x_mm"
+
+
+def test_beside_a_claimed_effect_what_is_left_is_inconclusive_not_the_diagnosis():
+    """Validation study seed 2030 case 45 (a bending and a metal object, 15 kHz alone): the bending is claimed
+    (verdict ``missing_effect``) and the calibration's form takes what is left. The text said "so the diagnosis is
+    inconclusive" under the verdict missing_effect; it says what is inconclusive: what is left beyond the claim."""
+    result = run_diagnosis(measure(draw_case(45, 2030)))
+    assert result.verdict == "missing_effect" and result.claimed == ["target_bending"], result.explanation
+    assert result.calibration_form is not None, result.explanation
+    assert "the diagnosis is inconclusive" not in result.explanation
+    assert "so what is left beyond target_bending is inconclusive" in result.explanation

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from types import SimpleNamespace
 
 import numpy as np
@@ -96,3 +97,33 @@ def test_a_failing_model_is_described_without_exponents():
 
     assert model_fails(15450.5, 161.49) == "the model leaves 15450 ppm, 96x the 161 ppm noise"
     assert model_fails(300.0, 31.9) == ""
+
+
+def test_an_error_spanning_the_whole_allowed_range_is_no_plus_minus():
+    """A drying's sorption width on its lower bound with no bound water to show it had a standard error of 3.5e15 K
+    and was printed as ``1 ± 3500000000000000 K``: a number that says nothing. Where one standard error either side
+    covers the whole allowed range the value is shown alone and the status says the data leave it anywhere there."""
+    from ecds_lab.analysis.quantities import parameter_rows, parameter_text
+
+    width = Parameter("sorption_width", 1.0, 1.0, 100.0, "K", prior_scale=5.0)
+    text = parameter_text(_fit(width, 3.461e15), "sorption_width")
+    assert text == ("sorption_width = 1 K (at bound: on its lower bound 1 K; the data leave it anywhere in its "
+                    "allowed range 1 K to 100 K)")
+    onset = Parameter("drying_onset", 143.0, 20.0, 200.0, "C", prior_scale=10.0)
+    status = parameter_status(_fit(onset, 600.0), "drying_onset")
+    assert status.label == UNDETERMINED and "anywhere in its allowed range 20 °C to 200 °C" in status.reason
+    # a parameter near the top of a narrow range, its error half the range, was called fitted (half its value)
+    assert parameter_status(_fit(replace(onset, value=190.0), 91.0), "drying_onset").label == UNDETERMINED
+    # an error well inside the range keeps its ±, and an unbounded parameter always does
+    assert parameter_text(_fit(onset, 6.0), "drying_onset") == "drying_onset = 143.0 ± 6.0 °C"
+    free = Parameter("L0", 0.05, 0.0, math.inf, "H", prior_scale=1e-3)
+    (row,) = parameter_rows(SimpleNamespace(parameters=[free], stderr={"L0": 1.0}, fixed={},
+                                            parameter=lambda name: free))
+    assert row["shown"] == "0.1 ± 1.0 H" and row["stderr"] == 1.0
+
+
+def test_a_rate_of_a_prefixable_unit_takes_the_prefix():
+    """A bending of 0.83 um/K read ``0.000000832 ± 0.000000056 m/K``."""
+    assert format_quantity(8.32e-7, "m/K", 5.6e-8) == "832 ± 56 nm/K"
+    assert format_quantity(-5.9e-10, "m/K^2", 4.5e-10) == "-590 ± 450 pm/K²"
+    assert format_quantity(0.026, "1/s", 0.023) == "0.026 ± 0.023 1/s"

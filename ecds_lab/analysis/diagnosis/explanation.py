@@ -121,7 +121,7 @@ def explain(result: Diagnosis, registry: EffectRegistry | None = None) -> str:
                      "sensor's coupling, "
                      "or an effect the calibration absorbs in these data"
                      + (f" ({', '.join(absorbed)})" if absorbed else "")
-                     + ", not physics shown to be missing from the library, so the diagnosis is inconclusive. It "
+                     + f", not physics shown to be missing from the library, {_inconclusive(result)}. It "
                      "lives in " + _where(result) + ". A second frequency tells such effects from the calibration; "
                      "a coupling table for the sensor (`coupling_table:` in its YAML) gives the calibration the "
                      "coupling's true form.")
@@ -133,7 +133,7 @@ def explain(result: Diagnosis, registry: EffectRegistry | None = None) -> str:
                      f"{_significance(result):.0f} standard deviations beyond chance. A library effect takes it to "
                      f"the noise ({taken}), but a slow drift of every reading in time explains it as well: the "
                      f"residual is {' or '.join(result.drift_alike)} or such a drift, not physics shown to be "
-                     "missing from the library, so the diagnosis is inconclusive. It lives in " + _where(result) + ".")
+                     f"missing from the library, {_inconclusive(result)}. It lives in " + _where(result) + ".")
         tells = [c.effect_object.reveal_beside_drift for c in alike if c.effect_object.reveal_beside_drift]
         if tells and not (result.alternatives or result.undetermined):  # else among the measurements above
             lines.append("To tell them apart: " + "; or ".join(dict.fromkeys(tells)) + ".")
@@ -153,13 +153,21 @@ def explain(result: Diagnosis, registry: EffectRegistry | None = None) -> str:
     elif final_ratio > FAILING_RATIO:
         lines.append(f"The residual is {final_ratio:.1f}x the noise estimate, but a flexible smooth finds no "
                      "structure in it beyond chance: the readings scatter more than the noise estimate says "
-                     f"({result.noise.source}), so the diagnosis is inconclusive and claims nothing outside the "
+                     f"({result.noise.source}), {_inconclusive(result)} and claims nothing outside the "
                      "library. Scatter between moves is invisible to repeated readings of one visit: declare the "
                      "slide's repeatability, or revisit positions from the same direction so it can be measured.")
     elif result.claimed:
         lines.append(f"With {', '.join(result.claimed)} the model is adequate ({final.rmse_ppm:.1f} ppm, "
                      f"{final_ratio:.2f}x the noise).")
     return " ".join(lines)
+
+
+def _inconclusive(result: Diagnosis) -> str:
+    """How a residual the data cannot judge ends the text: the diagnosis is inconclusive, or, beside effects it
+    claimed (verdict ``missing_effect``), what is left beyond them is."""
+    if result.claimed:
+        return f"so what is left beyond {', '.join(result.claimed)} is inconclusive"
+    return "so the diagnosis is inconclusive"
 
 
 def _own_noise(structure: ResidualStructure, pooled: float) -> str:
