@@ -18,6 +18,7 @@ from ecds_lab.errors import EcdsLabError, InvalidSettingError
 
 if TYPE_CHECKING:
     from ecds_lab.model.effects import EffectRegistry
+    from ecds_lab.storage.data_file import Campaign
 
 log = logging.getLogger("ecds_lab")
 
@@ -184,7 +185,7 @@ def _cmd_fit(args: argparse.Namespace) -> int:
     opened = open_campaign(args.data, args.sensor)
     summary = {"sensor": opened.sensor_summary(),
                **fit_summary(opened.data, _effects(args.effects), opened.sensor, registry)}
-    _print(summary, opened.sensor_note, args.json, format_fit_summary)
+    _print(summary, _notes(opened), args.json, format_fit_summary)
     return 0
 
 
@@ -205,7 +206,7 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
         result = {"sensor": opened.sensor_summary(),
                   **diagnose(opened.data, _effects(args.effects), opened.sensor, registry=registry,
                              also_try=_effects(args.also_try))}
-    _print(result, opened.sensor_note, args.json, format_diagnosis)
+    _print(result, _notes(opened), args.json, format_diagnosis)
     return 0
 
 
@@ -237,14 +238,21 @@ def _require_readings(data: Sized, paths: Sequence[Path], minimum: int, why: str
         raise DataError(f"{named}: {len(data)} reading(s); {why} and needs at least {minimum}")
 
 
-def _print(result: dict, note: str | None, as_json: bool, as_text: Callable[[dict], str]) -> None:
-    """One JSON object (the note under ``notes``), or the text headed by the sensor and the note."""
+def _notes(opened: Campaign) -> list[str]:
+    """What the output says before its analysis: the sensor assumed, units that look wrong for the data contract."""
+    from ecds_lab.analysis.suspect_units import unit_notes
+
+    return [note for note in (opened.sensor_note, *unit_notes(opened.data, opened.sensor)) if note]
+
+
+def _print(result: dict, notes: list[str], as_json: bool, as_text: Callable[[dict], str]) -> None:
+    """One JSON object (the notes under ``notes``), or the text headed by the sensor and the notes."""
     if as_json:
-        print(json.dumps({**result, "notes": [note]} if note else result, indent=2))
+        print(json.dumps({**result, "notes": notes} if notes else result, indent=2))
         return
     sensor = result["sensor"]
     head = f"sensor: {sensor['name']} ({sensor['target']} target; {sensor['source']})\n"
-    print(head + (f"note: {note}\n" if note else "") + as_text(result))
+    print(head + "".join(f"note: {note}\n" for note in notes) + as_text(result))
 
 
 def _cmd_report(args: argparse.Namespace) -> int:

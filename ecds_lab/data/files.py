@@ -40,10 +40,29 @@ def file_kind(path: str | Path) -> FileKind:
         raise DataError(f"{path}: neither an ecds-lab run file (HDF5) nor a CSV in the import format "
                         f"(a text file whose first line names {','.join(CSV_COLUMNS)})")
     missing = [column for column in CSV_COLUMNS if column not in header]
+    separator = _other_separator(head.removeprefix(_UTF8_BOM)) if missing else None
+    if separator is not None:
+        raise DataError(f"{path}: a CSV whose columns are separated by {separator}, not by commas: the import format "
+                        f"is comma-separated with a decimal point ({','.join(CSV_COLUMNS)}); save it as CSV with "
+                        "commas (a spreadsheet set to a decimal comma writes semicolons)")
     if missing:
         raise DataError(f"{path}: not an ecds-lab run file, nor a CSV in the import format: its header must "
                         f"contain {','.join(CSV_COLUMNS)}; missing {', '.join(missing)}")
     return "csv"
+
+
+#: Separators a spreadsheet or a lab program may write instead of the comma, as they are named in an error.
+_OTHER_SEPARATORS = {";": "semicolons", "\t": "tabs", "|": "vertical bars"}
+
+
+def _other_separator(head: bytes) -> str | None:
+    """How the first line's columns are separated where another separator than the comma gives every import
+    column (a European spreadsheet's semicolons and decimal commas), else None."""
+    line = (head.decode("utf-8", errors="ignore").splitlines() or [""])[0]
+    for separator, name in _OTHER_SEPARATORS.items():
+        if all(column in [cell.strip().strip('"') for cell in line.split(separator)] for column in CSV_COLUMNS):
+            return name
+    return None
 
 
 def _first_line(head: bytes) -> list[str] | None:

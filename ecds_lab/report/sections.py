@@ -35,6 +35,7 @@ from ecds_lab.analysis.summary import (
     temperature_stability_top_step,
     ts_key,
 )
+from ecds_lab.analysis.suspect_units import unit_notes
 from ecds_lab.data.measurements import Measurements
 from ecds_lab.data.sensor import DEFAULT_SENSOR_NOTE
 from ecds_lab.report import figures_model as fm
@@ -174,6 +175,10 @@ def runs_section(findings: Findings) -> Parts:
                            [(i.name, str(len(i.data)), _use_of(i, findings)) for i in csvs], css="runs"))
         parts.append(paragraph(f"A CSV holds readings only (no run metadata, no sensor): {DEFAULT_SENSOR_NOTE}.",
                                "small"))
+    checks = [f"{item.name}: {text}" for item in findings.inputs for text in unit_notes(item.data, item.sensor)]
+    if checks:
+        parts.append(paragraph("Units to check before reading the figures below: " + "; ".join(checks) + ".",
+                               "explanation"))
     return parts
 
 

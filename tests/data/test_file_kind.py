@@ -79,3 +79,16 @@ def test_anything_else_is_refused_naming_the_file(tmp_path, name, content, messa
 def test_a_missing_file_is_named(tmp_path):
     with pytest.raises(DataError, match=f"{tmp_path / 'nothing.csv'}: no such file"):
         file_kind(tmp_path / "nothing.csv")
+
+
+@pytest.mark.parametrize(("separator", "named"), [(";", "semicolons"), ("\t", "tabs")])
+def test_a_csv_separated_otherwise_than_by_commas_is_named_so(tmp_path, separator, named):
+    """A spreadsheet set to a decimal comma writes semicolons: the error said every import column was missing."""
+    lines = EXCEL_CSV.removeprefix("\ufeff").splitlines()
+    rows = [line.replace(",", separator) if i == 0 else line.replace(",", separator).replace(".", ",")
+            for i, line in enumerate(lines)]
+    path = tmp_path / "euro.csv"
+    path.write_text("\n".join(rows) + "\n")
+    with pytest.raises(DataError, match=f"separated by {named}, not by commas") as error:
+        file_kind(path)
+    assert "missing" not in str(error.value)
