@@ -222,3 +222,14 @@ def test_what_an_effect_keeps_for_its_derivatives_is_never_another_parameters(st
         expected_value, expected_tangent = fresh.prediction_and_jacobian(data, p)
         assert np.array_equal(value, expected_value) and np.array_equal(model.predict(data, p), fresh.predict(data, p))
         assert all(np.array_equal(tangent[k], expected_tangent[k]) for k in expected_tangent)
+
+
+def test_tau_x_beyond_20_to_100_mm_chains_its_outer_knots(station: StationConfig) -> None:
+    """Positions nearer than 20 mm and beyond 100 mm, where the spline runs straight to its outer knots: each knot,
+    and the distance that former_expansion moves, differentiated as the predictions change."""
+    assert station.simulated is not None
+    data = campaign.paper_campaign(station.simulated.lab, seed=3, positions_mm=[11.0, 14.0, 17.0, 25.0, 40.0, 60.0,
+                                                                                  90.0, 120.0, 150.0],
+                                   interval_s=600.0)
+    model = SensorModel(station.sensor, ["former_expansion", "tau_displacement"])
+    check(model, data, moved(model.parameters(), {"tau_bend_10mm": 0.2, "tau_bend_150mm": -0.1}))
