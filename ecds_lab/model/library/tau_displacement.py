@@ -11,11 +11,13 @@ out) the spline is held straight there instead of leaving a knot no reading near
 
 Outside 20-100 mm the spline goes on straight (a natural spline's second derivative is nil at its ends, so the
 straight continuation joins it smoothly) to outer knots at 10 and 150 mm, each set by its bend beyond that straight
-continuation and held straight where no position lies beyond 20 or 100 mm; beyond the outer knots it is
-constant. A campaign within 20-100 mm is fitted by exactly the five-knot spline; one that comes nearer (the paper's
-coil over 10-100 mm) or goes further gets the knots its positions determine: with the spline ending at 20 mm, a
-null campaign of the faithful lab over 10-100 mm at 500 Hz and 15 kHz was left at 484 ppm (opposite signs at the two
-frequencies at 10 and 20 mm, the screening's change with x) and called outside the library; with them 13 ppm.
+continuation and held straight where no position lies beyond 20 or 100 mm; beyond the outer knots it is constant. A
+knot at 14 mm, its bend beyond the straight line between the 10 and 20 mm knots', follows a change concentrated
+nearest the coil where two positions or more lie nearer than 20 mm, one of them beyond 10 mm. A campaign within
+20-100 mm is fitted by exactly the five-knot spline; one that comes nearer (the paper's coil over 10-100 mm) or goes
+further gets the knots its positions determine: with the spline ending at 20 mm, a null campaign of the faithful lab
+over 10-100 mm at 500 Hz and 15 kHz was left at 484 ppm (opposite signs at the two frequencies at 10 and 20 mm, the
+screening's change with x) and called outside the library; with them 13 ppm.
 """
 
 from __future__ import annotations
@@ -34,19 +36,16 @@ from ecds_lab.model.library.remembered import Remembered
 from ecds_lab.model.parameters import Parameter
 from ecds_lab.model.tangents import InputTangents, Tangent, plus, scaled
 
-KNOTS_M = (0.010, 0.020, 0.028, 0.040, 0.060, 0.100, 0.150)
+KNOTS_M = (0.010, 0.014, 0.020, 0.028, 0.040, 0.060, 0.100, 0.150)
 #: Where ln(tau_T / tau0) is nil (tau0 is tau_T there), and where the coil in air is evaluated.
 ZERO_AT_M = 0.060
-FREE_KNOTS = {"tau_bend_10mm": 0, "tau_x_20mm": 1, "tau_bend_28mm": 2, "tau_x_40mm": 3, "tau_x_100mm": 5,
-              "tau_bend_150mm": 6}
-#: The knot between 20 and 40 mm, set by its bend: its value beyond the straight line between its neighbours'.
-BEND_KNOT, BEND_FROM = "tau_bend_28mm", ("tau_x_20mm", "tau_x_40mm")
+FREE_KNOTS = {"tau_bend_10mm": 0, "tau_bend_14mm": 1, "tau_x_20mm": 2, "tau_bend_28mm": 3, "tau_x_40mm": 4,
+              "tau_x_100mm": 6, "tau_bend_150mm": 7}
+#: Knots set by their bend: their value beyond the straight line between two other knots' (m).
+BETWEEN = {"tau_bend_28mm": (0.020, 0.040), "tau_bend_14mm": (0.010, 0.020)}
 #: The inner spline's ends (m), and each outer knot with the end it continues straight from.
 INNER_M = (0.020, 0.100)
 OUTER_KNOTS = {"tau_bend_10mm": INNER_M[0], "tau_bend_150mm": INNER_M[1]}
-#: Distinct positions beyond an inner end that free the outer knot there (one, read at two frequencies, tells
-#: tau_T there from the coupling, which the calibration holds to its smooth form).
-OUTER_POSITIONS = 1
 
 
 @register
@@ -85,8 +84,8 @@ class TauDisplacement(Effect):
         return not is_magnetic(sensor)
 
     def unidentifiable(self, data: Measurements) -> dict[str, str]:
-        """Every knot with fewer than 8 distinct positions; the bend at 28 mm with no position between 20 and 40 mm,
-        and an outer knot with fewer than two positions beyond its inner end (the spline then straight there)."""
+        """Every knot with fewer than 8 distinct positions; a bend no position tells (``_straight``: the spline then
+        straight there)."""
         distinct = _distinct_positions(data)
         if len(distinct) < 8:
             return {n: f"{len(distinct)} distinct positions" for n in FREE_KNOTS}
@@ -96,7 +95,7 @@ class TauDisplacement(Effect):
         """The bends straight where a fold holds out every reading that determines them: between 20 and 40 mm nine
         positions 10 mm apart with nothing heated put one, at 30 mm, and the fold without it left the bend free; the
         held-out fit swung it to a bound (seed 2033 case 188: 765 against 255 ppm held out, though the fit took
-        140 to 33 ppm). The outer knots likewise, where a fold holds out the positions beyond 20 or 100 mm."""
+        140 to 33 ppm). The other bends likewise, where a fold holds out the positions beyond 20 or 100 mm."""
         return {name: 0.0 for name in _straight(_distinct_positions(training))}
 
     def target_tau(self, tau_s: np.ndarray, inputs: Inputs, data: Measurements, p: Mapping[str, float]) -> np.ndarray:
@@ -135,8 +134,9 @@ _BASIS = CubicSpline(KNOTS_M, np.eye(len(KNOTS_M)), bc_type="natural")
 
 def _meaning(name: str) -> str:
     at = name.rsplit("_", 1)[1]
-    if name == BEND_KNOT:
-        return f"ln(tau_T / tau_T at 60 mm) at {at} beyond the straight line between 20 and 40 mm"
+    if name in BETWEEN:
+        low, high = (knot * 1e3 for knot in BETWEEN[name])
+        return f"ln(tau_T / tau_T at 60 mm) at {at} beyond the straight line between {low:g} and {high:g} mm"
     if name in OUTER_KNOTS:
         return (f"ln(tau_T / tau_T at 60 mm) at {at} beyond the spline's straight continuation from "
                 f"{OUTER_KNOTS[name] * 1e3:g} mm")
@@ -148,17 +148,19 @@ def _distinct_positions(data: Measurements) -> np.ndarray:
 
 
 def _straight(distinct: np.ndarray) -> dict[str, str]:
-    """The bends these distances leave undetermined, held straight, with why: the one at 28 mm with no position
-    between 20 and 40 mm, an outer one with fewer than two positions beyond its inner end."""
-    low, high = (KNOTS_M[FREE_KNOTS[name]] for name in BEND_FROM)
-    held = {} if np.any((distinct > low) & (distinct < high)) else {
-        BEND_KNOT: "no position between 20 and 40 mm: straight there"}
+    """The bends these distances leave undetermined, held straight, with why: one between two knots with no
+    position between them (at 14 mm also with fewer than two nearer than 20 mm: the 10 mm knot takes one), an outer
+    one with no position beyond its inner end (one, read at two frequencies, tells tau_T there from the coupling,
+    which the calibration holds to its smooth form)."""
+    held = {}
+    for name, (low, high) in BETWEEN.items():
+        between = int(np.sum((distinct > low + 1e-6) & (distinct < high - 1e-6)))
+        if between < 1 or (low < INNER_M[0] and np.sum(distinct < INNER_M[0] - 1e-6) < 2):
+            held[name] = f"no position between {low * 1e3:g} and {high * 1e3:g} mm to tell it: straight there"
     for name, end in OUTER_KNOTS.items():
         nearer = end == INNER_M[0]
-        beyond = int(np.sum(distinct < end - 1e-6) if nearer else np.sum(distinct > end + 1e-6))
-        if beyond < OUTER_POSITIONS:
-            side = "nearer than" if nearer else "beyond"
-            held[name] = f"{beyond} position(s) {side} {end * 1e3:g} mm: straight there"
+        if not np.any(distinct < end - 1e-6) if nearer else not np.any(distinct > end + 1e-6):
+            held[name] = f"no position {'nearer than' if nearer else 'beyond'} {end * 1e3:g} mm: straight there"
     return held
 
 
@@ -168,24 +170,27 @@ def _knot_values(p: Mapping[str, float]) -> np.ndarray:
 
 
 def _knot_map() -> np.ndarray:
-    """The knot values (rows) from the parameters (columns, in FREE_KNOTS' order): each its own knot's, the bend
-    knot's plus the straight line between its neighbours (weights by distance), an outer knot's plus the straight
-    continuation of the inner spline (20-100 mm) from its end: its value there and its slope times the distance."""
+    """The knot values (rows) from the parameters (columns, in FREE_KNOTS' order): each its own knot's; a bend
+    knot's plus the straight line between its two knots' values (weights by distance); an outer knot's plus the
+    straight continuation of the inner spline (20-100 mm) from its end, its value there and its slope times the
+    distance. Worked out in that order of dependence: the 28 mm bend, the outer knots, the 14 mm bend."""
     out = np.zeros((len(KNOTS_M), len(FREE_KNOTS)))
-    names = list(FREE_KNOTS)
     for column, index in enumerate(FREE_KNOTS.values()):
         out[index, column] = 1.0
-    bend = FREE_KNOTS[BEND_KNOT]
-    left, right = (FREE_KNOTS[n] for n in BEND_FROM)
-    share = (KNOTS_M[bend] - KNOTS_M[left]) / (KNOTS_M[right] - KNOTS_M[left])
-    out[bend, names.index(BEND_FROM[0])] = 1.0 - share
-    out[bend, names.index(BEND_FROM[1])] = share
+
+    def between(name: str) -> None:
+        low, high = (KNOTS_M.index(knot) for knot in BETWEEN[name])
+        share = (KNOTS_M[FREE_KNOTS[name]] - KNOTS_M[low]) / (KNOTS_M[high] - KNOTS_M[low])
+        out[FREE_KNOTS[name]] += (1.0 - share) * out[low] + share * out[high]
+
+    between("tau_bend_28mm")
     inner = [i for i, knot in enumerate(KNOTS_M) if INNER_M[0] <= knot <= INNER_M[1]]
+    unit = CubicSpline([KNOTS_M[i] for i in inner], np.eye(len(inner)), bc_type="natural")
     for name, end in OUTER_KNOTS.items():
         # the inner natural spline's value and slope at its end, as weights of the inner knot values
-        unit = CubicSpline([KNOTS_M[i] for i in inner], np.eye(len(inner)), bc_type="natural")
         along = unit(end) + unit(end, 1) * (KNOTS_M[FREE_KNOTS[name]] - end)
         out[FREE_KNOTS[name]] += along @ out[inner]
+    between("tau_bend_14mm")
     return out
 
 

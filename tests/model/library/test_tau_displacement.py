@@ -14,7 +14,7 @@ from ecds_lab.model.effects import Inputs
 from ecds_lab.model.library.tau_displacement import FREE_KNOTS, TauDisplacement
 
 KNOT_VALUES = {"tau_x_20mm": -0.4, "tau_bend_28mm": -0.25, "tau_x_40mm": -0.1, "tau_x_100mm": 0.3,
-               "tau_bend_10mm": 0.0, "tau_bend_150mm": 0.0}
+               "tau_bend_10mm": 0.0, "tau_bend_14mm": 0.0, "tau_bend_150mm": 0.0}
 INNER_KNOTS_M = (0.020, 0.028, 0.040, 0.060, 0.100)
 
 
@@ -31,8 +31,8 @@ def _inner_spline() -> CubicSpline:
 
 
 def test_the_time_constant_follows_the_natural_spline_through_the_knots_and_straight_on_beyond(readings_at):
-    """With the outer bends nil, the five-knot spline inside 20-100 mm, its straight continuation to 10 and 150 mm,
-    constant beyond; the coil in air as at 60 mm."""
+    """With the outer bends nil (and the 14 mm one), the five-knot spline inside 20-100 mm, its straight continuation
+    to 10 and 150 mm, constant beyond; the coil in air as at 60 mm."""
     effect = TauDisplacement(SensorConfig())
     positions_mm = np.r_[np.linspace(20.0, 100.0, 41), 12.0, 130.0, 5.0, 200.0, np.inf]
     data = readings_at(positions_mm)
@@ -48,13 +48,18 @@ def test_the_time_constant_follows_the_natural_spline_through_the_knots_and_stra
     assert tau[45] == pytest.approx(2e-5, rel=1e-12)  # the coil in air: as at 60 mm
 
 
-def test_an_outer_bend_moves_its_knot_off_the_straight_line_and_leaves_the_inner_range_almost_alone(readings_at):
+def test_a_bend_moves_its_knot_off_the_straight_line(readings_at):
+    """The 10 mm bend off the continuation from 20 mm, the 14 mm one off the line between the 10 and 20 mm knots."""
     effect = TauDisplacement(SensorConfig())
-    data = readings_at(np.array([10.0, 15.0, 60.0]))
+    data = readings_at(np.array([10.0, 14.0, 60.0]))
     straight = _tau(effect, data, KNOT_VALUES)
     bent = _tau(effect, data, {**KNOT_VALUES, "tau_bend_10mm": 0.2})
     assert bent[0] / straight[0] == pytest.approx(np.exp(0.2), rel=1e-12)
-    assert 1.0 < bent[1] / straight[1] < np.exp(0.2) and bent[2] == pytest.approx(2e-5, rel=1e-12)
+    assert bent[1] / straight[1] == pytest.approx(np.exp(0.6 * 0.2), rel=1e-12)  # 14 mm: on the line to 20 mm
+    assert bent[2] == pytest.approx(2e-5, rel=1e-12)
+    nearest = _tau(effect, data, {**KNOT_VALUES, "tau_bend_14mm": -0.1})
+    assert nearest[1] / straight[1] == pytest.approx(np.exp(-0.1), rel=1e-12)
+    assert nearest[0] == pytest.approx(straight[0], rel=1e-12)
 
 
 def test_new_knot_values_at_the_same_distances_give_their_own_spline(readings_at):
@@ -66,15 +71,17 @@ def test_new_knot_values_at_the_same_distances_give_their_own_spline(readings_at
     np.testing.assert_allclose(np.log(doubled / 2e-5), 2 * np.log(first / 2e-5), rtol=1e-12, atol=1e-15)
 
 
-OUTER = {"tau_bend_10mm", "tau_bend_150mm"}
+OUTER = {"tau_bend_10mm", "tau_bend_14mm", "tau_bend_150mm"}
 
 
 @pytest.mark.parametrize(("positions_mm", "held"), [
     (np.linspace(20.0, 100.0, 9), OUTER),  # 10 mm apart: 30 mm between 20 and 40; none beyond 20-100 mm
     (np.r_[20.0, 40.0, 45.0, 50.0, 60.0, 70.0, 80.0, 90.0, 100.0], {"tau_bend_28mm"} | OUTER),  # none between
     (np.linspace(20.0, 100.0, 7), set(FREE_KNOTS)),  # too few positions for any knot
-    (np.linspace(10.0, 100.0, 10), {"tau_bend_150mm"}),  # one position nearer than 20 mm frees the 10 mm knot
-    (np.linspace(20.0, 150.0, 14), {"tau_bend_10mm"}),
+    (np.linspace(10.0, 100.0, 10), {"tau_bend_14mm", "tau_bend_150mm"}),  # one nearer than 20 mm: the 10 mm knot
+    (np.linspace(11.0, 40.0, 9), {"tau_bend_150mm"}),  # 11, 14.6 and 18.2 mm: the 14 mm bend too
+    (np.r_[8.0, 9.0, np.linspace(20.0, 100.0, 9)], {"tau_bend_14mm", "tau_bend_150mm"}),  # none between 10 and 20
+    (np.linspace(20.0, 150.0, 14), {"tau_bend_10mm", "tau_bend_14mm"}),
 ])
 def test_a_bend_needs_a_position_where_it_acts(readings_at, positions_mm, held):
     assert set(TauDisplacement(SensorConfig()).unidentifiable(readings_at(positions_mm))) == held
@@ -85,7 +92,8 @@ def test_a_fold_that_holds_out_every_reading_a_bend_acts_on_holds_it_straight(re
     effect = TauDisplacement(SensorConfig())
     assert effect.held_out_of_reach(readings_at(np.r_[20.0, 40.0, 50.0, 60.0, 70.0])) == dict.fromkeys(
         {"tau_bend_28mm"} | OUTER, 0.0)
-    assert effect.held_out_of_reach(readings_at(np.r_[12.0, 20.0, 30.0, 40.0, 120.0])) == {}
+    assert effect.held_out_of_reach(readings_at(np.r_[12.0, 20.0, 30.0, 40.0, 120.0])) == {"tau_bend_14mm": 0.0}
+    assert effect.held_out_of_reach(readings_at(np.r_[9.0, 12.0, 20.0, 30.0, 40.0, 120.0])) == {}
 
 
 def test_a_straight_bend_puts_the_28_mm_knot_on_the_line(readings_at):
