@@ -9,7 +9,7 @@ at 28 mm is set by its bend, its value beyond the straight line between the 20 a
 that where no reading lies between them (a campaign without positions there, or a held-out fold that holds them all
 out) the spline is held straight there instead of leaving a knot no reading near it determines. The 40 mm knot is
 set by its bend beyond the parabola through the 20, 60 and 100 mm knots': a campaign of four to seven positions
-frees the 20 and 100 mm knots alone, and the spline is then that parabola (straight to 28 mm).
+frees the 20 and 100 mm knots alone, and the spline then runs through that parabola's values.
 
 Outside 20-100 mm the spline goes on straight (a natural spline's second derivative is nil at its ends, so the
 straight continuation joins it smoothly) to outer knots at 10 and 150 mm, each set by its bend beyond that straight
@@ -50,7 +50,7 @@ BETWEEN = {"tau_bend_28mm": (0.020, 0.040), "tau_bend_14mm": (0.010, 0.020)}
 #: Distinct positions that free every knot; fewer (down to FEW_POSITIONS) free SHORT_KNOTS only, the spline then the
 #: parabola through them and the 60 mm knot: at two frequencies five positions give ten readings' worth against the
 #: calibration's five parameters and tau_T, and the faithful lab's tau(x) over 20-100 mm, left unmodelled, was said
-#: to lie outside the library (205 ppm against 8).
+#: to lie outside the library (162 ppm, 8.5x the noise: tests/analysis/test_other_ranges.py).
 ALL_POSITIONS, FEW_POSITIONS = 8, 4
 SHORT_KNOTS = ("tau_x_20mm", "tau_x_100mm")
 #: The inner spline's ends (m), and each outer knot with the end it continues straight from.
@@ -95,7 +95,7 @@ class TauDisplacement(Effect):
 
     def unidentifiable(self, data: Measurements) -> dict[str, str]:
         """Every knot with fewer than FEW_POSITIONS distinct positions; with fewer than ALL_POSITIONS, every knot but
-        the 20 and 100 mm ones (a change near the coil and far from it, straight and flat between); else a bend no
+        the 20 and 100 mm ones (the spline through the parabola through them and the 60 mm knot); else a bend no
         position tells (``_straight``: the spline then straight there)."""
         distinct = _distinct_positions(data)
         if len(distinct) < FEW_POSITIONS:
@@ -175,7 +175,8 @@ def _straight(distinct: np.ndarray) -> dict[str, str]:
             held[name] = f"no position between {low * 1e3:g} and {high * 1e3:g} mm to tell it: straight there"
     for name, end in OUTER_KNOTS.items():
         nearer = end == INNER_M[0]
-        if not np.any(distinct < end - 1e-6) if nearer else not np.any(distinct > end + 1e-6):
+        beyond = distinct < end - 1e-6 if nearer else distinct > end + 1e-6
+        if not beyond.any():
             held[name] = f"no position {'nearer than' if nearer else 'beyond'} {end * 1e3:g} mm: straight there"
     return held
 
