@@ -359,8 +359,14 @@ def step_error(step: Any, noise_ppm: float) -> PositionErrorFigure:
     return chain_position_error(step.residual_mm, step.full_scale_mm, step.rmse_ppm, noise_ppm)
 
 
+#: Where a chain's readings have no position (the coil in air only), there is no position error to show.
+NO_POSITIONS = "none (no reading has a position: the coil in air)"
+
+
 def _step_error_text(step: Any, noise_ppm: float) -> str:
     figure = step_error(step, noise_ppm)
+    if not figure.n:
+        return NO_POSITIONS
     return figure.text("rms") if figure.valid else figure.status
 
 
@@ -370,7 +376,7 @@ def _chain_table(steps: Sequence[Any], noise_ppm: float) -> Html:
     for s in steps:
         figure = step_error(s, noise_ppm)
         error = (number(figure.rms_mm, 3), number(figure.fs_percent(figure.rms_mm), 3)) if figure.valid else (
-            f"{figure.status} ({figure.reason})", "—")
+            (NO_POSITIONS if not figure.n else f"{figure.status} ({figure.reason})"), "—")
         rows.append((_chain_label(s.effects) + _tie_note(s), number(s.rmse_ppm, 4), *error, f"{s.fit.bic:.1f}"))
     return table(("model", "RMS (ppm of L)", "position error RMS (mm)", "position error (% FS)", "BIC"), rows,
                  caption="Watch the error fall: each step adds the effect the diagnosis claimed, one that stands "

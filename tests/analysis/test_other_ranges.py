@@ -33,7 +33,7 @@ def test_a_null_campaign_beyond_20_to_100_mm_is_no_alarm(field_config, positions
 def test_a_short_campaign_at_two_frequencies_is_no_alarm(field_config):
     """Five positions, read at 500 Hz and 15 kHz: every knot of tau_T(x) was held below eight distinct positions,
     the faithful lab's tau(x) was left unmodelled, and the campaign was said to lie outside the library in x (162 ppm,
-    8.5x the noise). Now the 20 and 100 mm knots are free (the spline a parabola): adequate at 0.97x."""
+    8.5x the noise). Now the 20, 40 and 100 mm knots are free, every bend straight."""
     data = campaign.paper_campaign(field_config(5), seed=5, positions_mm=np.linspace(20.0, 100.0, 5).tolist(),
                                    target_setpoints_c=(75, 130), coil_setpoints_c=(60.0, 120.0))
     result = run_diagnosis(data)

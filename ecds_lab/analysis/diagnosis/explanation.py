@@ -53,7 +53,9 @@ def explain(result: Diagnosis, registry: EffectRegistry | None = None) -> str:
                            if not step.fit.parameter(p.name).fixed)
         cv = (f", held-out {candidate.cv_rmse_ppm:.1f} vs {candidate.base_cv_rmse_ppm:.1f} ppm"
               if candidate.cv_rmse_ppm is not None and candidate.base_cv_rmse_ppm is not None else "")
-        error = f", position error {step.position_error(noise).text('rms')}"
+        figure = step.position_error(noise)
+        # a campaign of the coil in air has no position to be in error: no clause, not "out of range"
+        error = f", position error {figure.text('rms')}" if figure.n else ""
         if step.stands_for:
             others = [n for n in step.stands_for if n != added]
             lines.append(_sentence(f"{_beside_text(step)}the data cannot tell {' from '.join(step.stands_for)}: each "
@@ -198,7 +200,7 @@ def format_diagnosis(report: dict[str, Any]) -> str:
     lines += ["", "steps:"]
     for step in report.get("steps", []):
         error = (f"  position error {figure_from_json(step['position_error']).text('rms')}"
-                 if step.get("position_error") else "")
+                 if step.get("position_error") and step["position_error"].get("n") else "")
         lines.append(f"  {' + '.join(['baseline'] + step['effects']):50s} {step['rmse_ppm']:9.1f} ppm{error}")
     lines += ["", "candidates against the given model (best first):"]
     for c in report["ranking"]:

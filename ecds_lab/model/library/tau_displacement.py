@@ -7,9 +7,8 @@ simulation gives it), so ln(tau_T / tau0) is a smooth natural cubic spline in x 
 there); it takes any smooth change over the range, from a linear trend to a rise concentrated near the coil. The knot
 at 28 mm is set by its bend, its value beyond the straight line between the 20 and 40 mm knots' (the same curves), so
 that where no reading lies between them (a campaign without positions there, or a held-out fold that holds them all
-out) the spline is held straight there instead of leaving a knot no reading near it determines. The 40 mm knot is
-set by its bend beyond the parabola through the 20, 60 and 100 mm knots': a campaign of four to seven positions
-frees the 20 and 100 mm knots alone, and the spline then runs through that parabola's values.
+out) the spline is held straight there instead of leaving a knot no reading near it determines. A campaign of four to
+seven distinct positions frees the 20, 40 and 100 mm knots alone, every bend held straight.
 
 Outside 20-100 mm the spline goes on straight (a natural spline's second derivative is nil at its ends, so the
 straight continuation joins it smoothly) to outer knots at 10 and 150 mm, each set by its bend beyond that straight
@@ -41,18 +40,16 @@ from ecds_lab.model.tangents import InputTangents, Tangent, plus, scaled
 KNOTS_M = (0.010, 0.014, 0.020, 0.028, 0.040, 0.060, 0.100, 0.150)
 #: Where ln(tau_T / tau0) is nil (tau0 is tau_T there), and where the coil in air is evaluated.
 ZERO_AT_M = 0.060
-FREE_KNOTS = {"tau_bend_10mm": 0, "tau_bend_14mm": 1, "tau_x_20mm": 2, "tau_bend_28mm": 3, "tau_bend_40mm": 4,
+FREE_KNOTS = {"tau_bend_10mm": 0, "tau_bend_14mm": 1, "tau_x_20mm": 2, "tau_bend_28mm": 3, "tau_x_40mm": 4,
               "tau_x_100mm": 6, "tau_bend_150mm": 7}
-#: The 40 mm knot, set by its bend beyond the parabola through the 20, 60 and 100 mm knots' values (m).
-PARABOLA = {"tau_bend_40mm": (0.020, 0.060, 0.100)}
 #: Knots set by their bend: their value beyond the straight line between two other knots' (m).
 BETWEEN = {"tau_bend_28mm": (0.020, 0.040), "tau_bend_14mm": (0.010, 0.020)}
-#: Distinct positions that free every knot; fewer (down to FEW_POSITIONS) free SHORT_KNOTS only, the spline then the
-#: parabola through them and the 60 mm knot: at two frequencies five positions give ten readings' worth against the
-#: calibration's five parameters and tau_T, and the faithful lab's tau(x) over 20-100 mm, left unmodelled, was said
-#: to lie outside the library (162 ppm, 8.5x the noise: tests/analysis/test_other_ranges.py).
+#: Distinct positions that free every knot; fewer (down to FEW_POSITIONS) free SHORT_KNOTS only, every bend held
+#: straight: at two frequencies five positions give ten readings' worth against the calibration's five parameters,
+#: tau_T and these three, and the faithful lab's tau(x) over 20-100 mm, left unmodelled when every knot was held
+#: below eight, was said to lie outside the library (162 ppm, 8.5x the noise: tests/analysis/test_other_ranges.py).
 ALL_POSITIONS, FEW_POSITIONS = 8, 4
-SHORT_KNOTS = ("tau_x_20mm", "tau_x_100mm")
+SHORT_KNOTS = ("tau_x_20mm", "tau_x_40mm", "tau_x_100mm")
 #: The inner spline's ends (m), and each outer knot with the end it continues straight from.
 INNER_M = (0.020, 0.100)
 OUTER_KNOTS = {"tau_bend_10mm": INNER_M[0], "tau_bend_150mm": INNER_M[1]}
@@ -75,7 +72,7 @@ class TauDisplacement(Effect):
     #: The knots over 20-100 mm show it; the outer bends only shape it beyond, held straight where no reading is
     #: (were they key, the testability check would count a held bend's column: at 15 kHz alone, where the
     #: calibration absorbs tau(x), validation study seed 2030 case 45 claimed it).
-    key_parameters = ("tau_x_20mm", "tau_bend_28mm", "tau_bend_40mm", "tau_x_100mm")
+    key_parameters = ("tau_x_20mm", "tau_bend_28mm", "tau_x_40mm", "tau_x_100mm")
     reveal = "sweep the distance at both 500 Hz and 15 kHz (tau_T(x) changes the screening most at 500 Hz)"
     reveal_needs: ClassVar[dict[str, float]] = {"frequencies": 2}
 
@@ -94,14 +91,14 @@ class TauDisplacement(Effect):
         return not is_magnetic(sensor)
 
     def unidentifiable(self, data: Measurements) -> dict[str, str]:
-        """Every knot with fewer than FEW_POSITIONS distinct positions; with fewer than ALL_POSITIONS, every knot but
-        the 20 and 100 mm ones (the spline through the parabola through them and the 60 mm knot); else a bend no
-        position tells (``_straight``: the spline then straight there)."""
+        """Every knot with fewer than FEW_POSITIONS distinct positions; with fewer than ALL_POSITIONS, every bend (the
+        spline through the 20, 40, 60 and 100 mm knots, straight to 28 mm); else a bend no position tells
+        (``_straight``: the spline then straight there)."""
         distinct = _distinct_positions(data)
         if len(distinct) < FEW_POSITIONS:
             return {n: f"{len(distinct)} distinct positions" for n in FREE_KNOTS}
         if len(distinct) < ALL_POSITIONS:
-            return {n: f"{len(distinct)} distinct positions: the 20 and 100 mm knots only" for n in FREE_KNOTS
+            return {n: f"{len(distinct)} distinct positions: the 20, 40 and 100 mm knots only" for n in FREE_KNOTS
                     if n not in SHORT_KNOTS}
         return _straight(distinct)
 
@@ -151,8 +148,6 @@ def _meaning(name: str) -> str:
     if name in BETWEEN:
         low, high = (knot * 1e3 for knot in BETWEEN[name])
         return f"ln(tau_T / tau_T at 60 mm) at {at} beyond the straight line between {low:g} and {high:g} mm"
-    if name in PARABOLA:
-        return f"ln(tau_T / tau_T at 60 mm) at {at} beyond the parabola through 20, 60 and 100 mm"
     if name in OUTER_KNOTS:
         return (f"ln(tau_T / tau_T at 60 mm) at {at} beyond the spline's straight continuation from "
                 f"{OUTER_KNOTS[name] * 1e3:g} mm")
@@ -188,10 +183,9 @@ def _knot_values(p: Mapping[str, float]) -> np.ndarray:
 
 def _knot_map() -> np.ndarray:
     """The knot values (rows) from the parameters (columns, in FREE_KNOTS' order): each its own knot's; a bend
-    knot's plus the straight line between its two knots' values (weights by distance), or the parabola through three
-    (at 40 mm); an outer knot's plus the straight continuation of the inner spline (20-100 mm) from its end, its value
-    there and its slope times the distance. Worked out in that order of dependence: the 40 mm bend, the 28 mm bend,
-    the outer knots, the 14 mm bend."""
+    knot's plus the straight line between its two knots' values (weights by distance); an outer knot's plus the
+    straight continuation of the inner spline (20-100 mm) from its end, its value there and its slope times the
+    distance. Worked out in that order of dependence: the 28 mm bend, the outer knots, the 14 mm bend."""
     out = np.zeros((len(KNOTS_M), len(FREE_KNOTS)))
     for column, index in enumerate(FREE_KNOTS.values()):
         out[index, column] = 1.0
@@ -201,12 +195,6 @@ def _knot_map() -> np.ndarray:
         share = (KNOTS_M[FREE_KNOTS[name]] - KNOTS_M[low]) / (KNOTS_M[high] - KNOTS_M[low])
         out[FREE_KNOTS[name]] += (1.0 - share) * out[low] + share * out[high]
 
-    for name, through in PARABOLA.items():
-        at = KNOTS_M[FREE_KNOTS[name]]
-        for knot in through:  # Lagrange's weights of the parabola through the three knots, at this one
-            others = [other for other in through if other != knot]
-            weight = np.prod([(at - other) / (knot - other) for other in others])
-            out[FREE_KNOTS[name]] += weight * out[KNOTS_M.index(knot)]
     between("tau_bend_28mm")
     inner = [i for i, knot in enumerate(KNOTS_M) if INNER_M[0] <= knot <= INNER_M[1]]
     unit = CubicSpline([KNOTS_M[i] for i in inner], np.eye(len(inner)), bc_type="natural")
