@@ -123,7 +123,7 @@ class TauDisplacement(Effect):
         # the spline is linear in its knot values, and they in the parameters: d/d parameter_j is the spline
         # through column j of KNOT_MAP
         own = {name: out * through[:, column] for column, name in enumerate(FREE_KNOTS)}
-        slopes = self._slopes_at.get(None, x.tobytes(), lambda: np.ascontiguousarray(_BASIS(x, 1) @ KNOT_MAP))
+        slopes = self._slopes_at.get(None, x.tobytes(), lambda: np.ascontiguousarray(_THROUGH(x, 1)))
         slope = np.where(inside, out * (slopes @ values), 0.0)
         with np.errstate(invalid="ignore"):
             by_distance = {name: np.where(inside, slope * change, 0.0) for name, change in d_inputs.x_m.items()}
@@ -136,12 +136,7 @@ class TauDisplacement(Effect):
         at the same step (the spline built anew for each step's knot values and evaluated was 6 % of a
         10^5-reading diagnosis; the eight knots' spline weighted anew at every call made each derivative 2.5x
         slower on 824 138 readings)."""
-        return self._basis_at.get(None, x.tobytes(), lambda: np.ascontiguousarray(_BASIS(x) @ KNOT_MAP))
-
-
-#: The natural cubic spline through each unit vector of knot values (one column per knot), built once: the spline
-#: through any knot values is their sum weighted by these (it is linear in them), and so are its derivatives.
-_BASIS = CubicSpline(KNOTS_M, np.eye(len(KNOTS_M)), bc_type="natural")
+        return self._basis_at.get(None, x.tobytes(), lambda: np.ascontiguousarray(_THROUGH(x)))
 
 
 def _meaning(name: str) -> str:
@@ -208,3 +203,6 @@ def _knot_map() -> np.ndarray:
 
 
 KNOT_MAP = _knot_map()
+#: The natural cubic spline through each parameter's knot values (each column of KNOT_MAP), built once: the spline
+#: is linear in its knot values, so ln(tau_T / tau0) and its slope are these times the parameters.
+_THROUGH = CubicSpline(KNOTS_M, KNOT_MAP, bc_type="natural")
